@@ -1,0 +1,80 @@
+"""The :class:`Layout`: where the taxels of a skin are, and who they are."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import InputError
+
+
+@dataclass
+class Layout:
+    """A skin layout: one row per taxel.
+
+    positions : (N, 3) float, metres, in the end-effector (or ``frame``) frame.
+    normals : (N, 3) float, unit outward normals.
+    taxel_ids : (N,) int, taxel UID (CySkin: ``module_uid << 4 | sensor``; iCub: row index).
+    module_ids : (N,) int, the module each taxel belongs to.
+    flat : (N, 2) float, metres, or None: coordinates in the flat (unrolled) patch
+        domain when known, the natural domain for triangulation and tactile images.
+    roles : (N,) str, "pressure" unless a module type says otherwise ("thermal").
+    frame : str, the name of the frame the positions are expressed in.
+    transform : (4, 4) float, pose of ``frame`` in its parent (identity by default).
+    meta : free-form provenance (source file, module type, patch, placement report).
+    """
+
+    positions: np.ndarray
+    normals: np.ndarray
+    taxel_ids: np.ndarray
+    module_ids: np.ndarray
+    flat: np.ndarray | None = None
+    roles: np.ndarray | None = None
+    frame: str = "end_effector"
+    transform: np.ndarray = field(default_factory=lambda: np.eye(4))
+    meta: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        self.positions = np.ascontiguousarray(self.positions, dtype=np.float64).reshape(-1, 3)
+        n = len(self.positions)
+        self.normals = np.ascontiguousarray(self.normals, dtype=np.float64).reshape(-1, 3)
+        self.taxel_ids = np.asarray(self.taxel_ids, dtype=np.int64).reshape(-1)
+        self.module_ids = np.asarray(self.module_ids, dtype=np.int64).reshape(-1)
+        if self.flat is not None:
+            self.flat = np.ascontiguousarray(self.flat, dtype=np.float64).reshape(-1, 2)
+        if self.roles is None:
+            self.roles = np.full(n, "pressure", dtype=object)
+        else:
+            self.roles = np.asarray(self.roles, dtype=object).reshape(-1)
+        self.transform = np.asarray(self.transform, dtype=np.float64).reshape(4, 4)
+        for name in ("normals", "taxel_ids", "module_ids", "roles") + (("flat",) if self.flat is not None else ()):
+            if len(getattr(self, name)) != n:
+                raise InputError(f"has {len(getattr(self, name))} rows but positions has {n}", key=name)
+        if not np.all(np.isfinite(self.positions)):
+            bad = int(np.flatnonzero(~np.isfinite(self.positions).all(axis=1))[0])
+            raise InputError(f"taxel {bad} has a non-finite position", key="positions")
+
+    def __len__(self) -> int:
+        return len(self.positions)
+
+    @property
+    def n_modules(self) -> int:
+        return len(np.unique(self.module_ids))
+
+    def subset(self, index) -> "Layout":
+        """The layout restricted to ``index`` (a boolean mask or integer indices)."""
+        idx = np.asarray(index)
+        return Layout(self.positions[idx], self.normals[idx], self.taxel_ids[idx], self.module_ids[idx],
+                      None if self.flat is None else self.flat[idx], self.roles[idx], self.frame,
+                      self.transform.copy(), dict(self.meta))
+
+    def transformed(self, matrix: np.ndarray, frame: str | None = None) -> "Layout":
+        """Positions and normals mapped by the 4x4 rigid ``matrix`` (p' = R p + t)."""
+        m = np.asarray(matrix, dtype=np.float64).reshape(4, 4)
+        r, t = m[:3, :3], m[:3, 3]
+        out = self.subset(slice(None))
+        out.positions = self.positions @ r.T + t
+        out.normals = self.normals @ r.T
+        out.frame = frame or self.frame
+        return out

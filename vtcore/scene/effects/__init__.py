@@ -1,0 +1,1 @@
+"""Effect adapters: each module registers the effects of one vtcore package."""

@@ -1,0 +1,189 @@
+"""Reading and validating scene files.
+
+A scene file has these top-level tables:
+
+``[scene]``     name, description, ``seed``, ``task`` (what happens)
+``[task]``      the task's own parameters (validated by the task)
+``[effects.X]`` one table per effect to simulate, with its parameters
+``[output]``    what to write besides ``result.json``
+and the tables that sections register (``end_effector``, ``layout``, ``layer``,
+``[[objects]]``, ...). Every table is checked; unknown keys are errors.
+"""
+
+from __future__ import annotations
+
+import copy
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from ..errors import SceneError, SceneErrors
+from . import registry
+from .schema import Field, Section, _Ctx
+
+SCENE_SECTION = Section({
+    "name": Field("str", default="", doc="short name shown in reports"),
+    "description": Field("str", default=""),
+    "seed": Field("int", default=0, ge=0, doc="seed of every random step"),
+    "task": Field("str", choices=lambda: tuple(sorted(registry.TASKS)), doc="what the scene does"),
+})
+
+OUTPUT_SECTION = Section({
+    "plots": Field("bool", default=True, doc="write PNG plots and show them in report.md"),
+    "arrays": Field("bool", default=True, doc="write arrays.npz"),
+})
+
+
+@dataclass
+class Scene:
+    """A validated scene. ``data`` holds every table with defaults filled."""
+
+    path: Path
+    data: dict[str, Any]
+    effects: dict[str, dict] = field(default_factory=dict)
+
+    @property
+    def seed(self) -> int:
+        return self.data["scene"]["seed"]
+
+    @property
+    def task(self) -> str:
+        return self.data["scene"]["task"]
+
+    @property
+    def name(self) -> str:
+        return self.data["scene"]["name"] or self.path.stem
+
+    def __getitem__(self, key):
+        return self.data[key]
+
+    def get(self, key, default=None):
+        return self.data.get(key, default)
+
+    def error(self, key: str, reason: str) -> SceneError:
+        """An error about ``key`` of this scene, to raise from a task or builder."""
+        return SceneError(reason, file=self.path, key=key)
+
+
+def parse_override(text: str) -> tuple[list[str], Any]:
+    """``"layer.thickness=0.01"`` -> (["layer", "thickness"], 0.01); values are TOML."""
+    if "=" not in text:
+        raise SceneError(f"--set expects key=value, got {text!r}")
+    key, raw = text.split("=", 1)
+    key = key.strip()
+    if not key:
+        raise SceneError(f"--set expects key=value, got {text!r}")
+    try:
+        value = tomllib.loads(f"v = {raw}")["v"]
+    except tomllib.TOMLDecodeError:
+        value = raw  # a bare word: take it as a string
+    return key.split("."), value
+
+
+def apply_overrides(data: dict, overrides: list[str], file) -> dict:
+    data = copy.deepcopy(data)
+    for text in overrides or []:
+        keys, value = parse_override(text)
+        node = data
+        for i, k in enumerate(keys[:-1]):
+            nxt = node.get(k) if isinstance(node, dict) else None
+            if nxt is None:
+                nxt = node[k] = {}
+            if isinstance(nxt, list):
+                raise SceneError("--set cannot address items of an array of tables; edit the scene file",
+                                 file=file, key=".".join(keys))
+            if not isinstance(nxt, dict):
+                raise SceneError(f"--set: {'.'.join(keys[:i + 1])} is not a table", file=file,
+                                 key=".".join(keys))
+            node = nxt
+        node[keys[-1]] = value
+    return data
+
+
+def load_scene(path: str | Path, overrides: list[str] | None = None) -> Scene:
+    """Read, override (``--set``) and validate a scene file.
+
+    Raises :class:`SceneErrors` listing every problem, each naming the file and key.
+    """
+    registry.discover()
+    path = Path(path)
+    if not path.exists():
+        raise SceneError("scene file not found", file=path)
+    try:
+        raw = tomllib.loads(path.read_text(encoding="utf-8"))
+    except tomllib.TOMLDecodeError as exc:
+        line = getattr(exc, "lineno", None)
+        raise SceneError(f"not valid TOML: {exc}", file=path, line=line) from None
+    except UnicodeDecodeError as exc:
+        raise SceneError(f"not UTF-8 text: {exc}", file=path) from None
+    raw = apply_overrides(raw, overrides, path)
+
+    ctx = _Ctx(file=str(path), base=path.parent.resolve())
+    data: dict[str, Any] = {}
+    top = {"scene": Field("table", section=SCENE_SECTION), "task": Field("any", default={}),
+           "effects": Field("any", default={}),
+           "output": Field("table", default=None, section=OUTPUT_SECTION), **registry.SECTIONS}
+    for key in raw:
+        if key not in top:
+            known = ", ".join(sorted(top))
+            ctx.fail(key, f"unknown table; valid tables: {known}")
+    if "scene" not in raw:
+        ctx.fail("scene", "is required: a [scene] table with at least task = \"...\"")
+        raise SceneErrors(ctx.errors)
+    data["scene"] = SCENE_SECTION.validate(raw["scene"], ctx, prefix="scene")
+    task = registry.TASKS.get(data["scene"].get("task") or "")
+
+    data["output"] = OUTPUT_SECTION.validate(raw.get("output", {}), ctx, prefix="output")
+    if task is not None:
+        if not isinstance(raw.get("task", {}), dict):
+            ctx.fail("task", "must be a table")
+        else:
+            data["task"] = task.params.validate(raw.get("task", {}), ctx, prefix="task")
+        for sec in task.sections:
+            if sec not in raw and registry.SECTIONS[sec].required:
+                ctx.fail(sec, f"is required by task {task.name!r}")
+    for name, spec in registry.SECTIONS.items():
+        if name in raw:
+            data[name] = spec.validate(raw[name], name, ctx)
+        elif not spec.required or task is None or name not in task.sections:
+            data[name] = spec.default if spec.kind != "table" or spec.default is None \
+                else spec.section.validate({}, ctx, prefix=name)
+
+    effects = {}
+    raw_eff = raw.get("effects", {})
+    if not isinstance(raw_eff, dict):
+        ctx.fail("effects", "must be a table of effect tables, e.g. [effects.noise]")
+        raw_eff = {}
+    for name, params in raw_eff.items():
+        spec = registry.EFFECTS.get(name)
+        if spec is None:
+            known = ", ".join(sorted(registry.EFFECTS))
+            ctx.fail(f"effects.{name}", f"unknown effect; valid effects: {known}")
+            continue
+        if params is True or params == {}:
+            params = {}
+        if not isinstance(params, dict):
+            ctx.fail(f"effects.{name}", "must be a table of parameters ([effects.NAME], may be empty)")
+            continue
+        effects[name] = spec.params.validate(params, ctx, prefix=f"effects.{name}")
+    data["effects"] = effects
+
+    if ctx.errors:
+        raise SceneErrors(ctx.errors)
+    return Scene(path=path, data=data, effects=effects)
+
+
+def list_scenes(folder: str | Path) -> list[tuple[Path, str, str]]:
+    """``(path, task, description)`` of every ``*.toml`` in ``folder``, sorted by name.
+
+    Only the ``[scene]`` table is read; an unreadable file is listed with its error.
+    """
+    out = []
+    for p in sorted(Path(folder).glob("*.toml")):
+        try:
+            head = tomllib.loads(p.read_text(encoding="utf-8")).get("scene", {})
+            out.append((p, str(head.get("task", "?")), str(head.get("description", ""))))
+        except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+            out.append((p, "invalid", str(exc)))
+    return out

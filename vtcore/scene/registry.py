@@ -1,0 +1,160 @@
+"""Registries of scene sections, tasks and effects, and the effect pipeline.
+
+Packages do not register themselves (they must not import ``vtcore.scene``);
+small adapter modules under ``vtcore/scene/sections``, ``vtcore/scene/tasks``
+and ``vtcore/scene/effects`` do, and are discovered by :func:`discover`, so
+adding a task or an effect never edits a shared list.
+
+An effect is listed in a scene by its table, ``[effects.noise]`` (possibly
+empty). The pipeline instantiates exactly the listed effects; an unlisted
+effect's factory is never called, so nothing of it is computed. Effects run in
+physical order (``stage`` then ``order``), not in the order they are written.
+"""
+
+from __future__ import annotations
+
+import importlib
+import pkgutil
+import time
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+from .schema import Field, Section
+
+#: Stages in the order data passes through them.
+STAGES = ("contact", "sensor", "transport")
+
+
+@dataclass
+class EffectSpec:
+    """An optional physical or sensor phenomenon.
+
+    ``factory(params: dict, ctx) -> object`` builds the effect; the object's
+    public methods (conventionally ``apply(state, ctx)``) are timed by the
+    pipeline. ``stage`` is one of :data:`STAGES`.
+    """
+
+    name: str
+    stage: str
+    order: int
+    factory: Callable[[dict, Any], Any]
+    params: Section = field(default_factory=lambda: Section({}))
+    doc: str = ""
+
+
+@dataclass
+class TaskSpec:
+    """What a scene does (press, contour, augment, ...).
+
+    ``run(scene, ctx) -> TaskResult``; ``params`` validates the ``[task]`` table;
+    ``sections`` names the top-level tables the task needs (validated as required).
+    """
+
+    name: str
+    run: Callable
+    params: Section = field(default_factory=lambda: Section({}))
+    sections: tuple[str, ...] = ()
+    doc: str = ""
+
+
+SECTIONS: dict[str, Field] = {}
+TASKS: dict[str, TaskSpec] = {}
+EFFECTS: dict[str, EffectSpec] = {}
+
+
+def register_section(name: str, spec: Field) -> None:
+    """Declare a top-level table (or array of tables) of scene files."""
+    SECTIONS[name] = spec
+
+
+def register_task(spec: TaskSpec) -> TaskSpec:
+    TASKS[spec.name] = spec
+    return spec
+
+
+def register_effect(spec: EffectSpec) -> EffectSpec:
+    if spec.stage not in STAGES:
+        raise ValueError(f"effect {spec.name}: stage must be one of {STAGES}")
+    EFFECTS[spec.name] = spec
+    return spec
+
+
+_DISCOVERED = False
+
+
+def discover() -> None:
+    """Import every adapter module under ``sections``, ``effects`` and ``tasks``."""
+    global _DISCOVERED
+    if _DISCOVERED:
+        return
+    for sub in ("sections", "effects", "tasks"):
+        pkg = importlib.import_module(f"{__package__}.{sub}")
+        for mod in sorted(pkgutil.iter_modules(pkg.__path__), key=lambda m: m.name):
+            if not mod.name.startswith("_"):
+                importlib.import_module(f"{pkg.__name__}.{mod.name}")
+    _DISCOVERED = True
+
+
+class _Timed:
+    """Proxy that adds the time spent in every method call to its effect's total."""
+
+    def __init__(self, name, obj, totals):
+        self._name, self._obj, self._totals = name, obj, totals
+
+    def __getattr__(self, attr):
+        val = getattr(self._obj, attr)
+        if not callable(val) or attr.startswith("_"):
+            return val
+
+        def timed(*args, **kwargs):
+            t0 = time.perf_counter()
+            try:
+                return val(*args, **kwargs)
+            finally:
+                self._totals[self._name] += time.perf_counter() - t0
+
+        return timed
+
+
+class Pipeline:
+    """The effects a scene lists, built once, in the order they run.
+
+    ``pipeline.apply(stage, state, ctx)`` runs every listed effect of ``stage``
+    on ``state`` (each effect's ``apply`` returns the new state);
+    ``pipeline.get(name)`` returns a listed effect (timed) or ``None``, for
+    effects that a model consults rather than applies (a soft layer).
+    """
+
+    def __init__(self, listed: dict[str, dict], ctx=None):
+        discover()
+        self.seconds: dict[str, float] = {}
+        self._effects: dict[str, _Timed] = {}
+        order = sorted(listed, key=lambda n: (STAGES.index(EFFECTS[n].stage), EFFECTS[n].order, n))
+        for name in order:
+            self.seconds[name] = 0.0
+            t0 = time.perf_counter()
+            obj = EFFECTS[name].factory(listed[name], ctx)
+            self.seconds[name] += time.perf_counter() - t0
+            self._effects[name] = _Timed(name, obj, self.seconds)
+
+    @property
+    def names(self) -> list[str]:
+        return list(self._effects)
+
+    def has(self, name: str) -> bool:
+        return name in self._effects
+
+    def get(self, name: str):
+        return self._effects.get(name)
+
+    def stage(self, stage: str) -> list[str]:
+        return [n for n in self._effects if EFFECTS[n].stage == stage]
+
+    def apply(self, stage: str, state, ctx=None):
+        for name in self.stage(stage):
+            state = self._effects[name].apply(state, ctx)
+        return state
+
+    def report(self) -> list[dict]:
+        """``[{"name", "seconds"}]`` in the order the effects run."""
+        return [{"name": n, "seconds": round(self.seconds[n], 6)} for n in self._effects]

@@ -1,0 +1,184 @@
+"""Running a scene and writing its results (the results contract of DESIGN.md).
+
+``DIR/result.json``: ``scene``, ``task``, ``seed``, ``effects`` (``[{"name",
+"seconds"}]`` in run order), ``metrics`` (flat name -> number), ``versions``,
+``seconds``, ``arrays`` (name -> shape), ``figures``.
+``DIR/arrays.npz``: standard names (``positions``, ``normals``, ``timestamps``,
+``frames``, ``pressure``, ``force``, ``edge``) where the task produces them.
+``DIR/*.png`` and ``DIR/report.md``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import platform
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+
+from .. import __version__
+from .._io import atomic_write, save_npz
+from .._progress import progress
+from . import registry
+from .loader import Scene, load_scene
+
+
+@dataclass
+class TaskResult:
+    """What a task hands back to the runner.
+
+    metrics: flat name -> float (snake_case, unit suffix: ``force_n``).
+    arrays: name -> ndarray (standard names where they apply).
+    figures: file stem -> callable ``(path) -> None`` writing a PNG, or a matplotlib Figure.
+    sections: extra markdown blocks for ``report.md`` (tables, notes), in order.
+    files: names of extra files the task wrote into the output folder.
+    """
+
+    metrics: dict[str, float] = field(default_factory=dict)
+    arrays: dict[str, np.ndarray] = field(default_factory=dict)
+    figures: dict[str, Any] = field(default_factory=dict)
+    sections: list[str] = field(default_factory=list)
+    files: list[str] = field(default_factory=list)
+    extra: dict[str, Any] = field(default_factory=dict)
+
+
+@dataclass
+class RunContext:
+    """Everything a task needs besides the scene.
+
+    rng: the run's generator (seeded from the scene); use ``ctx.child_rng(tag)``
+    for independent, reproducible streams. pipeline: the listed effects.
+    out: the output folder (tasks may write extra files there).
+    """
+
+    scene: Scene
+    pipeline: registry.Pipeline
+    out: Path
+    rng: np.random.Generator
+    progress: Callable = progress
+
+    def child_rng(self, tag: str) -> np.random.Generator:
+        """A generator for one purpose, independent of the call order of others."""
+        import zlib
+
+        return np.random.default_rng([self.scene.seed, zlib.crc32(tag.encode())])
+
+
+def versions() -> dict[str, str]:
+    import importlib.metadata as md
+
+    out = {"vtcore": __version__, "python": platform.python_version()}
+    for pkg in ("numpy", "scipy", "scikit-learn", "trimesh", "open3d", "potpourri3d",
+                "python-can", "cantools", "scikit-image", "matplotlib"):
+        try:
+            out[pkg] = md.version(pkg)
+        except md.PackageNotFoundError:
+            pass
+    return out
+
+
+def _clean_metrics(metrics: dict) -> dict:
+    out = {}
+    for k, v in metrics.items():
+        if isinstance(v, (bool, np.bool_)):
+            out[k] = bool(v)
+        elif isinstance(v, (int, np.integer)):
+            out[k] = int(v)
+        else:
+            v = float(v)
+            out[k] = v if math.isfinite(v) else None  # JSON has no NaN; None says "undefined"
+    return out
+
+
+def run_scene(scene: Scene | str | Path, out: str | Path, overrides: list[str] | None = None) -> dict:
+    """Run ``scene`` and write its results into ``out``; return the ``result.json`` object."""
+    if not isinstance(scene, Scene):
+        scene = load_scene(scene, overrides)
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+    ctx = RunContext(scene=scene, pipeline=None, out=out, rng=np.random.default_rng(scene.seed))
+    ctx.pipeline = registry.Pipeline(scene.effects, ctx)
+    task = registry.TASKS[scene.task]
+    res: TaskResult = task.run(scene, ctx)
+    seconds = time.perf_counter() - t0
+
+    figures = []
+    if scene["output"]["plots"]:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        for stem, fig in res.figures.items():
+            name = f"{stem}.png"
+            with atomic_write(out / name, "wb") as fh:
+                if callable(fig) and not hasattr(fig, "savefig"):
+                    fig(fh)
+                else:
+                    fig.savefig(fh, format="png", dpi=120, bbox_inches="tight")
+                    plt.close(fig)
+            figures.append(name)
+    if scene["output"]["arrays"] and res.arrays:
+        save_npz(out / "arrays.npz", res.arrays)
+
+    result = {
+        "scene": str(scene.path),
+        "name": scene.name,
+        "task": scene.task,
+        "seed": scene.seed,
+        "effects": ctx.pipeline.report(),
+        "metrics": _clean_metrics(res.metrics),
+        "versions": versions(),
+        "seconds": round(seconds, 4),
+        "arrays": {k: list(np.shape(v)) for k, v in sorted(res.arrays.items())},
+        "figures": figures,
+        "files": sorted(res.files),
+        **res.extra,
+    }
+    with atomic_write(out / "result.json", "w", encoding="utf-8") as fh:
+        json.dump(result, fh, indent=2)
+        fh.write("\n")
+    with atomic_write(out / "report.md", "w", encoding="utf-8") as fh:
+        fh.write(render_report(scene, result, res))
+    return result
+
+
+def render_report(scene: Scene, result: dict, res: TaskResult) -> str:
+    lines = [f"# {scene.name}", ""]
+    desc = scene["scene"]["description"]
+    if desc:
+        lines += [desc, ""]
+    lines += [f"Scene `{scene.path}`, task `{scene.task}`, seed {scene.seed}, "
+              f"{result['seconds']:.2f} s, vtcore {__version__}.", ""]
+    if result["metrics"]:
+        lines += ["## Metrics", "", "| metric | value |", "|---|---|"]
+        for k, v in result["metrics"].items():
+            lines.append(f"| `{k}` | {_fmt(v)} |")
+        lines.append("")
+    for block in res.sections:
+        lines += [block.rstrip(), ""]
+    lines += ["## Effects", ""]
+    if result["effects"]:
+        lines += ["| effect | seconds |", "|---|---|"]
+        lines += [f"| {e['name']} | {e['seconds']:.4f} |" for e in result["effects"]]
+    else:
+        lines.append("None listed: an ideal sensor, no soft layer, no noise.")
+    lines.append("")
+    if result["figures"]:
+        lines += ["## Plots", ""]
+        lines += [f"![{f}]({f})" for f in result["figures"]]
+        lines.append("")
+    return "\n".join(lines)
+
+
+def _fmt(v):
+    if v is None:
+        return "undefined"
+    if isinstance(v, float):
+        return f"{v:.6g}"
+    return str(v)

@@ -1,0 +1,1 @@
+"""Task adapters: each module registers one kind of experiment (press, contour, ...)."""
