@@ -13,6 +13,7 @@ and the tables that sections register (``end_effector``, ``layout``, ``layer``,
 from __future__ import annotations
 
 import copy
+import re
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -113,7 +114,9 @@ def load_scene(path: str | Path, overrides: list[str] | None = None) -> Scene:
     try:
         raw = tomllib.loads(path.read_text(encoding="utf-8"))
     except tomllib.TOMLDecodeError as exc:
-        line = getattr(exc, "lineno", None)
+        # Python 3.11's TOMLDecodeError has no lineno attribute; the message has it.
+        m = re.search(r"at line (\d+)", str(exc))
+        line = int(m.group(1)) if m else None
         raise SceneError(f"not valid TOML: {exc}", file=path, line=line) from None
     except UnicodeDecodeError as exc:
         raise SceneError(f"not UTF-8 text: {exc}", file=path) from None
