@@ -1,14 +1,38 @@
-"""The skin mesh of seed 002 (Eqs. 1-2): which taxels are neighbours, and how far apart."""
+"""The skin mesh of seed 002 (Eqs. 1-2): which taxels are neighbours, and how far apart.
+
+Two ways to triangulate, chosen by :func:`skin_mesh`:
+
+- ``"flat"``: a 2-D Delaunay triangulation of the layout's flat (unrolled) patch
+  coordinates, as in seed 002; boundary triangles that are slivers or span a
+  gap (an edge much longer than the local taxel spacing) are peeled off.
+- ``"surface"``: for layouts that only have 3-D positions (imported files), a
+  surface-aware triangulation: the taxels are covered by small overlapping
+  charts; each chart keeps only taxels whose normals agree with its centre's
+  (so the far side of a cylinder and the other face of a thin part never enter
+  it), is projected onto its tangent plane and triangulated with Delaunay; each
+  triangle is taken from the chart nearest to it. The same peeling follows.
+
+Duplicate positions (closer than ``tol``) are merged explicitly: only one
+representative is triangulated, the duplicates get their representative's
+edges (and no triangles), and ``SkinMesh.meta["duplicates"]`` lists them; or,
+with ``duplicates="error"``, they are rejected with the indices named.
+"""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import warnings
+from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.spatial import Delaunay
+from scipy.spatial import Delaunay, cKDTree
 
+from ..errors import InputError
 from .model import Layout
+
+
+class LayoutWarning(UserWarning):
+    """Something in a layout or a layout file is suspect but usable (vtcore warning class)."""
 
 
 @dataclass
@@ -19,6 +43,7 @@ class SkinMesh:
     triangles : (F, 3) int, taxel indices.
     adjacency : (N, N) CSR, 1.0 where two taxels share a mesh edge (E of seed 002, Eq. 1).
     distances : (N, N) CSR, Euclidean edge length in metres on the same pattern (D, Eq. 2).
+    meta : how it was built (method, peeled triangles, merged duplicates).
     """
 
     positions: np.ndarray
@@ -26,36 +51,349 @@ class SkinMesh:
     triangles: np.ndarray
     adjacency: sp.csr_matrix
     distances: sp.csr_matrix
+    meta: dict = field(default_factory=dict)
 
     @property
     def edges(self) -> np.ndarray:
         """(M, 2) int, each undirected edge once with i < j."""
         coo = sp.triu(self.adjacency, k=1).tocoo()
-        return np.column_stack([coo.row, coo.col]).astype(np.int64)
+        order = np.lexsort((coo.col, coo.row))
+        return np.column_stack([coo.row[order], coo.col[order]]).astype(np.int64)
 
     def __len__(self) -> int:
         return len(self.positions)
 
 
-def mesh_from_triangles(positions, normals, triangles) -> SkinMesh:
-    """Build E and D (CSR, symmetric) from a triangle list over ``positions`` (N, 3)."""
-    positions = np.asarray(positions, dtype=np.float64)
-    tri = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
-    n = len(positions)
+def _edges_of(tri: np.ndarray) -> np.ndarray:
     e = np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
     e = np.sort(e, axis=1)
-    e = np.unique(e[e[:, 0] != e[:, 1]], axis=0)
+    return e[e[:, 0] != e[:, 1]]
+
+
+def mesh_from_triangles(positions, normals, triangles, extra_edges=None, meta=None) -> SkinMesh:
+    """Build E and D (CSR, symmetric) from a triangle list over ``positions`` (N, 3).
+
+    extra_edges : (K, 2) int, edges that belong to no triangle (collinear taxels,
+        merged duplicates) but are neighbours all the same.
+    """
+    positions = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
+    tri = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
+    n = len(positions)
+    e = _edges_of(tri)
+    if extra_edges is not None and len(extra_edges):
+        x = np.sort(np.asarray(extra_edges, dtype=np.int64).reshape(-1, 2), axis=1)
+        e = np.concatenate([e, x[x[:, 0] != x[:, 1]]])
+    e = np.unique(e, axis=0) if len(e) else np.zeros((0, 2), np.int64)
     i = np.concatenate([e[:, 0], e[:, 1]])
     j = np.concatenate([e[:, 1], e[:, 0]])
     length = np.linalg.norm(positions[i] - positions[j], axis=1)
     adj = sp.csr_matrix((np.ones(len(i)), (i, j)), shape=(n, n))
     dist = sp.csr_matrix((length, (i, j)), shape=(n, n))
-    return SkinMesh(positions, np.asarray(normals, dtype=np.float64), tri, adj, dist)
+    dist.sort_indices()
+    adj.sort_indices()
+    return SkinMesh(positions, np.asarray(normals, dtype=np.float64).reshape(-1, 3), tri, adj, dist,
+                    dict(meta or {}))
 
 
-def skin_mesh(layout: Layout) -> SkinMesh:
-    """The skin mesh of ``layout``: Delaunay triangulation of its flat patch coordinates."""
-    if layout.flat is None:
-        raise ValueError("skin_mesh needs flat coordinates for now")
-    tri = Delaunay(layout.flat).simplices if len(layout) >= 3 else np.zeros((0, 3), int)
-    return mesh_from_triangles(layout.positions, layout.normals, tri)
+# --- duplicates ---------------------------------------------------------------------------------
+def find_duplicates(positions: np.ndarray, tol: float = 1e-6) -> np.ndarray:
+    """(N,) int: the representative (lowest index) of each taxel's group of positions within ``tol`` m."""
+    positions = np.asarray(positions, dtype=np.float64)
+    n = len(positions)
+    rep = np.arange(n)
+    if n < 2:
+        return rep
+    pairs = cKDTree(positions).query_pairs(tol, output_type="ndarray")
+    if len(pairs) == 0:
+        return rep
+    from scipy.sparse.csgraph import connected_components
+
+    g = sp.csr_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+    _, lab = connected_components(g, directed=False)
+    first = np.full(lab.max() + 1, n)
+    np.minimum.at(first, lab, np.arange(n))
+    return first[lab]
+
+
+# --- 2-D triangulation with peeling ----------------------------------------------------------------
+def _rank2(uv: np.ndarray, rtol: float = 1e-9) -> bool:
+    if len(uv) < 3:
+        return False
+    c = uv - uv.mean(axis=0)
+    s = np.linalg.svd(c, compute_uv=False)
+    return s[1] > rtol * max(s[0], 1e-300)
+
+
+def _chain(points: np.ndarray) -> np.ndarray:
+    """Edges joining collinear points in order along their line, (n-1, 2)."""
+    if len(points) < 2:
+        return np.zeros((0, 2), np.int64)
+    c = points - points.mean(axis=0)
+    d = np.linalg.svd(c, full_matrices=False)[2][0]
+    order = np.argsort(c @ d, kind="stable")
+    return np.column_stack([order[:-1], order[1:]]).astype(np.int64)
+
+
+def delaunay_2d(uv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Delaunay of ``uv`` (n, 2). Returns ``(triangles (F, 3), chain_edges (K, 2))``: for a
+    collinear set there are no triangles and the points are chained along their line."""
+    uv = np.asarray(uv, dtype=np.float64)
+    if not _rank2(uv):
+        return np.zeros((0, 3), np.int64), _chain(uv)
+    from scipy.spatial import QhullError
+
+    try:
+        tri = Delaunay(uv).simplices.astype(np.int64)
+    except QhullError:  # pragma: no cover - rank test above catches the usual cases
+        return np.zeros((0, 3), np.int64), _chain(uv)
+    return tri, np.zeros((0, 2), np.int64)
+
+
+def _triangle_geometry(tri: np.ndarray, pts: np.ndarray):
+    """Edge lengths (F, 3) (edge k opposite vertex k) and doubled areas (F,)."""
+    a, b, c = pts[tri[:, 0]], pts[tri[:, 1]], pts[tri[:, 2]]
+    lens = np.stack([np.linalg.norm(b - c, axis=1), np.linalg.norm(c - a, axis=1),
+                     np.linalg.norm(a - b, axis=1)], axis=1)
+    cr = np.cross(b - a, c - a)
+    area2 = np.linalg.norm(cr, axis=-1) if cr.ndim == 2 else np.abs(cr)
+    return lens, area2
+
+
+def peel(tri: np.ndarray, pts: np.ndarray, spacing: np.ndarray, max_edge: float = 1.5,
+         max_angle_deg: float = 150.0) -> tuple[np.ndarray, int]:
+    """Remove degenerate triangles, then peel boundary triangles that bridge a gap.
+
+    A triangle is degenerate when its area is below 1e-6 of its longest edge squared.
+    A boundary triangle (one with an edge no other triangle shares) is peeled when
+    that boundary edge is longer than ``max_edge`` times the local spacing
+    (``max(spacing[i], spacing[j])``, nearest-neighbour distances) or the angle
+    facing it exceeds ``max_angle_deg`` (a sliver along a straight border).
+    Repeats until nothing changes. Returns the kept triangles and how many were removed.
+    """
+    tri = np.asarray(tri, dtype=np.int64).reshape(-1, 3)
+    n0 = len(tri)
+    if n0 == 0:
+        return tri, 0
+    lens, area2 = _triangle_geometry(tri, pts)
+    good = area2 > 1e-6 * lens.max(axis=1) ** 2
+    tri, lens = tri[good], lens[good]
+    cos_lim = np.cos(np.deg2rad(max_angle_deg))
+    # cosine of the angle at vertex k (facing edge k) by the law of cosines
+    l2 = lens ** 2
+    with np.errstate(invalid="ignore", divide="ignore"):
+        cosang = np.stack([(l2[:, 1] + l2[:, 2] - l2[:, 0]) / (2 * lens[:, 1] * lens[:, 2]),
+                           (l2[:, 2] + l2[:, 0] - l2[:, 1]) / (2 * lens[:, 2] * lens[:, 0]),
+                           (l2[:, 0] + l2[:, 1] - l2[:, 2]) / (2 * lens[:, 0] * lens[:, 1])], axis=1)
+    opp = np.stack([tri[:, [1, 2]], tri[:, [2, 0]], tri[:, [0, 1]]], axis=1)  # (F, 3, 2) edge k
+    loc = np.maximum(spacing[opp[..., 0]], spacing[opp[..., 1]])
+    bad_edge = (lens > max_edge * loc) | (cosang < cos_lim)
+    keep = np.ones(len(tri), bool)
+    key = np.sort(opp, axis=2)
+    key = key[..., 0] * (len(pts) + 1) + key[..., 1]  # (F, 3) edge ids
+    while True:
+        k = key[keep].ravel()
+        uniq, counts = np.unique(k, return_counts=True)
+        on_boundary = np.isin(key, uniq[counts == 1]) & keep[:, None]
+        drop = np.any(on_boundary & bad_edge, axis=1)
+        if not drop.any():
+            break
+        keep &= ~drop
+    return tri[keep], n0 - int(keep.sum())
+
+
+def _nn_spacing(pts: np.ndarray) -> np.ndarray:
+    if len(pts) < 2:
+        return np.ones(len(pts))
+    d, _ = cKDTree(pts).query(pts, 2)
+    s = d[:, 1]
+    pos = s[s > 0]
+    return np.where(s > 0, s, np.median(pos) if len(pos) else 1.0)
+
+
+# --- surface-aware triangulation of 3-D positions ---------------------------------------------------
+def estimate_normals(positions: np.ndarray, k: int = 8, reference: np.ndarray | None = None) -> np.ndarray:
+    """(N, 3) unit normals by PCA of the ``k`` nearest neighbours, oriented like ``reference``
+    (N, 3) where given, else away from the centroid."""
+    positions = np.asarray(positions, dtype=np.float64)
+    n = len(positions)
+    k = int(min(max(k, 3), n))
+    if n < 3:
+        return np.tile([0.0, 0.0, 1.0], (n, 1))
+    _, idx = cKDTree(positions).query(positions, k)
+    nb = positions[idx] - positions[idx].mean(axis=1, keepdims=True)
+    cov = np.einsum("nki,nkj->nij", nb, nb)
+    _, vec = np.linalg.eigh(cov)
+    nrm = vec[:, :, 0]
+    ref = reference if reference is not None else positions - positions.mean(axis=0)
+    flip = np.einsum("ij,ij->i", nrm, ref) < 0
+    nrm[flip] *= -1
+    return nrm
+
+
+def _tangent_frames(normals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Two unit tangent vectors (n, 3) each, orthogonal to ``normals``."""
+    helper = np.where(np.abs(normals[:, [0]]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
+    t1 = np.cross(normals, helper)
+    t1 /= np.linalg.norm(t1, axis=1, keepdims=True)
+    return t1, np.cross(normals, t1)
+
+
+def surface_triangulation(positions: np.ndarray, normals: np.ndarray, spacing: np.ndarray | None = None,
+                          chart_radius: float = 4.0, cos_limit: float = 0.5) -> np.ndarray:
+    """Triangles (F, 3) over 3-D ``positions`` (N, 3) that follow the surface.
+
+    normals : (N, 3) unit, consistently oriented (outward). spacing : (N,) metres,
+    nearest-neighbour distances. chart_radius : charts cover about this many
+    spacings. cos_limit : a taxel joins a chart only if its normal is within
+    ``arccos(cos_limit)`` (60 degrees) of the chart centre's.
+    """
+    p = np.asarray(positions, dtype=np.float64)
+    nrm = np.asarray(normals, dtype=np.float64)
+    n = len(p)
+    if n < 3:
+        return np.zeros((0, 3), np.int64)
+    s = _nn_spacing(p) if spacing is None else spacing
+    h = float(np.median(s)) * chart_radius
+    tree = cKDTree(p)
+    # chart centres: one taxel per occupied voxel of size h (nearest to the voxel mean)
+    vox = np.floor((p - p.min(axis=0)) / h).astype(np.int64)
+    _, inv = np.unique(vox, axis=0, return_inverse=True)
+    inv = inv.ravel()
+    means = np.zeros((inv.max() + 1, 3))
+    np.add.at(means, inv, p)
+    means /= np.bincount(inv)[:, None]
+    _, centres = tree.query(means)
+    centres = np.unique(centres)
+    # every taxel's nearest centre (among centres whose normal agrees) decides where its triangles come from
+    ctree = cKDTree(p[centres])
+    kk = min(8, len(centres))
+    dc, ic = ctree.query(p, kk)
+    dc, ic = dc.reshape(n, kk), ic.reshape(n, kk)
+    agree = np.einsum("nkj,nj->nk", nrm[centres][ic], nrm) > cos_limit
+    dc = np.where(agree, dc, np.inf)
+    reach = np.zeros(len(centres))
+    best = np.argmin(dc, axis=1)
+    owner = np.where(np.isfinite(dc[np.arange(n), best]), ic[np.arange(n), best], -1)
+    np.maximum.at(reach, owner[owner >= 0], dc[np.arange(n), best][owner >= 0])
+    members = tree.query_ball_point(p[centres], reach + 3.0 * np.median(s))
+    t1, t2 = _tangent_frames(nrm[centres])
+    out = []
+    # one small Delaunay per chart (about N / 20 charts), not per taxel
+    for c, mem in enumerate(members):
+        mem = np.asarray(mem, dtype=np.int64)
+        mem = mem[nrm[mem] @ nrm[centres[c]] > cos_limit]
+        if len(mem) < 3:
+            continue
+        d = p[mem] - p[centres[c]]
+        uv = np.column_stack([d @ t1[c], d @ t2[c]])
+        tri, _ = delaunay_2d(uv)
+        if not len(tri):
+            continue
+        tri = mem[tri]
+        # keep a triangle here if this chart owns two of its vertices; if all three owners
+        # differ, the owner of its lowest-index vertex decides (each triangle from one chart)
+        ow = owner[tri]
+        count = (ow == c).sum(axis=1)
+        distinct = (ow[:, 0] != ow[:, 1]) & (ow[:, 1] != ow[:, 2]) & (ow[:, 0] != ow[:, 2])
+        first = ow[np.arange(len(tri)), np.argmin(tri, axis=1)]
+        keep = (count >= 2) | (distinct & (first == c))
+        out.append(tri[keep])
+    if not out:
+        return np.zeros((0, 3), np.int64)
+    tri = np.concatenate(out)
+    tri = np.unique(np.sort(tri, axis=1), axis=0)
+    # orient each triangle with the mean normal of its vertices
+    a, b, cc = p[tri[:, 0]], p[tri[:, 1]], p[tri[:, 2]]
+    fn = np.cross(b - a, cc - a)
+    vn = nrm[tri].sum(axis=1)
+    flip = np.einsum("ij,ij->i", fn, vn) < 0
+    tri[flip] = tri[flip][:, [0, 2, 1]]
+    # a triangle must itself face like its vertices: drops the few that fold across a crease
+    fnu = fn / np.maximum(np.linalg.norm(fn, axis=1, keepdims=True), 1e-300)
+    ok = np.all(np.abs(np.einsum("ij,ikj->ik", fnu, nrm[tri])) > 0.3, axis=1)
+    return tri[ok]
+
+
+def skin_mesh(layout: Layout, *, method: str = "auto", duplicates: str = "merge", tol: float = 1e-6,
+              max_edge: float = 1.5) -> SkinMesh:
+    """The skin mesh of ``layout`` (seed 002, Eqs. 1-2).
+
+    method : ``"auto"`` (flat Delaunay when the layout has flat coordinates,
+        else surface-aware), ``"flat"`` or ``"surface"``.
+    duplicates : ``"merge"`` (default; warns with a :class:`LayoutWarning`) or ``"error"``.
+    tol : metres, positions closer than this are duplicates.
+    max_edge : boundary edges longer than this many local spacings are peeled off.
+    """
+    if method not in ("auto", "flat", "surface"):
+        raise InputError(f"unknown method {method!r}; use auto, flat or surface", key="method")
+    if duplicates not in ("merge", "error"):
+        raise InputError(f"duplicates must be 'merge' or 'error', got {duplicates!r}", key="duplicates")
+    pos = layout.positions
+    n = len(pos)
+    rep = find_duplicates(pos, tol)
+    dup = np.flatnonzero(rep != np.arange(n))
+    if len(dup) and duplicates == "error":
+        pairs = ", ".join(f"{int(d)}={int(rep[d])}" for d in dup[:10])
+        raise InputError(f"{len(dup)} taxels repeat another's position within {tol} m ({pairs}"
+                         f"{', ...' if len(dup) > 10 else ''}); pass duplicates='merge' to merge them",
+                         key="positions")
+    if len(dup):
+        warnings.warn(f"skin_mesh: {len(dup)} duplicate taxel positions merged into their first occurrence",
+                      LayoutWarning, stacklevel=2)
+    uniq = np.flatnonzero(rep == np.arange(n))
+    use_flat = method == "flat" or (method == "auto" and layout.flat is not None)
+    if method == "flat" and layout.flat is None:
+        raise InputError("method='flat' needs flat coordinates; use method='surface'", key="flat")
+    chain = np.zeros((0, 2), np.int64)
+    if use_flat:
+        uv = layout.flat[uniq]
+        # flat duplicates (distinct 3-D positions, same flat point) cannot both be Delaunay vertices
+        frep = find_duplicates(uv, tol)
+        if np.any(frep != np.arange(len(uv))):
+            use_flat = False
+        else:
+            tri, chain = delaunay_2d(uv)
+            spacing = _nn_spacing(uv)
+            tri, peeled = peel(tri, uv, spacing, max_edge)
+    if not use_flat:
+        p = pos[uniq]
+        nrm = layout.normals[uniq]
+        norms = np.linalg.norm(nrm, axis=1)
+        est = None
+        if np.any(np.abs(norms - 1) > 0.05) or len(np.unique(np.round(nrm, 6), axis=0)) == 1 and not _planar(p):
+            # unknown, placeholder or non-unit normals: estimate them, oriented like the given ones
+            est = estimate_normals(p, reference=np.where(norms[:, None] > 0.5, nrm, 0) if np.any(norms > 0.5)
+                                   else None)
+            nrm = est
+        else:
+            nrm = nrm / norms[:, None]
+        if _planar(p):
+            c = p - p.mean(axis=0)
+            basis = np.linalg.svd(c, full_matrices=False)[2][:2]
+            tri, chain = delaunay_2d(c @ basis.T)
+        else:
+            tri = surface_triangulation(p, nrm)
+            if not len(tri):
+                chain = _chain(p)
+        spacing = _nn_spacing(p)
+        tri, peeled = peel(tri, p, spacing, max_edge)
+    tri = uniq[tri] if len(tri) else np.zeros((0, 3), np.int64)
+    chain = uniq[chain] if len(chain) else chain
+    extra = [chain]
+    if len(dup):
+        # each duplicate inherits its representative's edges, and is joined to it
+        base = mesh_from_triangles(pos, layout.normals, tri, chain)
+        rows = base.adjacency[rep[dup]].tocoo()
+        # (not to the representative itself: a zero distance would break D-weighted filters)
+        extra.append(np.column_stack([dup[rows.row], rows.col]))
+    meta = {"method": "flat" if use_flat else "surface", "peeled": int(peeled),
+            "duplicates": [[int(d), int(rep[d])] for d in dup]}
+    return mesh_from_triangles(pos, layout.normals, tri, np.concatenate(extra) if extra else None, meta)
+
+
+def _planar(p: np.ndarray, rtol: float = 1e-3) -> bool:
+    """True when the points lie in a plane (smallest spread below ``rtol`` of the largest)."""
+    if len(p) < 4:
+        return True
+    s = np.linalg.svd(p - p.mean(axis=0), compute_uv=False)
+    return s[2] <= rtol * s[0]

@@ -1,35 +1,224 @@
-"""Minimal patch geometry (foundation placeholder for the layout issue).
+"""Flat patches of modules: one triangle, the hexagon of 6, a strip of N, a tiling of a region.
 
-The hexagonal CySkin patch of seed 001: a hexagonal lattice of radius 4 at
-7.5 mm pitch (61 sites), split into 6 triangular modules of 10 taxels; the
-centre site is not a taxel of any module (seed 001: 60 taxels used).
+A :class:`Patch` lives in the flat (unrolled) domain of a flexible PCB: every
+taxel has flat coordinates in metres, a module and a sensor number. Placing it
+on a surface (:mod:`vtcore.layout.conform`) turns it into a
+:class:`~vtcore.layout.Layout`.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
+
 import numpy as np
 
-PITCH = 7.5e-3  # m, CySkin taxel pitch (seed 001, 002)
+from ..errors import InputError
+from .model import Layout
+from .modules import PITCH, ModuleType, get_module, taxel_uids
+
+
+@dataclass
+class Patch:
+    """Modules laid out in the flat domain.
+
+    module : the :class:`ModuleType` of every module.
+    poses : (M, 3) float, per module ``(angle_rad, x, y)``: rotation of the module
+        frame and position of its origin, metres.
+    flat : (N, 2) float, metres, taxel centres (module-major order).
+    module_ids : (N,) int, 0-based module index. sensors : (N,) int.
+    roles : (N,) str. kind : "triangle", "hexagon", "strip:N", "fill".
+    """
+
+    module: ModuleType
+    poses: np.ndarray
+    flat: np.ndarray
+    module_ids: np.ndarray
+    sensors: np.ndarray
+    roles: np.ndarray
+    kind: str = ""
+    meta: dict = field(default_factory=dict)
+
+    def __len__(self) -> int:
+        return len(self.flat)
+
+    @property
+    def n_modules(self) -> int:
+        return len(self.poses)
+
+    @property
+    def taxel_ids(self) -> np.ndarray:
+        return taxel_uids(self.module, self.module_ids, self.sensors)
+
+    @property
+    def module_edges(self) -> np.ndarray:
+        """(E, 2) int, taxel index pairs of every module's own graph (the edges whose strain counts)."""
+        counts = np.bincount(self.module_ids, minlength=self.n_modules)
+        starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+        e = self.module.edges
+        # modules may have lost taxels (subset); only keep edges of modules that are complete
+        full = np.flatnonzero(counts == len(self.module))
+        return (starts[full, None, None] + e[None]).reshape(-1, 2)
+
+    def outlines(self) -> np.ndarray:
+        """(M, m, 2) metres: every module's outline in the flat domain."""
+        return np.stack([self.module.placed_outline(a, (x, y)) for a, x, y in self.poses]) \
+            if len(self.poses) else np.zeros((0, len(self.module.outline), 2))
+
+    def centred(self) -> "Patch":
+        """The patch translated so that the mean of its taxels is the origin."""
+        c = self.flat.mean(axis=0)
+        poses = self.poses.copy()
+        poses[:, 1:] -= c
+        return Patch(self.module, poses, self.flat - c, self.module_ids, self.sensors, self.roles,
+                     self.kind, dict(self.meta))
+
+    def select_modules(self, keep) -> "Patch":
+        """The patch with only the modules where ``keep`` (M,) is true, renumbered 0..M'-1."""
+        keep = np.asarray(keep, dtype=bool)
+        new = np.cumsum(keep) - 1
+        t = keep[self.module_ids]
+        return Patch(self.module, self.poses[keep], self.flat[t], new[self.module_ids[t]],
+                     self.sensors[t], self.roles[t], self.kind, dict(self.meta))
+
+    def flat_layout(self, z: float = 0.0) -> Layout:
+        """The patch lying in the plane ``z`` with normals +z (the flat end-effector case)."""
+        pos = np.column_stack([self.flat, np.full(len(self), z)])
+        nrm = np.tile([0.0, 0.0, 1.0], (len(self), 1))
+        return self.to_layout(pos, nrm)
+
+    def to_layout(self, positions, normals, meta: dict | None = None) -> Layout:
+        m = {"module_type": self.module.name, "patch": self.kind, "pitch_m": self.module.pitch,
+             "module_poses": self.poses.tolist(), **self.meta, **(meta or {})}
+        return Layout(positions, normals, self.taxel_ids, self.module_ids, flat=self.flat.copy(),
+                      roles=self.roles.copy(), meta=m)
+
+
+def patch_from_poses(module: str | ModuleType, poses, kind: str = "", extra: dict | None = None) -> Patch:
+    """Place copies of ``module`` at ``poses`` (M, 3) ``(angle, x, y)`` in the flat domain."""
+    mod = get_module(module)
+    poses = np.asarray(poses, dtype=np.float64).reshape(-1, 3)
+    k = len(mod)
+    if len(poses):
+        c, s = np.cos(poses[:, 0]), np.sin(poses[:, 0])
+        rot = np.stack([np.stack([c, -s], -1), np.stack([s, c], -1)], -2)  # (M, 2, 2)
+        flat = (np.einsum("mij,kj->mki", rot, mod.taxels) + poses[:, None, 1:]).reshape(-1, 2)
+    else:
+        flat = np.zeros((0, 2))
+    m = len(poses)
+    return Patch(mod, poses, flat, np.repeat(np.arange(m), k), np.tile(mod.sensors, m),
+                 np.tile(mod.roles, m), kind, dict(extra or {}))
+
+
+def strip_poses(module: ModuleType, n: int) -> np.ndarray:
+    """(n, 3) poses of a strip of ``n`` modules alternating as the module type's strip says."""
+    per = len(module.strip)
+    idx = np.arange(n)
+    base = np.array([[a, *c] for a, c in module.strip])
+    out = base[idx % per].copy()
+    out[:, 1:] += (idx // per)[:, None] * module.strip_period
+    return out
+
+
+def tile_poses(module: ModuleType, lo, hi) -> np.ndarray:
+    """Poses of the module type's plane tiling whose origins fall in the box ``lo..hi`` (2,) metres,
+    with a margin of one module radius so that a region test can decide at the edges."""
+    lo = np.asarray(lo, float) - module.radius
+    hi = np.asarray(hi, float) + module.radius
+    period, row = module.strip_period, module.fill_row
+    basis = np.column_stack([period, row])
+    corners = np.array([[lo[0], lo[1]], [hi[0], lo[1]], [lo[0], hi[1]], [hi[0], hi[1]]])
+    uv = np.linalg.solve(basis, corners.T).T
+    umin, vmin = np.floor(uv.min(axis=0)) - 1
+    umax, vmax = np.ceil(uv.max(axis=0)) + 1
+    u, v = np.meshgrid(np.arange(umin, umax + 1), np.arange(vmin, vmax + 1), indexing="ij")
+    cells = np.column_stack([u.ravel(), v.ravel()]) @ basis.T  # (C, 2)
+    base = np.array([[a, *c] for a, c in module.strip])  # (P, 3)
+    poses = np.repeat(base[None], len(cells), axis=0)
+    poses[:, :, 1:] += cells[:, None, :]
+    poses = poses.reshape(-1, 3)
+    inside = np.all((poses[:, 1:] >= lo) & (poses[:, 1:] <= hi), axis=1)
+    return poses[inside]
+
+
+def fill_patch(module: str | ModuleType, inside, lo, hi, *, angles=(0.0, np.pi / 6, np.pi / 3, np.pi / 2),
+               offsets: int = 4) -> Patch:
+    """Tile a flat region with whole modules, no overlap (the module type's plane tiling).
+
+    inside : callable ``(n, 2) metres -> (n,) bool``, the region in the flat domain.
+    lo, hi : (2,) metres, a box that contains the region.
+    The tiling is tried at each of ``angles`` and ``offsets x offsets`` shifts
+    within one tiling cell; the one that keeps the most whole modules wins (ties:
+    the first). Returns the patch with only the modules whose every taxel is inside.
+    """
+    mod = get_module(module)
+    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+    centre = (lo + hi) / 2
+    half = np.max(hi - lo) * 0.75
+    base = tile_poses(mod, -np.full(2, half), np.full(2, half))
+    best, best_n = None, -1
+    steps = np.arange(offsets) / max(offsets, 1)
+    for ang in angles:
+        c, s = np.cos(ang), np.sin(ang)
+        rot = np.array([[c, -s], [s, c]])
+        for fu in steps:
+            for fv in steps:
+                shift = fu * mod.strip_period + fv * mod.fill_row
+                poses = base.copy()
+                poses[:, 0] += ang
+                poses[:, 1:] = (poses[:, 1:] + shift) @ rot.T + centre
+                p = patch_from_poses(mod, poses, "fill")
+                ok = np.asarray(inside(p.flat), dtype=bool)
+                whole = np.bincount(p.module_ids, weights=ok, minlength=p.n_modules) == len(mod)
+                if whole.sum() > best_n:
+                    best, best_n = p.select_modules(whole), int(whole.sum())
+    best.meta["fill_candidates"] = len(angles) * offsets * offsets
+    return best
+
+
+def make_patch(kind: str, module: str | ModuleType = "cyskin10", *, center: bool = False) -> Patch:
+    """A flat patch: ``"triangle"``, ``"hexagon"`` or ``"strip:N"``.
+
+    ``center=True`` adds the taxel at the centre of a CySkin hexagon to module 0
+    (real planar hexagons have 61 taxels; seed 001 uses 60 and excludes it).
+    The patch is centred on the mean of its taxels except the hexagon, which is
+    centred on its centre site.
+    """
+    mod = get_module(module)
+    kind = str(kind).strip()
+    if kind == "triangle":
+        return patch_from_poses(mod, [[0.0, 0.0, 0.0]], "triangle")
+    if kind == "hexagon":
+        p = patch_from_poses(mod, [[a, *c] for a, c in mod.hexagon], "hexagon")
+        if center:
+            p = Patch(mod, p.poses, np.vstack([np.zeros((1, 2)), p.flat]),
+                      np.concatenate([[0], p.module_ids]),
+                      np.concatenate([[len(mod) + 1], p.sensors]),
+                      np.concatenate([np.array(["pressure"], dtype=object), p.roles]), "hexagon",
+                      {"center_taxel": True})
+        return p
+    if kind.startswith("strip"):
+        try:
+            n = int(kind.split(":", 1)[1])
+        except (IndexError, ValueError):
+            raise InputError(f"strip patches are written 'strip:N' with N >= 1 modules, got {kind!r}",
+                             key="patch") from None
+        if n < 1:
+            raise InputError(f"a strip needs at least one module, got {kind!r}", key="patch")
+        return patch_from_poses(mod, strip_poses(mod, n), f"strip:{n}").centred()
+    raise InputError(f"unknown patch {kind!r}; use triangle, hexagon, strip:N or fill", key="patch")
 
 
 def hexagon_flat(pitch: float = PITCH, rings: int = 4) -> tuple[np.ndarray, np.ndarray]:
-    """Flat hexagonal patch.
+    """Flat hexagonal CySkin patch of seed 001 (kept for older callers).
 
-    Returns ``flat (N, 2)`` metres and ``module_ids (N,)``: the lattice sites of a
-    hexagon of ``rings`` rings, without the centre, each assigned to the 60°
-    sector (module) it lies in.
+    Returns ``flat (60, 2)`` metres and ``module_ids (60,)``: the 61 sites of a
+    hexagonal lattice of radius 4 at ``pitch`` without the centre, 6 modules of 10.
     """
-    a = np.array([1.0, 0.0])
-    b = np.array([0.5, np.sqrt(3) / 2])
-    i, j = np.meshgrid(np.arange(-rings, rings + 1), np.arange(-rings, rings + 1), indexing="ij")
-    i, j = i.ravel(), j.ravel()
-    k = -i - j
-    keep = (np.maximum(np.maximum(np.abs(i), np.abs(j)), np.abs(k)) <= rings) & ~((i == 0) & (j == 0))
-    pts = (i[keep, None] * a + j[keep, None] * b) * pitch
-    ang = np.mod(np.arctan2(pts[:, 1], pts[:, 0]) + 1e-9, 2 * np.pi)
-    module = np.floor(ang / (np.pi / 3)).astype(np.int64)
-    order = np.lexsort((ang, np.hypot(*pts.T).round(9), module))
-    return pts[order], module[order]
+    if rings != 4:
+        raise InputError(f"the CySkin hexagon has 4 rings, got {rings}", key="rings")
+    p = make_patch("hexagon", "cyskin10")
+    scale = pitch / PITCH
+    return p.flat * scale, p.module_ids.copy()
 
 
 def wrap_on_sphere(flat: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray]:
