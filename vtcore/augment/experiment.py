@@ -1,0 +1,95 @@
+"""Seed 000's experiment end to end: see an object, probe it, propagate, compare with the truth.
+
+:func:`probe_object` builds the visual cloud of a :class:`CompliantObject`
+(virtual depth cameras), samples contact points from it with a seed, probes
+each (force control to p̄*, the end-effector along the normal at v) and applies
+Eq. 1. :func:`true_field` is the dense ground-truth colour the probes sample.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import InputError
+from .cloud import two_cameras, visual_cloud
+from .compliance import ProbeModel, TactilePointCloud
+from .objects import CompliantObject
+
+
+@dataclass
+class ProbedObject:
+    """A visual cloud and the tactile cloud probed on it.
+
+    points, normals : (K, 3) visual cloud (metres, unit). tactile : the probes.
+    touch_index : (n,) indices of the probed points in the cloud.
+    truth : (K,) noise-free colour at every visual point (counts per metre).
+    """
+
+    obj: CompliantObject
+    points: np.ndarray
+    normals: np.ndarray
+    tactile: TactilePointCloud
+    touch_index: np.ndarray
+    truth: np.ndarray
+    meta: dict = field(default_factory=dict)
+
+
+def true_field(obj: CompliantObject, points, probe: ProbeModel) -> np.ndarray:
+    """Noise-free Eq. 1 colour at ``points`` (K, 3): what an ideal probe would measure, counts/m."""
+    return probe.true_c(obj.stiffness(points))
+
+
+def sample_touches(n_points: int, touches: int, rng) -> np.ndarray:
+    """``touches`` distinct indices of the visual cloud, seeded, as the paper samples them."""
+    if touches < 1:
+        raise InputError(f"must be >= 1, got {touches}", key="touches")
+    if touches > n_points:
+        raise InputError(f"asks for {touches} touches but the visual cloud has only {n_points} points",
+                         key="touches")
+    return np.sort(np.random.default_rng(rng).choice(n_points, touches, replace=False))
+
+
+def probe_object(obj: CompliantObject, touches: int, probe: ProbeModel | None = None, *, cameras=None,
+                 n_points: int | None = 33676, rng=0, channels=("compliance",), probe_fn=None) -> ProbedObject:
+    """Visual cloud + ``touches`` probes of ``obj`` (seed 000, Sects. 2.1 and 3).
+
+    probe_fn : optional ``(points (n,3), normals (n,3)) -> (p_mean (n,), v_ss (n,3))``
+    replacing the self-contained :class:`ProbeModel` (e.g. the contact simulator).
+    channels : ``("compliance",)`` or ``("compliance", "friction")``: friction is
+    read from the object's field with 5 % noise (a stand-in for a sliding probe).
+    """
+    rng = np.random.default_rng(rng)
+    probe = probe or ProbeModel()
+    cams = cameras if cameras is not None else two_cameras(target=_centre(obj))
+    pts, nrm = visual_cloud(obj.mesh, cams, n_points=n_points, rng=rng)
+    idx = sample_touches(len(pts), touches, rng)
+    v, n = pts[idx], nrm[idx]
+    if probe_fn is None:
+        p_mean, v_ss = probe.probe(v, n, obj.stiffness(v), rng=rng)
+    else:
+        p_mean, v_ss = probe_fn(v, n)
+    tactile = TactilePointCloud.from_probes(v, v_ss, p_mean, direction=-n)
+    for ch in channels[1:]:
+        if ch != "friction":
+            raise InputError(f"unknown channel {ch!r}; valid: compliance, friction", key="channels")
+        mu = obj.friction(v) * (1.0 + 0.05 * rng.standard_normal(len(v)))
+        tactile = tactile.with_channel("friction", mu)
+    return ProbedObject(obj, pts, nrm, tactile, idx, true_field(obj, pts, probe),
+                        meta={"cameras": len(cams)})
+
+
+def _centre(obj) -> tuple:
+    lo, hi = np.asarray(obj.mesh.bounds)
+    return tuple((lo + hi) / 2)
+
+
+def voxel_filter(points, voxel: float) -> np.ndarray:
+    """Indices of one point per occupied voxel (the first), as the paper filters for display."""
+    p = np.asarray(points, float)
+    if len(p) == 0 or voxel <= 0:
+        return np.arange(len(p))
+    keys = np.floor((p - p.min(axis=0)) / voxel).astype(np.int64)
+    _, first = np.unique(keys, axis=0, return_index=True)
+    return np.sort(first)
