@@ -23,6 +23,8 @@ class Layout:
     frame : str, the name of the frame the positions are expressed in.
     transform : (4, 4) float, pose of ``frame`` in its parent (identity by default).
     meta : free-form provenance (source file, module type, patch, placement report).
+    can_ids : (N,) int or None, the CAN address that carries each taxel (iCub:
+        ``board_address << 4 | triangle``; CySkin: the hub's module address), -1 unknown.
     """
 
     positions: np.ndarray
@@ -34,6 +36,7 @@ class Layout:
     frame: str = "end_effector"
     transform: np.ndarray = field(default_factory=lambda: np.eye(4))
     meta: dict = field(default_factory=dict)
+    can_ids: np.ndarray | None = None
 
     def __post_init__(self):
         self.positions = np.ascontiguousarray(self.positions, dtype=np.float64).reshape(-1, 3)
@@ -48,7 +51,10 @@ class Layout:
         else:
             self.roles = np.asarray(self.roles, dtype=object).reshape(-1)
         self.transform = np.asarray(self.transform, dtype=np.float64).reshape(4, 4)
-        for name in ("normals", "taxel_ids", "module_ids", "roles") + (("flat",) if self.flat is not None else ()):
+        if self.can_ids is not None:
+            self.can_ids = np.asarray(self.can_ids, dtype=np.int64).reshape(-1)
+        optional = tuple(k for k in ("flat", "can_ids") if getattr(self, k) is not None)
+        for name in ("normals", "taxel_ids", "module_ids", "roles") + optional:
             if len(getattr(self, name)) != n:
                 raise InputError(f"has {len(getattr(self, name))} rows but positions has {n}", key=name)
         if not np.all(np.isfinite(self.positions)):
@@ -64,17 +70,23 @@ class Layout:
 
     def subset(self, index) -> "Layout":
         """The layout restricted to ``index`` (a boolean mask or integer indices)."""
-        idx = np.asarray(index)
+        idx = index if isinstance(index, slice) else np.asarray(index)
         return Layout(self.positions[idx], self.normals[idx], self.taxel_ids[idx], self.module_ids[idx],
                       None if self.flat is None else self.flat[idx], self.roles[idx], self.frame,
-                      self.transform.copy(), dict(self.meta))
+                      self.transform.copy(), dict(self.meta),
+                      None if self.can_ids is None else self.can_ids[idx])
 
     def transformed(self, matrix: np.ndarray, frame: str | None = None) -> "Layout":
-        """Positions and normals mapped by the 4x4 rigid ``matrix`` (p' = R p + t)."""
+        """Positions and normals mapped by the 4x4 rigid ``matrix`` (p' = R p + t).
+
+        The result's ``transform`` is this layout's transform times ``inv(matrix)``,
+        so the taxels keep their place in the parent frame.
+        """
         m = np.asarray(matrix, dtype=np.float64).reshape(4, 4)
         r, t = m[:3, :3], m[:3, 3]
         out = self.subset(slice(None))
         out.positions = self.positions @ r.T + t
         out.normals = self.normals @ r.T
         out.frame = frame or self.frame
+        out.transform = self.transform @ np.linalg.inv(m)
         return out
