@@ -177,3 +177,14 @@ def make_seed000_object(name: str, stiffness_scale: float = 1.0) -> CompliantObj
                                _const(1.0 if name == "cube_low_shore" else 0.8),
                                dict(size=0.06, face_stiffness=face, edge_gain=eg, vertex_gain=vg))
     raise InputError(f"unknown object {name!r}; valid: {', '.join(OBJECTS)}", key="object")
+
+
+def bottle_radius_at(z) -> np.ndarray:
+    """Radius (m) of the bottle's surface of revolution at heights ``z`` (m); 0 above the top."""
+    prof = bottle_profile()
+    zz = np.asarray(z, float)
+    # the profile is monotone in z except at the base and the cap step: interpolate over the side wall
+    side = prof[1:-1]
+    order = np.argsort(side[:, 1], kind="stable")
+    r = np.interp(zz, side[order, 1], side[order, 0], left=0.0, right=0.0)
+    return r
