@@ -1,0 +1,184 @@
+"""From edge taxels to a motion cue (seed 002 §5.1): components, Eq. 8, moments, centroid."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..errors import InputError
+
+#: A component whose second moments differ by less than this fraction of their sum
+#: (a single point, a symmetric blob) has no orientation and is left out of the mean.
+ISOTROPY_TOL = 1e-9
+
+
+@dataclass
+class EdgeFeatures:
+    """Edges found in one frame, in the plane of Eq. 8.
+
+    points : (M, 3) float, metres, the edge elements (taxels, fine-mesh vertices or
+        back-projected pixels) in the end-effector frame.
+    labels : (M,) int, connected component of each point (0..K-1).
+    weights : (M,) float, weight of each point in the moments (1, or a response).
+    plane : (M, 2) float, metres, the points projected by Eq. 8 in the plane basis.
+    thetas : (K,) float, radians in (-pi/2, pi/2], orientation of each component
+        w.r.t. the plane's x axis (NaN-free: 0 where undefined, see ``oriented``).
+    oriented : (K,) bool, whether the component's orientation is defined.
+    theta : float, radians, mean orientation over oriented components (0 if none).
+    centroid : (2,) float, metres, weighted centre of all edge points in the plane.
+    found : bool, at least one edge point; ``centroid`` and ``theta`` are 0 otherwise.
+    """
+
+    points: np.ndarray
+    labels: np.ndarray
+    weights: np.ndarray
+    plane: np.ndarray
+    thetas: np.ndarray
+    oriented: np.ndarray
+    theta: float
+    centroid: np.ndarray
+    found: bool
+    extra: dict = field(default_factory=dict)
+
+    @property
+    def n_components(self) -> int:
+        return len(self.thetas)
+
+    @property
+    def has_orientation(self) -> bool:
+        return bool(np.any(self.oriented))
+
+
+def plane_basis(normal) -> np.ndarray:
+    """(3, 3) rows ``u, v, n``: an orthonormal basis with ``n`` the unit plane normal.
+
+    For ``n = z`` it is the identity, so plane coordinates are the frame's x, y.
+    """
+    n = np.asarray(normal, dtype=np.float64).reshape(3)
+    norm = np.linalg.norm(n)
+    if not np.isfinite(norm) or norm < 1e-12:
+        raise InputError(f"plane normal must be a non-zero finite vector, got {n}", key="normal")
+    n = n / norm
+    ref = np.array([1.0, 0.0, 0.0]) if abs(n[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    u = ref - n * (ref @ n)
+    u /= np.linalg.norm(u)
+    v = np.cross(n, u)
+    return np.vstack([u, v, n])
+
+
+def project_plane(points, normal=(0.0, 0.0, 1.0)) -> np.ndarray:
+    """Eq. 8: ``(I - n n^T) t`` expressed in the plane basis; (M, 3) -> (M, 2) metres."""
+    b = plane_basis(normal)
+    p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    return p @ b[:2].T
+
+
+def mesh_components(adjacency, mask) -> np.ndarray:
+    """Connected components of the taxels where ``mask`` is True (BFS on the mesh, csgraph).
+
+    adjacency : (N, N) sparse. mask : (N,) bool.
+    Returns (N,) int: component label of each masked taxel, -1 elsewhere.
+    """
+    from scipy.sparse.csgraph import connected_components
+
+    mask = np.asarray(mask, dtype=bool)
+    labels = np.full(mask.shape, -1, dtype=np.int64)
+    idx = np.flatnonzero(mask)
+    if idx.size == 0:
+        return labels
+    sub = sp.csr_matrix(adjacency)[idx][:, idx]
+    _, lab = connected_components(sub, directed=False)
+    labels[idx] = lab
+    return labels
+
+
+def component_orientation(plane_points, labels, weights=None, n_components=None):
+    """Orientation of each component from its central second moments (image moments).
+
+    plane_points : (M, 2) metres. labels : (M,) int in 0..K-1. weights : (M,) >= 0.
+    Returns ``thetas (K,)`` radians in (-pi/2, pi/2] (the axis of least inertia,
+    ``0.5 * atan2(2 mu11, mu20 - mu02)``, Rocha et al. [32]), ``oriented (K,)``
+    bool (False for single points and isotropic blobs, whose theta is 0),
+    ``sizes (K,)`` total weight.
+    A collinear component has one zero moment and a well-defined orientation.
+    """
+    x = np.asarray(plane_points, dtype=np.float64).reshape(-1, 2)
+    lab = np.asarray(labels, dtype=np.int64)
+    w = np.ones(len(x)) if weights is None else np.asarray(weights, dtype=np.float64)
+    k = int(lab.max()) + 1 if n_components is None and lab.size else int(n_components or 0)
+    m0 = np.bincount(lab, w, minlength=k)
+    safe = np.where(m0 > 0, m0, 1.0)
+    cx = np.bincount(lab, w * x[:, 0], minlength=k) / safe
+    cy = np.bincount(lab, w * x[:, 1], minlength=k) / safe
+    dx, dy = x[:, 0] - cx[lab], x[:, 1] - cy[lab]
+    mu20 = np.bincount(lab, w * dx * dx, minlength=k) / safe
+    mu02 = np.bincount(lab, w * dy * dy, minlength=k) / safe
+    mu11 = np.bincount(lab, w * dx * dy, minlength=k) / safe
+    a, b = mu20 - mu02, 2.0 * mu11
+    spread = mu20 + mu02
+    aniso = np.hypot(a, b)
+    oriented = (m0 > 0) & (aniso > ISOTROPY_TOL * np.maximum(spread, 1e-300)) & (spread > 0)
+    thetas = np.where(oriented, 0.5 * np.arctan2(b, a), 0.0)
+    thetas = wrap_half_pi(thetas)
+    return thetas, oriented, m0
+
+
+def wrap_half_pi(theta):
+    """Map angles (radians) of undirected lines to (-pi/2, pi/2]."""
+    t = np.mod(np.asarray(theta, dtype=np.float64) + np.pi / 2, np.pi) - np.pi / 2
+    return np.where(t <= -np.pi / 2, t + np.pi, t)
+
+
+def mean_axis(thetas, weights=None) -> float:
+    """Mean of undirected orientations (radians): the doubled-angle mean, in (-pi/2, pi/2].
+
+    Averaging raw angles fails across the +-pi/2 wrap (a line at 89 deg and one at
+    -89 deg average to 0, not 90); doubling makes the pi-periodic axes 2pi-periodic.
+    Returns 0 for no input or a cancelling set.
+    """
+    t = np.asarray(thetas, dtype=np.float64)
+    if t.size == 0:
+        return 0.0
+    w = np.ones_like(t) if weights is None else np.asarray(weights, dtype=np.float64)
+    c, s = np.sum(w * np.cos(2 * t)), np.sum(w * np.sin(2 * t))
+    if np.hypot(c, s) < 1e-12 * max(np.sum(np.abs(w)), 1e-300):
+        return 0.0
+    return float(wrap_half_pi(0.5 * np.arctan2(s, c)))
+
+
+def features(points, labels, weights=None, normal=(0.0, 0.0, 1.0), extra=None,
+             centroid: str = "points", major: float = 0.2) -> EdgeFeatures:
+    """Eq. 8 projection, per-component orientation and the centroid of edge points.
+
+    points : (M, 3) metres. labels : (M,) int component ids (any non-negative ints).
+    weights : (M,) >= 0 or None (all 1). normal : the z axis of Eq. 8.
+    centroid : ``"points"`` (seed 002: centre of mass of all edge points) or
+        ``"components"``: the mean of the centroids of the major components
+        (total weight >= ``major`` x the largest), so that each flank of a ridge
+        counts once whatever its visible length on the patch.
+    """
+    if centroid not in ("points", "components"):
+        raise InputError(f"must be 'points' or 'components', got {centroid!r}", key="centroid")
+    p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    lab = np.asarray(labels, dtype=np.int64).reshape(-1)
+    if len(lab) != len(p):
+        raise InputError(f"{len(lab)} labels for {len(p)} points", key="labels")
+    w = np.ones(len(p)) if weights is None else np.asarray(weights, dtype=np.float64).reshape(-1)
+    if len(p) == 0 or not np.any(w > 0):
+        return EdgeFeatures(p, lab, w, np.zeros((len(p), 2)), np.zeros(0), np.zeros(0, bool), 0.0,
+                            np.zeros(2), False, dict(extra or {}))
+    _, lab = np.unique(lab, return_inverse=True)
+    xy = project_plane(p, normal)
+    thetas, oriented, sizes = component_orientation(xy, lab, w)
+    theta = mean_axis(thetas[oriented], sizes[oriented])
+    if centroid == "points":
+        c = (w[:, None] * xy).sum(axis=0) / w.sum()
+    else:
+        k = len(sizes)
+        comp = np.column_stack([np.bincount(lab, w * xy[:, 0], minlength=k),
+                                np.bincount(lab, w * xy[:, 1], minlength=k)])
+        big = sizes >= major * sizes.max()
+        c = (comp[big] / sizes[big, None]).mean(axis=0)
+    return EdgeFeatures(p, lab, w, xy, thetas, oriented, theta, c, True, dict(extra or {}))
