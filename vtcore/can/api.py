@@ -1,0 +1,97 @@
+"""High-level calls used by the CLI and the scene task: log <-> FRAMES.npz."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .._io import save_npz
+from ..errors import FormatError, InputError
+from .codecs import Codec, get_codec
+from .decode import DecodeResult, collect, iter_decode
+from .encode import encode
+from .frames import Summary
+from .logs import iter_batches, write_log
+
+
+def layout_taxel_ids(layout) -> np.ndarray:
+    """The UIDs a decoder matches frames against: ``layout.taxel_ids``.
+
+    CySkin: ``module_uid << 4 | sensor``. iCub: ``192 * board_address + 12 * triangle + slot``
+    (the row of the board's positions file, offset by 192 per board address).
+    """
+    return np.asarray(layout.taxel_ids, np.int64)
+
+
+def decode_log(path, codec: str | Codec = "icub", layout=None, taxel_ids=None, period: float | None = None,
+               window: int = 8, chunk: int = 65536) -> DecodeResult:
+    """Decode a log file (any of :data:`~vtcore.can.logs.FORMATS`) to taxel time series.
+
+    codec : "icub", "cyskin16" or a :class:`Codec`. layout : a Layout whose taxel order the
+    columns follow (taxels the log lacks stay masked; decoded taxels the layout lacks are
+    counted in ``summary.unmapped_*``). Without a layout or ``taxel_ids``, one column per
+    decoded taxel, sorted by UID. period : s, estimated from the log when None.
+    The log is read in chunks of ``chunk`` frames.
+    """
+    codec = get_codec(codec) if isinstance(codec, str) else codec
+    if layout is not None:
+        taxel_ids = layout_taxel_ids(layout)
+    summary = Summary()
+    batches = iter_batches(path, chunk=chunk, summary=summary)
+    blocks = iter_decode(batches, codec, taxel_ids, period, window, summary)
+    res = collect(blocks, codec, summary, taxel_ids)
+    if summary.frames_read == 0:
+        summary.notes.append("the log holds no frames")
+    if layout is not None:
+        res.extra.update({"positions": layout.positions, "normals": layout.normals})
+    return res
+
+
+def save_frames_npz(path, result: DecodeResult) -> None:
+    """FRAMES.npz: ``timestamps (T,)``, ``frames (T, N)`` wire values, ``mask (T, N)``,
+    ``taxel_ids (N,)``, ``unit_errors (E, 3)`` (row, triangle/module, code), ``codec`` (str)."""
+    arrays = result.arrays()
+    arrays["codec"] = np.array(result.codec)
+    save_npz(path, arrays)
+
+
+def load_frames_npz(path) -> dict:
+    """Read a FRAMES.npz; checks the contract names and shapes."""
+    path = Path(path)
+    if not path.exists():
+        raise InputError("file not found", file=path)
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            data = {k: z[k] for k in z.files}
+    except Exception as exc:
+        raise FormatError(f"not a readable .npz: {exc}", file=path) from None
+    for key in ("timestamps", "frames", "taxel_ids"):
+        if key not in data:
+            raise FormatError(f"missing array {key!r} (FRAMES.npz needs timestamps, frames, taxel_ids)",
+                              file=path, key=key)
+    t, f, ids = data["timestamps"], data["frames"], data["taxel_ids"]
+    if f.ndim != 2 or f.shape != (len(t), len(ids)):
+        raise FormatError(f"frames has shape {f.shape}, expected ({len(t)}, {len(ids)})", file=path, key="frames")
+    if "mask" in data and data["mask"].shape != f.shape:
+        raise FormatError(f"mask has shape {data['mask'].shape}, expected {f.shape}", file=path, key="mask")
+    return data
+
+
+def encode_to_log(frames_npz_or_dict, codec: str | Codec, out, channel: str = "vcan0") -> int:
+    """FRAMES.npz (or its dict) -> frames of ``codec`` -> log file ``out``. Returns frames written.
+
+    iCub triangles that ``unit_errors`` marks as erroring are sent with that error code.
+    """
+    codec = get_codec(codec) if isinstance(codec, str) else codec
+    data = load_frames_npz(frames_npz_or_dict) if not isinstance(frames_npz_or_dict, dict) else frames_npz_or_dict
+    f = np.asarray(data["frames"])
+    if np.nanmax(f, initial=0) > codec.wire_max or np.nanmin(f, initial=0) < 0:
+        raise InputError(f"frames hold values outside the {codec.name} wire range 0..{codec.wire_max}; "
+                         "convert counts to wire values first", key="frames")
+    errs = None
+    ue = data.get("unit_errors")
+    if ue is not None and len(ue) and codec.name == "icub":
+        errs = {(int(r), int(u)): int(c) for r, u, c in np.asarray(ue).reshape(-1, 3)}
+    batch = encode(data["timestamps"], f, data["taxel_ids"], codec, mask=data.get("mask"), errors=errs)
+    return write_log(out, batch, channel=channel)

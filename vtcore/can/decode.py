@@ -1,0 +1,412 @@
+"""From CAN frames to taxel time series ``(T, N)`` with a mask, streamed in bounded memory.
+
+How frames become rows (periods)
+--------------------------------
+Every stream (one kind of frame, e.g. an iCub triangle's 0x40 frame) is sent
+once per period. A stream's frames are chained: the row of a frame is the row
+of the previous frame of the same stream plus ``round(dt / period)``, so a
+missing frame leaves a masked sample (the next one lands two rows later)
+instead of shifting the row, and a slightly wrong period never accumulates
+drift. A stream seen for the first time is placed by the nearest reference
+(a frame of a known stream, or a pending row) in time. A row's timestamp is
+the earliest frame placed in it (rows without any frame get the previous
+row's timestamp plus the period).
+
+What is rejected, and counted (``Summary.rejected``)
+----------------------------------------------------
+``unknown_id``, ``short_dlc``, ``bad_header`` (from the codec),
+``out_of_order`` (earlier than an earlier-read frame of the same stream),
+``duplicate`` (a second frame of a stream in one row: the first read wins),
+``late`` (its row was already emitted; rows stay open for ``window`` periods
+after the newest row seen). A frame whose triangle reports an error keeps its
+values in ``frames`` but all samples of that triangle in that row are masked.
+Results do not depend on how the input is cut into chunks.
+
+Memory: the decoder holds one chunk of frames plus ``window`` rows; rows are
+returned as soon as they are closed (:meth:`StreamDecoder.feed`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .codecs import Codec
+from .frames import REASONS, FrameBatch, Summary
+
+
+@dataclass
+class Block:
+    """Closed rows: ``timestamps (T,)`` s, ``frames (T, N)`` wire values, ``mask (T, N)`` bool
+    (True = a sample was received), ``taxel_ids (N,)``, ``row0`` index of the first row,
+    ``errors (E, 3)`` int64 rows of ``(row, unit, code)`` for nonzero diagnostic codes."""
+
+    timestamps: np.ndarray
+    frames: np.ndarray
+    mask: np.ndarray
+    taxel_ids: np.ndarray
+    row0: int
+    errors: np.ndarray
+
+
+@dataclass
+class DecodeResult:
+    """A whole decoded log. ``frames (T, N)`` wire values; masked entries are meaningless (0)."""
+
+    timestamps: np.ndarray
+    frames: np.ndarray
+    mask: np.ndarray
+    taxel_ids: np.ndarray
+    errors: np.ndarray
+    summary: Summary
+    codec: str = ""
+    extra: dict = field(default_factory=dict)
+
+    def arrays(self) -> dict:
+        """The arrays of FRAMES.npz (results contract names)."""
+        return {"timestamps": self.timestamps, "frames": self.frames, "mask": self.mask,
+                "taxel_ids": self.taxel_ids, "unit_errors": self.errors, **self.extra}
+
+
+def estimate_period(timestamps, keys, default: float) -> float:
+    """Median spacing of consecutive frames of the same stream (s); ``default`` if none."""
+    t = np.asarray(timestamps, np.float64)
+    k = np.asarray(keys)
+    if len(t) < 2:
+        return default
+    o = np.lexsort((t, k))
+    t, k = t[o], k[o]
+    d = np.diff(t)[np.diff(k) == 0]
+    d = d[d > 1e-4]  # drop duplicates and bursts
+    return float(np.median(d)) if len(d) else default
+
+
+class StreamDecoder:
+    """Incremental decoder; ``feed(batch)`` returns the rows it closed (or None), ``finish()`` the rest.
+
+    codec : a :class:`~vtcore.can.codecs.Codec`.
+    taxel_ids : (N,) int or None. Columns of the output. ``None``: one column per taxel
+        channel seen, added as streams appear, sorted by taxel id in :func:`collect`.
+        Given (a layout's ids): channels not among them are counted as unmapped.
+    period : s, or None to estimate it from the first batch with enough frames.
+    window : periods a row stays open for late frames.
+    """
+
+    def __init__(self, codec: Codec, taxel_ids=None, period: float | None = None, window: int = 8,
+                 summary: Summary | None = None):
+        self.codec = codec
+        self.dynamic = taxel_ids is None
+        self.taxel_ids = np.zeros(0, np.int64) if taxel_ids is None else np.asarray(taxel_ids, np.int64).reshape(-1)
+        self._index_columns()
+        self.period = None if period is None else float(period)
+        if self.period is not None and not self.period > 0:
+            raise ValueError("period must be > 0 s")
+        self.window = int(max(window, 1))
+        self.summary = summary if summary is not None else Summary()
+        c = codec.n_channels
+        self._keys = np.zeros(0, np.int64)       # sorted known stream keys
+        self._klast_t = np.zeros(0)               # last timestamp per key
+        self._klast_row = np.zeros(0, np.int64)   # last row per key
+        self._kcols = np.zeros((0, c), np.int64)  # column of each channel, -1 none
+        self._kch = np.zeros((0, c), np.int64)    # taxel id of each channel, -1 none
+        self._kunit = np.zeros(0, np.int64)
+        self._row0 = 0
+        self._maxrow = -1
+        self._pv = np.zeros((0, len(self.taxel_ids)), codec.wire_dtype)
+        self._pm = np.zeros((0, len(self.taxel_ids)), bool)
+        self._pt = np.zeros(0)
+        self._pfill = np.zeros((0, 0), bool)
+        self._perr: list[np.ndarray] = []         # pending (row, unit, code) arrays
+        self._last_emit: tuple[int, float] | None = None
+        self._started = False
+        self.max_pending_rows = 0                  # for tests of bounded memory
+
+    # -- columns ---------------------------------------------------------
+    def _index_columns(self):
+        self._order = np.argsort(self.taxel_ids, kind="stable")
+        self._sorted = self.taxel_ids[self._order]
+
+    def _columns_of(self, ch: np.ndarray) -> np.ndarray:
+        """Column of each taxel id in ``ch`` (any shape), -1 when absent or ch < 0."""
+        flat = ch.reshape(-1)
+        if len(self._sorted) == 0:
+            return np.full(ch.shape, -1, np.int64)
+        pos = np.clip(np.searchsorted(self._sorted, flat), 0, len(self._sorted) - 1)
+        hit = (self._sorted[pos] == flat) & (flat >= 0)
+        return np.where(hit, self._order[pos], -1).reshape(ch.shape)
+
+    def _add_keys(self, new: np.ndarray):
+        ch = self.codec.channel_ids(new)
+        if self.dynamic:
+            ids = np.unique(ch[ch >= 0])
+            ids = np.setdiff1d(ids, self.taxel_ids)
+            if len(ids):
+                self.taxel_ids = np.concatenate([self.taxel_ids, ids])
+                self._index_columns()
+                pad = len(ids)
+                self._pv = np.concatenate([self._pv, np.zeros((len(self._pv), pad), self._pv.dtype)], axis=1)
+                self._pm = np.concatenate([self._pm, np.zeros((len(self._pm), pad), bool)], axis=1)
+        cols = self._columns_of(ch)
+        miss = ch[(ch >= 0) & (cols < 0)]
+        if len(miss):
+            self.summary.unmapped_taxel_ids.update(int(x) for x in np.unique(miss))
+        keys = np.concatenate([self._keys, new])
+        o = np.argsort(keys, kind="stable")
+        self._keys = keys[o]
+        self._klast_t = np.concatenate([self._klast_t, np.full(len(new), -np.inf)])[o]
+        self._klast_row = np.concatenate([self._klast_row, np.full(len(new), -1, np.int64)])[o]
+        self._kcols = np.concatenate([self._kcols, cols])[o]
+        self._kch = np.concatenate([self._kch, ch])[o]
+        self._kunit = np.concatenate([self._kunit, self.codec.unit(new)])[o]
+        fill = np.zeros((len(self._pfill), len(keys)), bool)
+        fill[:, : self._pfill.shape[1]] = self._pfill
+        self._pfill = fill[:, o]
+
+    # -- feeding ---------------------------------------------------------
+    def feed(self, batch: FrameBatch) -> Block | None:
+        """Decode one chunk of frames; return the rows it closed, or None."""
+        s = self.summary
+        m = len(batch)
+        s.frames_read += m
+        if m == 0:
+            return None
+        keys, reason = self.codec.classify(batch)
+        for code in np.unique(reason[reason >= 0]):
+            sel = reason == code
+            s.reject(REASONS[code], int(sel.sum()), batch.lines[sel])
+        acc = np.flatnonzero(reason < 0)
+        if len(acc) == 0:
+            return None
+        t = batch.timestamps[acc]
+        k = keys[acc]
+        if self.period is None:
+            self.period = estimate_period(t, k, self.codec.default_period)
+            s.period_s = self.period
+        s.period_s = self.period
+        new = np.setdiff1d(np.unique(k), self._keys)
+        if len(new):
+            self._add_keys(new)
+        ki = np.searchsorted(self._keys, k)
+
+        # --- out of order: earlier than the running max of its stream (segmented cummax) ---
+        o = np.argsort(ki, kind="stable")          # by stream, file order within
+        ts, ks = t[o], ki[o]
+        start = np.r_[True, ks[1:] != ks[:-1]]
+        seg = np.cumsum(start) - 1
+        carry = self._klast_t[ks]
+        base = min(ts.min(), carry[np.isfinite(carry)].min() if np.isfinite(carry).any() else ts.min())
+        a = ts - base
+        c = np.where(np.isfinite(carry), carry - base, -1.0)
+        span = max(a.max(), c.max()) + 2.0
+        off = seg * span
+        cm = np.maximum.accumulate(a + off)
+        prev = np.maximum(c + off, np.r_[-np.inf, cm[:-1]])
+        ooo = (a + off) < prev
+        if ooo.any():
+            s.reject("out_of_order", int(ooo.sum()), batch.lines[acc[o[ooo]]])
+        keep = ~ooo
+        o, ts, ks = o[keep], ts[keep], ks[keep]
+        if len(o) == 0:
+            return None
+        start = np.r_[True, ks[1:] != ks[:-1]]
+        seg = np.cumsum(start) - 1
+        first = np.flatnonzero(start)
+
+        # --- rows: chained per stream ---
+        p = self.period
+        prev_t = np.r_[ts[0], ts[:-1]]
+        inc = np.rint((ts - prev_t) / p).astype(np.int64)
+        known_first = self._klast_row[ks[first]] >= 0
+        inc[first] = 0
+        first_row = np.zeros(len(first), np.int64)
+        kf = first[known_first]
+        first_row[known_first] = self._klast_row[ks[kf]] + np.rint((ts[kf] - self._klast_t[ks[kf]]) / p).astype(np.int64)
+        csum = np.cumsum(inc)
+        rows = np.empty(len(ts), np.int64)
+        # rows of known streams first: they are references for new ones
+        rel = csum - csum[first][seg]
+        known_el = known_first[seg]
+        rows[known_el] = first_row[seg[known_el]] + rel[known_el]
+        if (~known_first).any():
+            ref_t = [ts[known_el]]
+            ref_r = [rows[known_el]]
+            if len(self._pt):
+                has = np.isfinite(self._pt)
+                ref_t.append(self._pt[has])
+                ref_r.append(self._row0 + np.flatnonzero(has))
+            if self._last_emit is not None:
+                ref_t.append(np.array([self._last_emit[1]]))
+                ref_r.append(np.array([self._last_emit[0]]))
+            ref_t = np.concatenate(ref_t)
+            ref_r = np.concatenate(ref_r)
+            nf = first[~known_first]
+            tf = ts[nf]
+            if len(ref_t) == 0:
+                # very first frames: row 0 at the earliest of them
+                ref_t, ref_r = np.array([tf.min()]), np.array([0])
+            ro = np.argsort(ref_t, kind="stable")
+            ref_t, ref_r = ref_t[ro], ref_r[ro]
+            j = np.clip(np.searchsorted(ref_t, tf), 1, max(len(ref_t) - 1, 1))
+            j0 = np.clip(j - 1, 0, len(ref_t) - 1)
+            j1 = np.clip(j, 0, len(ref_t) - 1)
+            near = np.where(np.abs(ref_t[j1] - tf) < np.abs(tf - ref_t[j0]), j1, j0)
+            first_row[~known_first] = ref_r[near] + np.rint((tf - ref_t[near]) / p).astype(np.int64)
+            new_el = ~known_el
+            rows[new_el] = first_row[seg[new_el]] + rel[new_el]
+        # stream state for the next chunk (last frame of each segment)
+        last = np.r_[first[1:] - 1, len(ts) - 1]
+        self._klast_t[ks[last]] = ts[last]
+        self._klast_row[ks[last]] = rows[last]
+
+        # back to file order for lateness and duplicates
+        fo = np.argsort(o, kind="stable")
+        src = acc[o[fo]]                 # batch index of each frame, file order
+        rows, ks, ts = rows[fo], ks[fo], ts[fo]
+        runmax = np.maximum.accumulate(np.r_[self._maxrow, rows])[:-1]
+        late = (rows < runmax - self.window + 1) | (rows < self._row0)
+        if late.any():
+            s.reject("late", int(late.sum()), batch.lines[src[late]])
+        ok = ~late
+        src, rows, ks, ts = src[ok], rows[ok], ks[ok], ts[ok]
+        self._maxrow = max(self._maxrow, int(rows.max()) if len(rows) else self._maxrow)
+        if not len(rows):
+            return self._emit(final=False)
+
+        # grow the pending grid to the newest row
+        need = self._maxrow - self._row0 + 1
+        have = len(self._pt)
+        if need > have:
+            n = len(self.taxel_ids)
+            self._pv = np.concatenate([self._pv, np.zeros((need - have, n), self._pv.dtype)])
+            self._pm = np.concatenate([self._pm, np.zeros((need - have, n), bool)])
+            self._pt = np.concatenate([self._pt, np.full(need - have, np.inf)])
+            self._pfill = np.concatenate([self._pfill, np.zeros((need - have, len(self._keys)), bool)])
+        r = rows - self._row0
+
+        # duplicates: first in file order wins, also against earlier chunks
+        lin = r * len(self._keys) + ks
+        _, first_idx = np.unique(lin, return_index=True)
+        dup = np.ones(len(lin), bool)
+        dup[first_idx] = False
+        dup |= self._pfill[r, ks]
+        if dup.any():
+            s.reject("duplicate", int(dup.sum()), batch.lines[src[dup]])
+        ok = ~dup
+        src, r, ks, ts = src[ok], r[ok], ks[ok], ts[ok]
+        self._pfill[r, ks] = True
+        s.frames_used += len(src)
+
+        # scatter the channels into the grid
+        vals = self.codec.values(batch.take(src))
+        pres = self.codec.present(batch.take(src), self._keys[ks])
+        cols = self._kcols[ks]
+        ch = self._kch[ks]
+        s.unmapped_samples += int((pres & (ch >= 0) & (cols < 0)).sum())
+        put = pres & (cols >= 0)
+        rr = np.broadcast_to(r[:, None], put.shape)[put]
+        cc = cols[put]
+        self._pv[rr, cc] = vals[put]
+        self._pm[rr, cc] = True
+        np.minimum.at(self._pt, r, ts)
+        err, _oor = self.codec.diagnostics(batch.take(src), self._keys[ks])
+        bad = err > 0
+        if bad.any():
+            codes, counts = np.unique(err[bad], return_counts=True)
+            for code, cnt in zip(codes.tolist(), counts.tolist()):
+                s.triangle_errors[code] = s.triangle_errors.get(code, 0) + cnt
+            self._perr.append(np.column_stack([r[bad] + self._row0, self._kunit[ks[bad]], err[bad]]).astype(np.int64))
+        self.max_pending_rows = max(self.max_pending_rows, len(self._pt))
+        return self._emit(final=False)
+
+    def finish(self) -> Block | None:
+        """Close and return every pending row."""
+        return self._emit(final=True)
+
+    def _emit(self, final: bool) -> Block | None:
+        upto = len(self._pt) if final else max(0, self._maxrow - self.window + 1 - self._row0)
+        if upto <= 0:
+            return None
+        v, msk, tt = self._pv[:upto], self._pm[:upto].copy(), self._pt[:upto].copy()
+        errs = np.concatenate(self._perr) if self._perr else np.zeros((0, 3), np.int64)
+        here = errs[:, 0] < self._row0 + upto
+        now, self._perr = errs[here], ([errs[~here]] if (~here).any() else [])
+        if len(now):
+            # mask every sample of an erroring unit (triangle) in that row
+            hit = (now[:, 1][:, None] == self._kunit[None, :])          # (E, K)
+            e_i, k_i = np.nonzero(hit)
+            cols = self._kcols[k_i]                                       # (pairs, C)
+            rws = np.broadcast_to((now[e_i, 0] - self._row0)[:, None], cols.shape)
+            good = cols >= 0
+            msk[rws[good], cols[good]] = False
+        # rows without any frame: previous row's time + period
+        empty = ~np.isfinite(tt)
+        if empty.any():
+            idx = np.arange(upto)
+            has = np.where(~empty, idx, -1)
+            lastgood = np.maximum.accumulate(has)
+            if self._last_emit is not None:
+                ref_row, ref_t = self._last_emit
+            else:
+                ref_row, ref_t = self._row0 - 1, (tt[~empty][0] - self.period * (np.flatnonzero(~empty)[0] + 1)
+                                                   if (~empty).any() else 0.0)
+            base_t = np.where(lastgood >= 0, tt[np.maximum(lastgood, 0)], ref_t)
+            base_r = np.where(lastgood >= 0, lastgood + self._row0, ref_row)
+            tt = np.where(empty, base_t + (idx + self._row0 - base_r) * self.period, tt)
+        block = Block(tt, v.copy(), msk, self.taxel_ids.copy(), self._row0, now)
+        self.summary.rows += upto
+        self.summary.masked_samples += int((~msk).sum())
+        self._last_emit = (self._row0 + upto - 1, float(tt[-1]))
+        self._pv, self._pm, self._pt = self._pv[upto:], self._pm[upto:], self._pt[upto:]
+        self._pfill = self._pfill[upto:]
+        self._row0 += upto
+        return block
+
+
+def iter_decode(batches, codec: Codec, taxel_ids=None, period=None, window: int = 8,
+                summary: Summary | None = None):
+    """Yield closed :class:`Block` s while consuming ``batches`` lazily (bounded memory)."""
+    dec = StreamDecoder(codec, taxel_ids, period, window, summary)
+    for b in batches:
+        out = dec.feed(b)
+        if out is not None:
+            yield out
+    out = dec.finish()
+    if out is not None:
+        yield out
+
+
+def collect(blocks, codec: Codec, summary: Summary, taxel_ids=None) -> DecodeResult:
+    """Concatenate blocks into one :class:`DecodeResult` (columns sorted by taxel id when dynamic)."""
+    blocks = list(blocks)
+    if taxel_ids is None:
+        ids = np.unique(np.concatenate([b.taxel_ids for b in blocks])) if blocks else np.zeros(0, np.int64)
+    else:
+        ids = np.asarray(taxel_ids, np.int64)
+    n = len(ids)
+    total = sum(len(b.timestamps) for b in blocks)
+    frames = np.zeros((total, n), codec.wire_dtype)
+    mask = np.zeros((total, n), bool)
+    ts = np.zeros(total)
+    i = 0
+    order = np.argsort(ids)
+    for b in blocks:
+        t = len(b.timestamps)
+        pos = order[np.searchsorted(ids[order], b.taxel_ids)] if n else np.zeros(0, np.int64)
+        frames[i:i + t][:, pos] = b.frames
+        mask[i:i + t][:, pos] = b.mask
+        ts[i:i + t] = b.timestamps
+        i += t
+    errors = np.concatenate([b.errors for b in blocks]) if blocks else np.zeros((0, 3), np.int64)
+    frames[~mask] = 0
+    return DecodeResult(ts, frames, mask, ids, errors.reshape(-1, 3), summary, codec.name)
+
+
+def decode_batches(batches, codec: Codec, taxel_ids=None, period=None, window: int = 8,
+                   summary: Summary | None = None) -> DecodeResult:
+    """Decode an iterable of :class:`FrameBatch` (or one batch) into a :class:`DecodeResult`."""
+    if isinstance(batches, FrameBatch):
+        batches = [batches]
+    summary = summary if summary is not None else Summary()
+    blocks = iter_decode(batches, codec, taxel_ids, period, window, summary)
+    return collect(blocks, codec, summary, taxel_ids)

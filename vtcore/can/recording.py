@@ -1,0 +1,147 @@
+"""CySkin text recordings (end of ``formats/cyskin_calibration.md``) joined to a layout by UID.
+
+Line 1: N taxel UIDs (``module << 4 | sensor``; sensor 0 is a temperature channel);
+then one line per sample: ``row_index time_s v1 ... vN`` (baseline-subtracted counts, >= 0).
+Columns are joined to the layout by UID, never by column order.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import FormatError, InputError
+
+
+@dataclass
+class Recording:
+    """A recording in layout order.
+
+    timestamps : (T,) s. frames : (T, N) uint16 counts (cyskin16 wire range) in the layout's
+    taxel order. mask : (T, N) True where the taxel was recorded. taxel_ids : (N,) the layout's.
+    row_index : (T,) the file's own row numbers. report : what did not match, by reason.
+    """
+
+    timestamps: np.ndarray
+    frames: np.ndarray
+    mask: np.ndarray
+    taxel_ids: np.ndarray
+    row_index: np.ndarray
+    report: dict = field(default_factory=dict)
+
+    def arrays(self) -> dict:
+        return {"timestamps": self.timestamps, "frames": self.frames, "mask": self.mask,
+                "taxel_ids": self.taxel_ids, "row_index": self.row_index}
+
+
+def read_cyskin_txt(path, layout=None, taxel_ids=None) -> Recording:
+    """Read a CySkin text recording and order its columns like ``layout`` (or ``taxel_ids``).
+
+    Rejected lines (wrong number of fields, not numbers) are reported with their line
+    numbers, never silently dropped. Values above 65535 are clipped and counted; negative
+    values (the format says clipped at 0) are kept at 0 and counted.
+    Report keys: ``unmatched_uids`` (recorded pressure taxels the layout lacks),
+    ``temperature_uids`` (sensor-0 channels, not taxels), ``unrecorded_taxels`` (layout
+    taxels the file lacks, masked), ``duplicate_uids``, ``rejected_lines``, ``time_backwards``,
+    ``clipped_high``, ``clipped_low``.
+    """
+    path = Path(path)
+    if not path.exists():
+        raise InputError("recording not found", file=path)
+    text = path.read_text(encoding="utf-8", errors="replace").splitlines()
+    while text and not text[0].strip():
+        text = text[1:]
+    if not text:
+        raise FormatError("empty recording: line 1 must list the taxel UIDs", file=path, line=1)
+    try:
+        uids = np.array([int(x) for x in text[0].split()], np.int64)
+    except ValueError:
+        raise FormatError("line 1 must list integer taxel UIDs", file=path, line=1) from None
+    n = len(uids)
+    if n == 0:
+        raise FormatError("line 1 lists no UIDs", file=path, line=1)
+    if layout is not None:
+        taxel_ids = layout.taxel_ids
+    ids = np.asarray(taxel_ids if taxel_ids is not None else np.unique(uids[(uids & 0xF) != 0]), np.int64)
+
+    # rows: vectorised conversion of all well-formed lines at once
+    good, rejected = [], []
+    for i, line in enumerate(text[1:], start=2):
+        parts = line.split()
+        if not parts:
+            continue
+        if len(parts) != n + 2:
+            rejected.append((i, f"{len(parts)} fields, expected {n + 2}"))
+        else:
+            good.append((i, parts))
+    rows = np.zeros((0, n + 2))
+    if good:
+        try:
+            rows = np.array([p for _, p in good], dtype=np.float64)
+        except ValueError:
+            keep = []
+            for i, p in good:  # only when some line has a non-number: find which
+                try:
+                    keep.append(np.array(p, dtype=np.float64))
+                except ValueError:
+                    rejected.append((i, "not numbers"))
+            rows = np.array(keep).reshape(-1, n + 2)
+    finite = np.isfinite(rows).all(axis=1)
+    if not finite.all():
+        lines_ok = [i for (i, _) in good]
+        rejected += [(lines_ok[j] if j < len(lines_ok) else -1, "non-finite value") for j in np.flatnonzero(~finite)]
+        rows = rows[finite]
+    rejected.sort()
+    t = rows[:, 1]
+    vals = rows[:, 2:]
+    clipped_high = int((vals > 65535).sum())
+    clipped_low = int((vals < 0).sum())
+    vals = np.clip(np.rint(vals), 0, 65535).astype(np.uint16)
+
+    # join by UID
+    _, first = np.unique(uids, return_index=True)
+    dup = np.setdiff1d(np.arange(n), first)
+    is_temp = (uids & 0xF) == 0
+    order = np.argsort(ids, kind="stable")
+    pos = np.clip(np.searchsorted(ids[order], uids), 0, max(len(ids) - 1, 0))
+    hit = (ids[order][pos] == uids) if len(ids) else np.zeros(n, bool)
+    hit[dup] = False
+    col = np.where(hit, order[pos], -1)
+    frames = np.zeros((len(t), len(ids)), np.uint16)
+    mask = np.zeros((len(t), len(ids)), bool)
+    src = np.flatnonzero(col >= 0)
+    frames[:, col[src]] = vals[:, src]
+    mask[:, col[src]] = True
+    report = {
+        "recorded_uids": int(n),
+        "matched_uids": int(len(src)),
+        "unmatched_uids": sorted(int(u) for u in uids[(col < 0) & ~is_temp & np.isin(np.arange(n), first)]),
+        "temperature_uids": sorted(int(u) for u in uids[is_temp & (col < 0)]),
+        "unrecorded_taxels": sorted(int(u) for u in np.setdiff1d(ids, uids)),
+        "duplicate_uids": sorted(int(u) for u in uids[dup]),
+        "rejected_lines": [{"line": i, "reason": r} for i, r in rejected],
+        "time_backwards": int((np.diff(t) < 0).sum()),
+        "clipped_high": clipped_high,
+        "clipped_low": clipped_low,
+        "rows": int(len(t)),
+    }
+    return Recording(t, frames, mask, ids, rows[:, 0].astype(np.int64), report)
+
+
+def report_text(report: dict) -> str:
+    """A few lines for the CLI."""
+    out = [f"{report['rows']} rows, {report['matched_uids']} of {report['recorded_uids']} recorded UIDs "
+           f"matched to the layout"]
+    for key in ("unmatched_uids", "temperature_uids", "unrecorded_taxels", "duplicate_uids"):
+        v = report[key]
+        if v:
+            out.append(f"  {key}: {len(v)} (e.g. {v[:8]})")
+    if report["rejected_lines"]:
+        ex = ", ".join(f"line {r['line']}: {r['reason']}" for r in report["rejected_lines"][:5])
+        out.append(f"  rejected_lines: {len(report['rejected_lines'])} ({ex})")
+    for key in ("time_backwards", "clipped_high", "clipped_low"):
+        if report[key]:
+            out.append(f"  {key}: {report[key]}")
+    return "\n".join(out)
