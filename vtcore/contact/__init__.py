@@ -1,5 +1,24 @@
-"""Contact simulation: proximity of objects to the skin, the soft layer, force control."""
+"""Contact simulation: proximity of objects to the skin, the soft layer, the sensor, force control.
 
-from .press import boussinesq_kernel, median_taxel_area, press_sphere, spread_through_layer
+Entry points: :class:`SoftLayer` (+ :data:`MATERIALS`), :func:`make_object`,
+:func:`placement_pose`, :func:`press` -> :class:`PressResult`,
+:func:`press_sequence` (trajectories, warm-started), :func:`probe` (mean response
+to a target, seed 000), the proximity back-ends (:func:`lower_envelope`,
+:func:`signed_distance`) and the sensor functions in :mod:`vtcore.contact.sensor`.
+"""
 
-__all__ = ["press_sphere", "spread_through_layer", "boussinesq_kernel", "median_taxel_area"]
+from . import sensor
+from .elastic import MODELS, layer_factor, solve_pk
+from .force import ProbeResult, probe, solve_monotone
+from .materials import MATERIALS, SoftLayer
+from .objects import make_object, placement_pose
+from .press import (ContactField, ContactGrid, PressResult, boussinesq_kernel, median_taxel_area, press,
+                    press_sequence, press_sphere, spread_field, spread_through_layer, taxel_means)
+from .proximity import lower_envelope, prepare_mesh, signed_distance
+
+__all__ = [
+    "SoftLayer", "MATERIALS", "make_object", "placement_pose", "press", "press_sequence", "PressResult",
+    "ContactGrid", "ContactField", "probe", "ProbeResult", "solve_monotone", "MODELS", "layer_factor",
+    "solve_pk", "lower_envelope", "signed_distance", "prepare_mesh", "spread_field", "taxel_means", "sensor",
+    "press_sphere", "spread_through_layer", "boussinesq_kernel", "median_taxel_area",
+]

@@ -1,32 +1,440 @@
-"""A sphere pressed on a skin through a soft layer (foundation model).
+"""Pressing an object onto a skin through a soft layer: the public contact API.
 
-Local (Winkler) layer: pressure ``q = E' * delta / h`` where the sphere
-penetrates the layer's outer surface, ``E' = E / (1 - nu^2)``; optionally spread
-to the taxels at depth ``h`` with the Boussinesq vertical-stress kernel. The
-contact issue replaces this with an elastic contact solve.
+:func:`press` poses a closed object mesh relative to the skin, moves it along the
+press direction to a target force (or indentation), solves the elastic contact
+on a grid over the layer's outer surface (see :mod:`vtcore.contact.elastic` for
+the models and their sources) and reads each taxel as the mean, over its 4 mm
+disc, of the stress that reaches the layer's base (Boussinesq spreading through
+the thickness h). :func:`probe` finds the force at which the mean sensor
+response reaches a target (seed 000's p-bar* = 4000 counts).
+
+Geometry. The press direction ``u`` (default: minus the mean taxel normal) and
+two tangents span a plane; the grid lives on it, the skin's outer surface
+(taxel positions + h * normals) is a height field over it (a quadratic fit plus
+linear interpolation of the residuals, so curved patches keep their shape), and
+the gap is measured along ``-u`` between that surface and the posed object
+(:func:`vtcore.contact.proximity.lower_envelope`). The flat-layer Green's
+function is applied on this plane: fine for patches whose radius of curvature is
+large against the contact (the demo's 60 mm), approximate on strongly curved
+ones, where taxels facing away from the object (normal . -u < 0.1) read zero.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
+
 import numpy as np
-from scipy.optimize import brentq
 
-from ..errors import UnreachableTargetError
+from ..errors import InputError, UnreachableTargetError
+from . import elastic
+from .materials import SoftLayer
+from .proximity import lower_envelope, prepare_mesh
 
+TAXEL_RADIUS = 2e-3  # m, CySkin taxels are 4 mm discs (seed 000, 001)
+
+
+@dataclass
+class ContactGrid:
+    """Resolution and extent of the contact grid on the skin's outer surface.
+
+    spacing : m, cell size. margin : m of skin simulated beyond the outermost
+    taxel discs. extent : m or None, radius of the layer around the patch centre
+    (e.g. 0.04 for seed 001's 80 mm disc); None: the taxels' bounding box + margin.
+    """
+
+    spacing: float = 1e-3
+    margin: float = 4e-3
+    extent: float | None = None
+
+    def __post_init__(self):
+        for k in ("spacing", "margin"):
+            v = float(getattr(self, k))
+            if not (v > 0 if k == "spacing" else v >= 0) or not np.isfinite(v):
+                raise InputError(f"must be {'> 0' if k == 'spacing' else '>= 0'} m, got {v}", key=f"grid.{k}")
+            setattr(self, k, v)
+        if self.extent is not None and not float(self.extent) > 0:
+            raise InputError(f"must be > 0 m, got {self.extent}", key="grid.extent")
+
+
+@dataclass
+class ContactField:
+    """The contact on the grid: everything needed to re-read or re-spread it.
+
+    x (mx,), y (my,) : m, cell centres along e1, e2. origin (3,) m; e1, e2, n (3,):
+    the grid frame (n = -press direction). surface (mx, my) : m, height of the
+    layer's outer surface along n. gap (mx, my) : m, object above the surface
+    along n at the solution pose before deformation (inf: no object; negative:
+    interference). pressure (mx, my) : Pa on the surface. stress (mx, my) or None :
+    Pa at depth h.
+    """
+
+    x: np.ndarray
+    y: np.ndarray
+    origin: np.ndarray
+    e1: np.ndarray
+    e2: np.ndarray
+    n: np.ndarray
+    surface: np.ndarray
+    gap: np.ndarray
+    pressure: np.ndarray
+    stress: np.ndarray | None = None
+
+    @property
+    def spacing(self) -> float:
+        return float(self.x[1] - self.x[0]) if len(self.x) > 1 else 0.0
+
+    def points(self) -> np.ndarray:
+        """(mx, my, 3) m, the grid's points on the layer's outer surface."""
+        X, Y = np.meshgrid(self.x, self.y, indexing="ij")
+        return (self.origin + X[..., None] * self.e1 + Y[..., None] * self.e2
+                + self.surface[..., None] * self.n)
+
+
+@dataclass
+class PressResult:
+    """Outcome of one press.
+
+    pressure : (N,) Pa, stress at the taxels (base of the layer), mean over each
+        taxel's disc (after spreading through the layer when ``spread=True``;
+        equal to ``surface_pressure`` otherwise).
+    surface_pressure : (N,) Pa on the layer's outer surface above each taxel (disc mean).
+    force : N, total normal force. indentation : m, travel of the object beyond first
+        contact. contact_area : m^2. pose : (4, 4), the object's pose at the solution.
+    travel : m, distance moved along ``direction`` from the given pose.
+    displacement : m, end-effector displacement from first contact, = indentation +
+        the object's own deflection (object compliance; seed 000 Eq. 1).
+    bottomed_out : bool, the layer would be compressed by more than its thickness.
+    max_compression : m. model : str. iterations, converged : solver report.
+    field : ContactField on the grid.
+    """
+
+    pressure: np.ndarray
+    surface_pressure: np.ndarray
+    force: float
+    indentation: float
+    contact_area: float
+    pose: np.ndarray
+    travel: float = 0.0
+    displacement: float = 0.0
+    object_deflection: float = 0.0
+    bottomed_out: bool = False
+    max_compression: float = 0.0
+    model: str = "finite_layer"
+    iterations: int = 0
+    converged: bool = True
+    direction: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, -1.0]))
+    field: ContactField | None = None
+    spread: bool = True
+
+
+def _frame(layout, direction):
+    nrm = np.asarray(layout.normals, float)
+    if direction is None:
+        m = nrm.mean(axis=0)
+        if np.linalg.norm(m) < 1e-9:
+            raise InputError("taxel normals cancel out; give the press direction explicitly", key="direction")
+        u = -m / np.linalg.norm(m)
+    else:
+        u = np.asarray(direction, float).reshape(3)
+        if not np.all(np.isfinite(u)) or np.linalg.norm(u) < 1e-12:
+            raise InputError(f"must be a non-zero 3-vector, got {direction}", key="direction")
+        u = u / np.linalg.norm(u)
+    n = -u
+    a = np.array([1.0, 0.0, 0.0]) if abs(n[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    e1 = a - (a @ n) * n
+    e1 /= np.linalg.norm(e1)
+    return u, n, e1, np.cross(n, e1)
+
+
+def _surface_height(xy, z, X, Y):
+    """Height field through (xy, z): quadratic least squares + linear interpolation of residuals."""
+    from scipy.interpolate import LinearNDInterpolator
+
+    def design(x, y):
+        cols = [np.ones_like(x), x, y, x * x, x * y, y * y]
+        return np.stack(cols[: 6 if len(z) >= 6 else (3 if len(z) >= 3 else 1)], axis=-1)
+
+    A = design(xy[:, 0], xy[:, 1])
+    coef, *_ = np.linalg.lstsq(A, z, rcond=None)
+    base = design(X, Y) @ coef
+    res = z - A @ coef
+    if len(z) >= 4 and np.ptp(xy[:, 0]) > 0 and np.ptp(xy[:, 1]) > 0 and np.abs(res).max() > 1e-12:
+        try:
+            base = base + LinearNDInterpolator(xy, res, fill_value=0.0)(X, Y)
+        except Exception:  # degenerate (collinear) taxels: keep the smooth fit
+            pass
+    return base
+
+
+def disc_offsets(samples: int, radius: float = TAXEL_RADIUS) -> np.ndarray:
+    """(S, 2) m, ``samples`` points covering a disc evenly (the centre, then a sunflower spiral)."""
+    if samples < 1:
+        raise InputError(f"must be >= 1, got {samples}", key="samples_per_taxel")
+    if samples == 1:
+        return np.zeros((1, 2))
+    k = np.arange(samples)
+    r = radius * np.sqrt((k + 0.5) / samples)
+    a = k * np.pi * (3 - np.sqrt(5))
+    return np.column_stack([r * np.cos(a), r * np.sin(a)])
+
+
+def _sample(field_xy, values, x, y):
+    """Bilinear interpolation of cell-centred ``values`` (mx, my) at points (..., 2); 0 outside."""
+    from scipy.ndimage import map_coordinates
+
+    dx = x[1] - x[0] if len(x) > 1 else 1.0
+    dy = y[1] - y[0] if len(y) > 1 else 1.0
+    ci = (field_xy[..., 0] - x[0]) / dx
+    cj = (field_xy[..., 1] - y[0]) / dy
+    return map_coordinates(values, [ci.ravel(), cj.ravel()], order=1, mode="constant", cval=0.0).reshape(ci.shape)
+
+
+def taxel_means(layout, fld: ContactField, values, samples_per_taxel=7, radius=TAXEL_RADIUS):
+    """Mean of a grid field (mx, my) over each taxel's disc -> (N,). Taxels facing away read 0."""
+    pos = np.asarray(layout.positions, float)
+    rel = pos - fld.origin
+    xy = np.column_stack([rel @ fld.e1, rel @ fld.e2])
+    off = disc_offsets(samples_per_taxel, radius)
+    pts = xy[:, None, :] + off[None, :, :]
+    out = _sample(pts, values, fld.x, fld.y).mean(axis=1)
+    facing = np.asarray(layout.normals, float) @ fld.n > 0.1
+    return np.where(facing, out, 0.0)
+
+
+def spread_field(fld: ContactField, thickness: float) -> np.ndarray:
+    """Stress (Pa) at depth ``thickness`` under the surface pressure of ``fld`` (Boussinesq kernel)."""
+    if thickness <= 0:
+        return fld.pressure.copy()
+    dx = fld.spacing or 1.0
+    op = elastic.spreading_operator(fld.pressure.shape, dx, dx, thickness)
+    return op(fld.pressure)
+
+
+def _object_stiffness(compliance, mesh_local, pose, point_world):
+    """Stiffness (N/m) of the object at a contact point; None when no compliance is given."""
+    if compliance is None:
+        return None
+    inv = np.linalg.inv(pose)
+    p_obj = inv[:3, :3] @ point_world + inv[:3, 3]
+    if callable(compliance):
+        k = float(np.asarray(compliance(p_obj[None, :]), float).reshape(-1)[0])
+    elif np.ndim(compliance) == 0:
+        k = float(compliance)
+    else:
+        vals = np.asarray(compliance, float).reshape(-1)
+        if len(vals) != len(mesh_local.vertices):
+            raise InputError(f"per-vertex compliance has {len(vals)} values but the mesh has "
+                             f"{len(mesh_local.vertices)} vertices", key="compliance")
+        from scipy.spatial import cKDTree
+
+        _, i = cKDTree(np.asarray(mesh_local.vertices, float)).query(p_obj, k=min(4, len(vals)))
+        k = float(np.mean(vals[np.atleast_1d(i)]))
+    if not (k > 0 and np.isfinite(k)):
+        raise InputError(f"object stiffness must be > 0 N/m, got {k}", key="compliance")
+    return k
+
+
+def press(layout, mesh, pose, layer: SoftLayer, *, force=None, indentation=None, direction=None,
+          model: str = "finite_layer", compliance=None, grid: ContactGrid | None = None,
+          spread: bool = True, samples_per_taxel: int = 7, taxel_radius: float = TAXEL_RADIUS,
+          backend: str | None = None, open_mesh: str = "error", warm_start: PressResult | None = None,
+          tol: float = 1e-7, maxiter: int = 1000) -> PressResult:
+    """Press ``mesh`` onto the skin of ``layout`` through ``layer``.
+
+    layout : vtcore.layout.Layout (positions, normals (N, 3), end-effector frame, metres).
+    mesh : trimesh.Trimesh, closed (see ``open_mesh``), any float dtype, metres, object frame.
+    pose : (4, 4), the object's pose in the end-effector frame before pressing.
+    layer : SoftLayer. force : N, target total normal force; or indentation : m,
+        travel beyond first contact; neither: the pose is used as it is.
+    direction : (3,), the object's motion (default: minus the mean taxel normal).
+    model : "finite_layer" (default), "halfspace" or "local" (Winkler, E*/h).
+    compliance : object stiffness in N/m in series with the layer: a number, a
+        callable ``(points (M, 3) object frame) -> (M,)`` or per-vertex values (V,).
+    grid : ContactGrid. spread : spread the surface pressure to the taxels' depth.
+    samples_per_taxel : points averaged over each 4 mm taxel disc.
+    backend : proximity back-end ("open3d" / "numpy"). warm_start : a previous
+        PressResult on the same layout (trajectories).
+
+    Raises UnreachableTargetError when the force cannot be reached: the object
+    misses the skin, or the layer would be compressed through its whole thickness.
+    """
+    if model not in elastic.MODELS:
+        raise InputError(f"model must be one of {', '.join(elastic.MODELS)}, got {model!r}", key="model")
+    if force is not None and indentation is not None:
+        raise InputError("give force or indentation, not both", key="force")
+    if force is not None and not (np.isfinite(force) and force >= 0):
+        raise InputError(f"must be a finite force >= 0 N, got {force}", key="force")
+    if indentation is not None and not (np.isfinite(indentation) and indentation >= 0):
+        raise InputError(f"must be >= 0 m, got {indentation}", key="indentation")
+    if not isinstance(layer, SoftLayer):
+        raise InputError("layer must be a vtcore.contact.SoftLayer", key="layer")
+    h = layer.thickness
+    if h <= 0:
+        raise InputError("press needs a soft layer of thickness > 0", key="layer.thickness")
+    grid = grid or ContactGrid()
+    pose = np.asarray(pose, float).reshape(4, 4)
+    if not np.all(np.isfinite(pose)):
+        raise InputError("pose has non-finite entries", key="pose")
+    local = prepare_mesh(mesh, open_mesh=open_mesh)
+    posed = local.copy()
+    posed.apply_transform(pose)
+
+    u, n, e1, e2 = _frame(layout, direction)
+    pos = np.asarray(layout.positions, float)
+    nrm = np.asarray(layout.normals, float)
+    outer = pos + h * nrm
+    facing = nrm @ n > 0.1
+    if not facing.any():
+        raise InputError("no taxel faces the press direction", key="direction")
+    origin = outer[facing].mean(axis=0)
+    rel = outer[facing] - origin
+    xy, z = np.column_stack([rel @ e1, rel @ e2]), rel @ n
+    dx = grid.spacing
+    lo = xy.min(axis=0) - taxel_radius - grid.margin
+    hi = xy.max(axis=0) + taxel_radius + grid.margin
+    if grid.extent is not None:
+        lo = np.minimum(lo, -grid.extent)
+        hi = np.maximum(hi, grid.extent)
+    # an even number of cells centred on the patch: cell centres sit half a cell off the
+    # patch axes, so the edges of objects centred on the patch fall between cells
+    mx, my = 2 * np.ceil((hi - lo) / (2 * dx)).astype(int)
+    if mx * my > 4_000_000:
+        raise InputError(f"grid of {mx} x {my} cells is too large; increase grid.spacing", key="grid.spacing")
+    cx, cy = (lo + hi) / 2
+    xs = cx + dx * (np.arange(mx) - (mx - 1) / 2)
+    ys = cy + dx * (np.arange(my) - (my - 1) / 2)
+    X, Y = np.meshgrid(xs, ys, indexing="ij")
+    S = _surface_height(xy, z, X, Y)
+    skin = np.ones_like(X, dtype=bool)
+    if grid.extent is not None:
+        skin &= np.hypot(X, Y) <= grid.extent
+    pts = origin + X[..., None] * e1 + Y[..., None] * e2 + S[..., None] * n
+    gap = np.full(X.shape, np.inf)
+    gap[skin] = lower_envelope(pts[skin], n, posed, backend)
+    finite = np.isfinite(gap)
+    area = dx * dx
+
+    fld = ContactField(xs, ys, origin, e1, e2, n, S, gap, np.zeros_like(gap))
+    gmin = float(gap[finite].min()) if finite.any() else np.inf
+    if force is not None and force > 0 and not finite.any():
+        raise UnreachableTargetError(
+            f"the object never meets the skin along the press direction {np.round(u, 3).tolist()}: "
+            f"no force can be reached (target {force} N)")
+
+    # --- contact solve -----------------------------------------------------------
+    iters, conv_ok = 0, True
+    if not finite.any() or (force is not None and force == 0) or (indentation is not None and indentation == 0):
+        p = np.zeros_like(gap)
+        d = gmin if np.isfinite(gmin) else 0.0
+    elif model == "local":
+        k = layer.e_star / h
+        sol = elastic.solve_local(gap, k, area, force=force,
+                                  approach=None if force is not None else
+                                  (gmin + indentation if indentation is not None else 0.0))
+        p, d = sol.pressure, sol.approach
+    else:
+        target_d = None if force is not None else (gmin + indentation if indentation is not None else 0.0)
+        # crop to the cells that can touch: contact cells have gap <= approach
+        est = elastic.solve_local(gap, layer.e_star / h, area, force=force, approach=target_d).approach
+        thresh = max(est, gmin) + 2 * dx + 0.5 * max(est - gmin, 0.0)
+        p0_full = warm_start.field.pressure if (warm_start is not None and warm_start.field is not None and
+                                                warm_start.field.pressure.shape == gap.shape) else None
+        for _ in range(8):
+            sel = finite & (gap <= thresh)
+            if p0_full is not None:
+                sel |= p0_full > 0
+            if not sel.any():
+                p, d = np.zeros_like(gap), (target_d or 0.0)
+                break
+            ii, jj = np.nonzero(sel)
+            pad = 2
+            i0, i1 = max(ii.min() - pad, 0), min(ii.max() + pad + 1, mx)
+            j0, j1 = max(jj.min() - pad, 0), min(jj.max() + pad + 1, my)
+            # round the box up to multiples of 8 cells so trajectories reuse cached kernels
+            bi, bj = -(-(i1 - i0) // 8) * 8, -(-(j1 - j0) // 8) * 8
+            i1, j1 = min(i0 + bi, mx), min(j0 + bj, my)
+            i0, j0 = max(i1 - bi, 0), max(j1 - bj, 0)
+            sub = gap[i0:i1, j0:j1]
+            op = elastic.compliance_operator(sub.shape, dx, dx, layer, model)
+            p0 = p0_full[i0:i1, j0:j1] if p0_full is not None else None
+            sol = elastic.solve_pk(sub, op, area, force=force, approach=target_d, p0=p0, tol=tol, maxiter=maxiter)
+            iters += sol.iterations
+            conv_ok = sol.converged
+            p = np.zeros_like(gap)
+            p[i0:i1, j0:j1] = sol.pressure
+            d = sol.approach
+            # every cell outside the box must stay clear of the object
+            outside = finite.copy()
+            outside[i0:i1, j0:j1] = False
+            if not (outside & (gap < d)).any():
+                break
+            thresh = d + 2 * dx + (d - gmin)
+    p = np.where(np.isfinite(p) & (p > 0), p, 0.0)
+    fld.pressure = p
+    total = float(p.sum() * area)
+    compress = np.where(p > 0, d - np.where(finite, gap, d), 0.0)
+    max_c = float(compress.max()) if p.any() else 0.0
+    bottomed = max_c > h * (1 + 1e-9)
+    if force is not None and force > 0 and bottomed:
+        raise UnreachableTargetError(
+            f"{force} N would compress the {h * 1e3:.3g} mm layer by {max_c * 1e3:.3g} mm (model {model}): "
+            "the object bottoms out on the end-effector before reaching the target force")
+    travel = float(d) if np.isfinite(d) else 0.0
+    if force is None and indentation is None:
+        travel = 0.0
+    new_pose = pose.copy()
+    new_pose[:3, 3] += travel * u
+    fld.gap = np.where(finite, gap - travel, np.inf)
+    indent = max(travel - gmin, 0.0) if np.isfinite(gmin) else 0.0
+    if force is None and indentation is None and np.isfinite(gmin):
+        indent = max(-gmin, 0.0)
+    surf = taxel_means(layout, fld, p, samples_per_taxel, taxel_radius)
+    if spread:
+        fld.stress = spread_field(fld, h)
+        taxel = taxel_means(layout, fld, fld.stress, samples_per_taxel, taxel_radius)
+    else:
+        taxel = surf.copy()
+    defl = 0.0
+    if compliance is not None and total > 0:
+        cpt = (fld.points() * p[..., None]).sum(axis=(0, 1)) / p.sum()
+        k_obj = _object_stiffness(compliance, local, new_pose, cpt)
+        defl = total / k_obj
+    return PressResult(
+        pressure=taxel, surface_pressure=surf, force=total, indentation=indent,
+        contact_area=float((p > 0).sum() * area), pose=new_pose, travel=travel,
+        displacement=indent + defl, object_deflection=defl, bottomed_out=bool(bottomed),
+        max_compression=max_c, model=model, iterations=iters, converged=bool(conv_ok),
+        direction=u, field=fld, spread=spread)
+
+
+def press_sequence(layout, mesh, poses, layer: SoftLayer, *, force=None, indentation=None, **kw):
+    """Press along a trajectory, warm-starting each frame from the previous one.
+
+    poses : (T, 4, 4). force, indentation : None, a number or (T,) per frame.
+    Other keywords as :func:`press`. Returns a list of T PressResults.
+    """
+    poses = np.asarray(poses, float).reshape(-1, 4, 4)
+    t = len(poses)
+    fs = [None] * t if force is None else list(np.broadcast_to(np.asarray(force, float), (t,)))
+    ds = [None] * t if indentation is None else list(np.broadcast_to(np.asarray(indentation, float), (t,)))
+    out, prev = [], None
+    for i in range(t):
+        prev = press(layout, mesh, poses[i], layer, force=fs[i], indentation=ds[i], warm_start=prev, **kw)
+        out.append(prev)
+    return out
+
+
+# --- foundation helpers, kept for callers of the first skeleton -------------------------
 
 def boussinesq_kernel(r: np.ndarray, h: float) -> np.ndarray:
-    """Vertical stress at depth h under a unit point load at radial distance r (1/m^2).
-
-    sigma_z(r) = 3 h^3 / (2 pi (r^2 + h^2)^(5/2)); integrates to 1 over the plane.
-    """
-    return 3.0 * h**3 / (2.0 * np.pi * (r**2 + h**2) ** 2.5)
+    """Vertical stress at depth h under a unit point load at radial distance r (1/m^2)."""
+    return elastic.boussinesq_kernel(r, h)
 
 
 def spread_through_layer(positions, surface_pressure, thickness, taxel_area):
-    """Stress reaching the taxels at depth ``thickness`` (Boussinesq spreading).
+    """Stress reaching the taxels at depth ``thickness`` from per-taxel surface pressure (dense Boussinesq).
 
-    positions : (N, 3) metres. surface_pressure : (N,) or (T, N) pascals on the
-    layer's surface above each taxel. Returns the same shape, pascals.
+    positions : (N, 3) metres. surface_pressure : (N,) or (T, N) pascals. Returns the same shape.
     """
     p = np.asarray(positions, float)
     q = np.asarray(surface_pressure, float)
@@ -47,16 +455,12 @@ def median_taxel_area(positions) -> float:
 
 def press_sphere(positions, normals, centre_xy, radius, force, thickness, young_modulus,
                  poisson=0.49, taxel_area=None):
-    """Press a rigid sphere along -z onto the skin until the total force is ``force``.
+    """Deprecated foundation model: a sphere on a local (Winkler) layer sampled at the taxels only.
 
-    positions, normals : (N, 3) metres / unit. centre_xy : (2,) metres, where the
-    sphere's centre passes. radius, thickness : metres. force : newtons.
-    young_modulus : pascals. taxel_area : m^2 of skin each taxel stands for.
-
-    Returns the layer's ``surface_pressure (N,)`` pascals above each taxel and
-    the ``indentation`` (m). Raises UnreachableTargetError when the target force
-    cannot be reached within the layer.
+    Use :func:`press` with ``make_object("sphere")``. Returns (surface_pressure (N,) Pa, indentation m).
     """
+    from scipy.optimize import brentq
+
     p = np.asarray(positions, float)
     n = np.asarray(normals, float)
     h = max(float(thickness), 1e-6)

@@ -1,0 +1,95 @@
+"""Soft-layer materials and the :class:`SoftLayer` bonded to the rigid end-effector.
+
+Young's moduli of silicone elastomers are given by their makers as the
+*100 % modulus* (the secant modulus at 100 % tensile strain). For the
+small strains of a press (a few tens of percent at most) we use it as the
+Young's modulus, the usual engineering approximation for these soft
+silicones (their stress-strain curve is nearly linear up to 100 %). Poisson's
+ratio of filled silicone rubbers is 0.49-0.4999 (nearly incompressible); we use
+0.49 by default, which keeps the layer's confined (oedometric) modulus finite.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from ..errors import InputError
+
+_PSI = 6894.757  # Pa per psi
+
+#: name -> {"young_modulus" (Pa), "poisson", "source"}
+MATERIALS: dict[str, dict] = {
+    "ecoflex_00_20": {
+        "young_modulus": 8 * _PSI, "poisson": 0.49,
+        "source": "Smooth-On, Ecoflex 00-20 technical bulletin: 100% modulus 8 psi (55 kPa), "
+                  "Shore 00-20 (seed 001 quotes Shore 00-22); Poisson 0.49 (nearly incompressible silicone)",
+    },
+    "ecoflex_00_30": {
+        "young_modulus": 10 * _PSI, "poisson": 0.49,
+        "source": "Smooth-On, Ecoflex 00-30 technical bulletin: 100% modulus 10 psi (69 kPa)",
+    },
+    "ecoflex_00_50": {
+        "young_modulus": 12 * _PSI, "poisson": 0.49,
+        "source": "Smooth-On, Ecoflex 00-50 technical bulletin: 100% modulus 12 psi (83 kPa)",
+    },
+    "dragon_skin_10": {
+        "young_modulus": 22 * _PSI, "poisson": 0.49,
+        "source": "Smooth-On, Dragon Skin 10 technical bulletin: 100% modulus 22 psi (152 kPa)",
+    },
+    "dragon_skin_30": {
+        "young_modulus": 86 * _PSI, "poisson": 0.49,
+        "source": "Smooth-On, Dragon Skin 30 technical bulletin: 100% modulus 86 psi (593 kPa)",
+    },
+    "sylgard_184": {
+        "young_modulus": 1.8e6, "poisson": 0.49,
+        "source": "Johnston et al., J. Micromech. Microeng. 24, 035017 (2014): "
+                  "1.32-2.97 MPa for 10:1 Sylgard 184 depending on cure; 1.8 MPa taken",
+    },
+}
+
+
+@dataclass
+class SoftLayer:
+    """A soft layer of uniform thickness bonded to the rigid end-effector.
+
+    thickness : float, metres (0 means no layer: the skin is bare).
+    material : str, a key of :data:`MATERIALS`.
+    young_modulus, poisson : float or None; override the material's values (Pa, -).
+
+    The layer's outer surface is the end-effector surface offset by
+    ``thickness`` along the taxel normals; taxels sit at its base.
+    """
+
+    thickness: float = 0.003
+    material: str = "ecoflex_00_20"
+    young_modulus: float | None = None
+    poisson: float | None = None
+    source: str = field(default="", init=False)
+
+    def __post_init__(self):
+        if self.material not in MATERIALS:
+            raise InputError(f"unknown material {self.material!r}; known: {', '.join(sorted(MATERIALS))}",
+                             key="material")
+        m = MATERIALS[self.material]
+        self.thickness = float(self.thickness)
+        if not (self.thickness >= 0.0) or self.thickness != self.thickness:
+            raise InputError(f"must be >= 0 m, got {self.thickness}", key="thickness")
+        e = m["young_modulus"] if self.young_modulus is None else float(self.young_modulus)
+        nu = m["poisson"] if self.poisson is None else float(self.poisson)
+        if not e > 0:
+            raise InputError(f"must be > 0 Pa, got {e}", key="young_modulus")
+        if not 0.0 <= nu < 0.5:
+            raise InputError(f"must be in [0, 0.5), got {nu}", key="poisson")
+        self.young_modulus, self.poisson = float(e), float(nu)
+        self.source = m["source"] if (self.young_modulus == m["young_modulus"]) else "user value"
+
+    @property
+    def e_star(self) -> float:
+        """Plane-strain (contact) modulus E / (1 - nu^2), pascals."""
+        return self.young_modulus / (1.0 - self.poisson**2)
+
+    @property
+    def confined_modulus(self) -> float:
+        """Oedometric modulus E (1 - nu) / ((1 + nu)(1 - 2 nu)), pascals: a thin layer's stiffness x h."""
+        nu = self.poisson
+        return self.young_modulus * (1 - nu) / ((1 + nu) * (1 - 2 * nu))

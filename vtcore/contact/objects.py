@@ -1,0 +1,140 @@
+"""Objects that touch the skin: closed triangle meshes of seed 001's shapes and a few more.
+
+Every object is built **as it rests on a table**: its base at ``z = 0``, centred
+on the z axis, long side along x, the face meant to be pressed pointing up
+(+z). :func:`placement_pose` turns it upside down above a skin whose outward
+normal is +z, which is how the end-effector meets it in seed 001 (the arm
+descends onto the object).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import InputError
+
+#: kind -> default dimensions (metres). Seed 001 objects: cube 30 mm, cuboid 30 x 80 mm,
+#: sphere r 30 mm, half-cylinder r 30 mm x 80 mm. Seed 002: a ruler and a mug rim.
+DEFAULTS: dict[str, dict] = {
+    "cube": {"side": 0.03},
+    "cuboid": {"side": 0.03, "length": 0.08},
+    "box": {"extents": (0.03, 0.03, 0.03)},
+    "sphere": {"radius": 0.03, "subdivisions": 4},
+    "halfcylinder": {"radius": 0.03, "length": 0.08, "sections": 96},
+    "cylinder": {"radius": 0.02, "height": 0.05, "sections": 96},
+    "ruler": {"length": 0.30, "width": 0.03, "thickness": 0.004},
+    "mug": {"radius": 0.04, "wall": 0.004, "height": 0.10, "bottom": 0.006, "sections": 128},
+}
+
+
+def _positive(kind, dims):
+    for k, v in dims.items():
+        if k in ("subdivisions", "sections"):
+            if int(v) != v or v < (0 if k == "subdivisions" else 8):
+                raise InputError(f"{kind}: {k} must be an integer >= {0 if k == 'subdivisions' else 8}, got {v}",
+                                 key=k)
+            continue
+        vals = np.atleast_1d(np.asarray(v, dtype=float))
+        if not np.all(np.isfinite(vals)) or np.any(vals <= 0):
+            raise InputError(f"{kind}: {k} must be > 0 m, got {v}", key=k)
+
+
+def _halfcylinder(radius, length, sections):
+    """Half-cylinder lying on its flat face (z = 0), axis along x, round side up."""
+    import trimesh
+
+    a = np.linspace(0.0, np.pi, int(sections) // 2 + 1)
+    prof = np.column_stack([radius * np.cos(a), radius * np.sin(a)])  # (y, z), CCW seen from +x
+    loop = np.vstack([[0.0, 0.0], prof])  # centre of the flat face, then the arc
+    m = len(loop)
+    x0, x1 = -length / 2, length / 2
+    v = np.vstack([np.column_stack([np.full(m, x0), loop]), np.column_stack([np.full(m, x1), loop])])
+    i = np.arange(1, m - 1)
+    cap1 = np.column_stack([np.zeros_like(i), i, i + 1]) + m        # +x cap, normal +x
+    cap0 = np.column_stack([np.zeros_like(i), i + 1, i])            # -x cap, normal -x
+    a0 = np.arange(m)
+    b0 = (a0 + 1) % m
+    side = np.vstack([np.column_stack([a0, b0, b0 + m]), np.column_stack([a0, b0 + m, a0 + m])])
+    return trimesh.Trimesh(v, np.vstack([cap0, cap1, side]), process=True)
+
+
+def make_object(kind: str, **dims) -> "trimesh.Trimesh":
+    """A closed, outward-oriented triangle mesh of an object, in metres.
+
+    kind : "cube" (side), "cuboid" (side, length), "box" (extents (3,)),
+        "sphere" (radius, subdivisions), "halfcylinder" (radius, length, sections),
+        "cylinder" (radius, height, sections), "ruler" (length, width, thickness),
+        "mug" (radius, wall, height, bottom, sections).
+    dims : overrides of :data:`DEFAULTS` [kind].
+
+    The object rests on z = 0 with the face to press pointing up (+z).
+    """
+    import trimesh
+
+    if kind not in DEFAULTS:
+        raise InputError(f"unknown object kind {kind!r}; known: {', '.join(DEFAULTS)}", key="kind")
+    unknown = set(dims) - set(DEFAULTS[kind])
+    if unknown:
+        raise InputError(f"{kind}: unknown dimension(s) {sorted(unknown)}; valid: {sorted(DEFAULTS[kind])}",
+                         key=sorted(unknown)[0])
+    d = {**DEFAULTS[kind], **dims}
+    _positive(kind, d)
+    if kind == "cube":
+        s = d["side"]
+        mesh = trimesh.creation.box(extents=(s, s, s))
+        mesh.apply_translation((0, 0, s / 2))
+    elif kind == "cuboid":
+        s, length = d["side"], d["length"]
+        mesh = trimesh.creation.box(extents=(length, s, s))
+        mesh.apply_translation((0, 0, s / 2))
+    elif kind == "box":
+        ext = np.asarray(d["extents"], float).reshape(3)
+        mesh = trimesh.creation.box(extents=ext)
+        mesh.apply_translation((0, 0, ext[2] / 2))
+    elif kind == "sphere":
+        mesh = trimesh.creation.icosphere(subdivisions=int(d["subdivisions"]), radius=d["radius"])
+        mesh.apply_translation((0, 0, d["radius"]))
+    elif kind == "halfcylinder":
+        mesh = _halfcylinder(d["radius"], d["length"], d["sections"])
+    elif kind == "cylinder":
+        mesh = trimesh.creation.cylinder(radius=d["radius"], height=d["height"], sections=int(d["sections"]))
+        mesh.apply_translation((0, 0, d["height"] / 2))
+    elif kind == "ruler":
+        mesh = trimesh.creation.box(extents=(d["length"], d["width"], d["thickness"]))
+        mesh.apply_translation((0, 0, d["thickness"] / 2))
+    elif kind == "mug":
+        r, w = d["radius"], d["wall"]
+        if w >= r:
+            raise InputError(f"mug: wall ({w} m) must be thinner than the radius ({r} m)", key="wall")
+        tube = trimesh.creation.annulus(r_min=r - w, r_max=r, height=d["height"], sections=int(d["sections"]))
+        tube.apply_translation((0, 0, d["height"] / 2))
+        # The bottom fills the tube's hole (disjoint volumes), so the union stays closed.
+        bottom = trimesh.creation.cylinder(radius=r - w, height=d["bottom"], sections=int(d["sections"]))
+        bottom.apply_translation((0, 0, d["bottom"] / 2))
+        mesh = trimesh.util.concatenate([tube, bottom])
+    if mesh.volume < 0:
+        mesh.invert()
+    mesh.metadata["kind"] = kind
+    mesh.metadata["dims"] = {k: (list(v) if isinstance(v, tuple) else v) for k, v in d.items()}
+    return mesh
+
+
+def placement_pose(mesh, *, xy=(0.0, 0.0), yaw: float = 0.0, top: float = 0.0, gap: float = 0.0,
+                   flip: bool = True) -> np.ndarray:
+    """4x4 pose that puts ``mesh`` upside down above a skin facing +z.
+
+    xy : (2,) metres, where the object's z axis crosses the skin plane.
+    yaw : radians about z. top : metres, height of the skin's outer surface
+    (the layer's top) at the object's lowest point. gap : metres left between
+    them (0: touching). flip : turn the object over (rotation by pi about x) so
+    its upward (pressed) face points down at the skin.
+    """
+    c, s = np.cos(yaw), np.sin(yaw)
+    rz = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1.0]])
+    rx = np.diag([1.0, -1.0, -1.0]) if flip else np.eye(3)
+    r = rz @ rx
+    v = np.asarray(mesh.vertices, float) @ r.T
+    t = np.array([xy[0], xy[1], top + gap - v[:, 2].min()])
+    pose = np.eye(4)
+    pose[:3, :3], pose[:3, 3] = r, t
+    return pose
