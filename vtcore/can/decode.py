@@ -148,9 +148,6 @@ class StreamDecoder:
                 self._pv = np.concatenate([self._pv, np.zeros((len(self._pv), pad), self._pv.dtype)], axis=1)
                 self._pm = np.concatenate([self._pm, np.zeros((len(self._pm), pad), bool)], axis=1)
         cols = self._columns_of(ch)
-        miss = ch[(ch >= 0) & (cols < 0)]
-        if len(miss):
-            self.summary.unmapped_taxel_ids.update(int(x) for x in np.unique(miss))
         keys = np.concatenate([self._keys, new])
         o = np.argsort(keys, kind="stable")
         self._keys = keys[o]
@@ -164,8 +161,30 @@ class StreamDecoder:
         self._pfill = fill[:, o]
 
     # -- feeding ---------------------------------------------------------
+    #: frames the period is estimated from (the first ones of the log, whatever the chunking)
+    ESTIMATE_FRAMES = 4096
+
     def feed(self, batch: FrameBatch) -> Block | None:
         """Decode one chunk of frames; return the rows it closed, or None."""
+        if self.period is None:
+            # hold input until the estimate can use the same first frames however the log is cut
+            self._hold = getattr(self, "_hold", []) + [batch]
+            if sum(len(b) for b in self._hold) < self.ESTIMATE_FRAMES:
+                return None
+            return self._release()
+        return self._feed(batch)
+
+    def _release(self) -> Block | None:
+        held = FrameBatch.concat(getattr(self, "_hold", []))
+        self._hold = []
+        head = held.take(slice(0, self.ESTIMATE_FRAMES))
+        keys, reason = self.codec.classify(head)
+        ok = reason < 0
+        self.period = estimate_period(head.timestamps[ok], keys[ok], self.codec.default_period)
+        self.summary.period_s = self.period
+        return self._feed(held)
+
+    def _feed(self, batch: FrameBatch) -> Block | None:
         s = self.summary
         m = len(batch)
         s.frames_read += m
@@ -180,9 +199,6 @@ class StreamDecoder:
             return None
         t = batch.timestamps[acc]
         k = keys[acc]
-        if self.period is None:
-            self.period = estimate_period(t, k, self.codec.default_period)
-            s.period_s = self.period
         s.period_s = self.period
         new = np.setdiff1d(np.unique(k), self._keys)
         if len(new):
@@ -302,7 +318,10 @@ class StreamDecoder:
         pres = self.codec.present(batch.take(src), self._keys[ks])
         cols = self._kcols[ks]
         ch = self._kch[ks]
-        s.unmapped_samples += int((pres & (ch >= 0) & (cols < 0)).sum())
+        miss = pres & (ch >= 0) & (cols < 0)
+        if miss.any():
+            s.unmapped_samples += int(miss.sum())
+            s.unmapped_taxel_ids.update(int(x) for x in np.unique(ch[miss]))
         put = pres & (cols >= 0)
         rr = np.broadcast_to(r[:, None], put.shape)[put]
         cc = cols[put]
@@ -321,6 +340,10 @@ class StreamDecoder:
 
     def finish(self) -> Block | None:
         """Close and return every pending row."""
+        if self.period is None:
+            first = self._release()
+            last = self._emit(final=True)
+            return _join_blocks(first, last)
         return self._emit(final=True)
 
     def _emit(self, final: bool) -> Block | None:
@@ -361,6 +384,18 @@ class StreamDecoder:
         self._pfill = self._pfill[upto:]
         self._row0 += upto
         return block
+
+
+def _join_blocks(a: Block | None, b: Block | None) -> Block | None:
+    if a is None or b is None:
+        return a if b is None else b
+    ids = b.taxel_ids  # b's columns are a superset of a's (columns are only ever appended)
+    fa = np.zeros((len(a.timestamps), len(ids)), a.frames.dtype)
+    ma = np.zeros(fa.shape, bool)
+    fa[:, : a.frames.shape[1]] = a.frames
+    ma[:, : a.mask.shape[1]] = a.mask
+    return Block(np.r_[a.timestamps, b.timestamps], np.vstack([fa, b.frames]), np.vstack([ma, b.mask]), ids,
+                 a.row0, np.vstack([a.errors, b.errors]))
 
 
 def iter_decode(batches, codec: Codec, taxel_ids=None, period=None, window: int = 8,

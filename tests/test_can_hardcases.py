@@ -1,0 +1,332 @@
+"""Hard cases of CAN logs: truncated, garbage, unknown ids, short DLC, duplicates, time going
+backwards, erroring triangles, streamed logs far larger than a chunk, empty logs, 1% corruption."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from vtcore.can import (FORMATS, Cyskin16Codec, FrameBatch, IcubCodec, StreamDecoder, Summary, decode_batches,
+                        decode_log, encode, iter_batches, iter_decode, write_log)
+
+from test_can_helpers import hexagon_layout
+
+ICUB_IDS = 192 * 1 + np.arange(60)   # board 1, triangles 0..4
+
+
+def _icub_log(tmp_path, t=40, name="clean.log", seed=0):
+    rng = np.random.default_rng(seed)
+    wire = rng.integers(0, 256, size=(t, 60))
+    batch = encode(1700000000.0 + np.arange(t) * 0.05, wire, ICUB_IDS, IcubCodec())
+    path = tmp_path / name
+    write_log(path, batch)
+    return path, wire
+
+
+def _lines(path):
+    return path.read_text().splitlines(keepends=True)
+
+
+def _write(path, lines):
+    path.write_text("".join(lines))
+    return path
+
+
+def _same_elsewhere(r0, r1, lost_cells):
+    """r1 equals r0 except ``lost_cells`` more masked samples."""
+    assert r1.frames.shape == r0.frames.shape
+    assert np.all(r1.mask <= r0.mask)
+    np.testing.assert_array_equal(r1.frames[r1.mask], r0.frames[r1.mask])
+    assert int((r0.mask & ~r1.mask).sum()) == lost_cells
+
+
+def test_clean_log_baseline(tmp_path):
+    path, wire = _icub_log(tmp_path)
+    r = decode_log(path, "icub")
+    np.testing.assert_array_equal(r.frames, wire)
+    np.testing.assert_array_equal(r.taxel_ids, ICUB_IDS)
+    assert r.summary.frames_read == r.summary.frames_used == 40 * 10
+    assert abs(r.summary.period_s - 0.05) < 1e-6
+
+
+def test_garbage_lines_are_counted_and_skipped(tmp_path):
+    path, wire = _icub_log(tmp_path)
+    lines = _lines(path)
+    junk = ["hello world\n", "(abc) vcan0 141#40\n", "\x00\xff\xfe garbage\n", "(1700000000.1) vcan0 1G1#4000\n",
+            "(1700000000.1) vcan0 141#40F0F0F0F0F0F0F\n"]   # odd number of hex digits
+    for i, j in enumerate(junk):
+        lines.insert(30 + 37 * i, j)
+    r = decode_log(_write(tmp_path / "g.log", lines), "icub")
+    rej = r.summary.rejected
+    assert rej["unparsable_line"] + rej["malformed_frame"] == 5
+    assert rej["malformed_frame"] == 1                          # the odd-hex line parses to dlc != len(data)
+    assert r.summary.rejected_total == 5
+    np.testing.assert_array_equal(r.frames, wire)
+    assert r.mask.all()
+    # line numbers point at the inserted lines
+    assert 31 in r.summary.examples["unparsable_line"]
+
+
+def test_truncated_text_log(tmp_path):
+    path, wire = _icub_log(tmp_path)
+    text = path.read_text()
+    cut = text[: len(text) - 9]                       # inside the last line's payload
+    r0 = decode_log(path, "icub")
+    r = decode_log(_write(tmp_path / "cut.log", [cut]), "icub")
+    assert r.summary.rejected_total == 1
+    assert r.summary.rejected["short_dlc"] + r.summary.rejected["unparsable_line"] + \
+        r.summary.rejected["malformed_frame"] == 1
+    _same_elsewhere(r0, r, lost_cells=5)              # last frame: a 0xC0 frame of 5 taxels
+
+
+def test_truncated_blf(tmp_path):
+    layout = hexagon_layout()
+    wire = np.random.default_rng(1).integers(0, 65536, (400, 60))
+    batch = encode(np.arange(400) * 0.05, wire, layout.taxel_ids, Cyskin16Codec())
+    path = tmp_path / "x.blf"
+    write_log(path, batch)
+    data = path.read_bytes()
+    cut = tmp_path / "cut.blf"
+    cut.write_bytes(data[: int(len(data) * 0.6)])
+    r0 = decode_log(path, "cyskin16", layout=layout)
+    r = decode_log(cut, "cyskin16", layout=layout)
+    s = r.summary
+    assert s.rejected["truncated"] > 0
+    assert s.frames_used + s.rejected["truncated"] == len(batch)   # every announced frame accounted for
+    t = len(r.timestamps)
+    assert 0 < t < 400
+    np.testing.assert_array_equal(r.frames[r.mask], r0.frames[:t][r.mask])
+
+
+def test_unknown_identifiers(tmp_path):
+    path, wire = _icub_log(tmp_path)
+    lines = _lines(path)
+    extra = ["(1700000000.010000) vcan0 123#0102030405060708 R\n",        # class 1
+             "(1700000000.020000) vcan0 18000011#0102030405060708 R\n",   # extended
+             "(1700000000.030000) vcan0 541#40F0F0F0F0F0F0F0 R\n"]        # class 5
+    r = decode_log(_write(tmp_path / "u.log", lines[:5] + extra + lines[5:]), "icub")
+    assert r.summary.rejected["unknown_id"] == 3 and r.summary.rejected_total == 3
+    np.testing.assert_array_equal(r.frames, wire)
+
+
+def test_short_dlc(tmp_path):
+    path, wire = _icub_log(tmp_path)
+    lines = _lines(path)
+    # line 0 is the 0x40 frame of triangle 0 in row 0: cut it to 5 bytes
+    head, rest = lines[0].split("#")
+    lines[0] = head + "#" + rest[:10] + " R\n"
+    # a 0xC0 frame of 6 bytes is valid (no diagnostics)
+    i = next(k for k, ln in enumerate(lines) if "#C0" in ln and k > 20)
+    head, rest = lines[i].split("#")
+    lines[i] = head + "#" + rest[:12] + " R\n"
+    r0 = decode_log(path, "icub")
+    r = decode_log(_write(tmp_path / "s.log", lines), "icub")
+    assert r.summary.rejected == {**r.summary.rejected, "short_dlc": 1}
+    assert r.summary.rejected_total == 1
+    _same_elsewhere(r0, r, lost_cells=7)
+    assert not r.mask[0, :7].any() and r.mask[0, 7:].all()
+
+
+def test_duplicated_frames(tmp_path):
+    path, wire = _icub_log(tmp_path)
+    lines = _lines(path)
+    dup = [5, 17, 100, 101, 399]
+    out = []
+    for k, ln in enumerate(lines):
+        out.append(ln)
+        if k in dup:
+            out.append(ln)
+    r = decode_log(_write(tmp_path / "d.log", out), "icub")
+    assert r.summary.rejected["duplicate"] == len(dup) and r.summary.rejected_total == len(dup)
+    np.testing.assert_array_equal(r.frames, wire)
+    assert r.mask.all()
+
+
+def test_timestamps_going_backwards(tmp_path):
+    path, wire = _icub_log(tmp_path)
+    lines = _lines(path)
+    r0 = decode_log(path, "icub")
+    k = 205                                            # a frame in the middle
+    ts = float(lines[k][1:lines[k].index(")")])
+    lines[k] = f"({ts - 1.0:.6f})" + lines[k][lines[k].index(")") + 1:]
+    r = decode_log(_write(tmp_path / "b.log", lines), "icub")
+    assert r.summary.rejected["out_of_order"] == 1 and r.summary.rejected_total == 1
+    half = 7 if "#40" in lines[k] else 5
+    _same_elsewhere(r0, r, lost_cells=half)
+    # rows are not shifted: every other sample stays in its row
+    np.testing.assert_allclose(r.timestamps, r0.timestamps)
+
+
+def test_missing_frame_is_masked_not_shifted(tmp_path):
+    path, wire = _icub_log(tmp_path)
+    lines = _lines(path)
+    # drop every frame of triangle 2 (both halves) in rows 10..12
+    drop = {k for k, ln in enumerate(lines) if " 412#" in ln}
+    drop = set(sorted(drop)[20:26])
+    r = decode_log(_write(tmp_path / "m.log", [ln for k, ln in enumerate(lines) if k not in drop]), "icub")
+    assert r.frames.shape == wire.shape
+    cols = slice(24, 36)
+    assert not r.mask[10:13, cols].any()
+    assert r.mask[:10, cols].all() and r.mask[13:, cols].all()
+    np.testing.assert_array_equal(r.frames[r.mask], wire[r.mask])
+    assert r.summary.masked_samples == 36 and r.summary.rejected_total == 0
+
+
+def test_triangle_reporting_an_error(tmp_path):
+    wire = np.full((6, 60), 200)
+    batch = encode(np.arange(6) * 0.05, wire, ICUB_IDS, IcubCodec(), errors={(3, 16 + 2): 2, (4, 16 + 0): 1})
+    path = tmp_path / "e.log"
+    write_log(path, batch)
+    r = decode_log(path, "icub")
+    assert r.summary.triangle_errors == {2: 1, 1: 1}
+    assert not r.mask[3, 24:36].any() and not r.mask[4, 0:12].any()
+    assert r.mask.sum() == 6 * 60 - 24
+    np.testing.assert_array_equal(r.errors, [[3, 18, 2], [4, 16, 1]])
+
+
+def test_one_percent_corrupted_lines(tmp_path):
+    """1% corrupted lines: everything else decodes identically; rejections counted exactly, by reason."""
+    path, wire = _icub_log(tmp_path, t=200)
+    lines = _lines(path)
+    rng = np.random.default_rng(7)
+    bad = np.sort(rng.choice(len(lines), size=len(lines) // 100, replace=False))
+    lost, expect = 0, {"unparsable_line": 0, "short_dlc": 0, "unknown_id": 0}
+    for j, k in enumerate(bad):
+        ln = lines[k]
+        lost += 7 if "#40" in ln else 5
+        kind = j % 3
+        if kind == 0:                                   # bytes replaced by noise
+            lines[k] = "".join(chr(c) for c in rng.integers(33, 126, len(ln) - 1)) + "\n"
+            expect["unparsable_line"] += 1
+        elif kind == 1:                                 # line cut inside the payload (even digits)
+            lines[k] = ln[: ln.index("#") + 7] + "\n"
+            expect["short_dlc"] += 1
+        else:                                           # a flipped identifier bit
+            head, rest = ln.split("#")
+            lines[k] = head[:-3] + "5" + head[-2:] + "#" + rest
+            expect["unknown_id"] += 1
+    r0 = decode_log(path, "icub")
+    r = decode_log(_write(tmp_path / "c.log", lines), "icub")
+    got = {k: v for k, v in r.summary.rejected.items() if v}
+    assert got == {k: v for k, v in expect.items() if v}
+    assert r.summary.rejected_total == len(bad) == 20
+    _same_elsewhere(r0, r, lost_cells=lost)
+    assert r.summary.frames_used + r.summary.rejected_total - expect["unparsable_line"] == r.summary.frames_read
+
+
+@pytest.mark.parametrize("fmt", FORMATS)
+def test_empty_log(tmp_path, fmt):
+    path = tmp_path / f"empty{fmt}"
+    write_log(path, FrameBatch.empty())
+    r = decode_log(path, "cyskin16")
+    assert r.frames.shape == (0, 0) and r.timestamps.shape == (0,) and r.mask.shape == (0, 0)
+    assert r.summary.frames_read == 0
+    assert "no frames" in r.summary.text()
+
+
+def test_empty_file_candump(tmp_path):
+    (tmp_path / "z.log").write_text("")
+    r = decode_log(tmp_path / "z.log", "icub", layout=hexagon_layout(icub=True))
+    assert r.frames.shape == (0, 60)
+
+
+def test_chunking_does_not_change_results(tmp_path):
+    path, wire = _icub_log(tmp_path, t=60)
+    lines = _lines(path)
+    lines.insert(50, lines[49])                         # a duplicate
+    lines.insert(200, "junk\n")
+    p = _write(tmp_path / "k.log", lines)
+    a = decode_log(p, "icub", chunk=65536)
+    b = decode_log(p, "icub", chunk=7)
+    np.testing.assert_array_equal(a.frames, b.frames)
+    np.testing.assert_array_equal(a.mask, b.mask)
+    np.testing.assert_array_equal(a.timestamps, b.timestamps)
+    assert a.summary.as_dict() == b.summary.as_dict()
+
+
+def test_streamed_log_far_larger_than_a_chunk_in_bounded_memory():
+    """A generator of 1.2 M frames: the decoder pulls input lazily and holds only a window of rows."""
+    layout = hexagon_layout()
+    codec = Cyskin16Codec()
+    keys = codec.streams_for(layout.taxel_ids)          # 18 frames per period
+    rows_per_chunk = 2000
+    n_chunks = 34
+    pulled = []
+
+    def source():
+        base = encode(np.arange(rows_per_chunk) * 0.05, np.zeros((rows_per_chunk, 60)), layout.taxel_ids, codec)
+        for c in range(n_chunks):
+            pulled.append(c)
+            b = FrameBatch(base.timestamps + c * rows_per_chunk * 0.05, base.ids, base.extended, base.dlc,
+                           base.data.copy())
+            b.data[:, 2:4] = np.frombuffer(np.uint16(c).tobytes(), np.uint8)  # sensor 1 carries the chunk number
+            yield b
+
+    dec = StreamDecoder(codec, taxel_ids=layout.taxel_ids, window=8)
+    total_rows, seen, checks = 0, 0, 0
+    for b in source():
+        seen += len(b)
+        out = dec.feed(b)
+        assert len(pulled) == seen // (rows_per_chunk * len(keys))   # lazy: one chunk at a time
+        if out is not None:
+            total_rows += len(out.timestamps)
+            col = np.flatnonzero(out.taxel_ids == ((1 << 4) | 1))[0]
+            expect = (out.row0 + np.arange(len(out.timestamps))) // rows_per_chunk
+            np.testing.assert_array_equal(out.frames[:, col], expect)
+            checks += 1
+        assert dec.max_pending_rows <= rows_per_chunk + 8 + 1
+    last = dec.finish()
+    total_rows += len(last.timestamps)
+    assert seen == n_chunks * rows_per_chunk * len(keys) > 1_000_000
+    assert total_rows == n_chunks * rows_per_chunk and checks == n_chunks
+    assert dec.summary.frames_used == seen and dec.summary.masked_samples == 0
+
+
+def test_file_streaming_yields_bounded_chunks(tmp_path):
+    path, wire = _icub_log(tmp_path, t=100)
+    lines = _lines(path)
+    lines.insert(123, "garbage\n")
+    p = _write(tmp_path / "f.log", lines)
+    s = Summary()
+    sizes = [len(b) for b in iter_batches(p, chunk=64, summary=s)]
+    assert max(sizes) <= 64 and sum(sizes) == 1000
+    assert s.rejected["unparsable_line"] == 1 and s.lines_read == 1001
+    r = decode_batches(iter_batches(p, chunk=64), IcubCodec())
+    np.testing.assert_array_equal(r.frames, wire)
+
+
+def test_layout_lacking_taxels_is_reported(tmp_path):
+    layout = hexagon_layout()
+    wire = np.full((3, 60), 1000)
+    batch = encode(np.arange(3) * 0.05, wire, layout.taxel_ids, Cyskin16Codec())
+    path = tmp_path / "l.csv"
+    write_log(path, batch)
+    small = layout.subset(np.arange(50))                # module 6 missing from the layout
+    r = decode_log(path, "cyskin16", layout=small)
+    assert r.frames.shape == (3, 50) and r.mask.all()
+    assert sorted(r.summary.unmapped_taxel_ids) == sorted(layout.taxel_ids[50:].tolist())
+    assert r.summary.unmapped_samples == 30
+    # a layout taxel the log lacks stays masked
+    big_ids = np.r_[layout.taxel_ids, (9 << 4) | 1]
+    r2 = decode_batches(batch, Cyskin16Codec(), taxel_ids=big_ids)
+    assert r2.mask[:, :60].all() and not r2.mask[:, 60].any()
+
+
+def test_mixed_unknown_only_log(tmp_path):
+    p = _write(tmp_path / "o.log", ["(1.0) vcan0 123#01\n", "(1.1) vcan0 124#01\n"])
+    r = decode_log(p, "icub")
+    assert r.frames.shape == (0, 0) and r.summary.rejected["unknown_id"] == 2
+
+
+def test_out_of_window_late_frame_counted():
+    layout = hexagon_layout()
+    codec = Cyskin16Codec()
+    b = encode(np.arange(30) * 0.05, np.ones((30, 60)), layout.taxel_ids, codec)
+    # every frame of one stream arrives after everything else (a delayed bus): placed by
+    # time, those whose rows closed (older than the newest row - window + 1) are late
+    one = np.flatnonzero(b.ids == b.ids[0])
+    order = np.r_[np.setdiff1d(np.arange(len(b)), one), one]
+    r = decode_batches(b.take(order), codec, taxel_ids=layout.taxel_ids, window=4)
+    assert r.summary.rejected["late"] == 26 and r.summary.rejected_total == 26
+    assert (~r.mask).sum() == 26 * 3                    # sensors 1..3 of module 1 in rows 0..25
+    assert not r.mask[:26, :3].any() and r.mask[26:].all()
