@@ -1,0 +1,582 @@
+"""Conform flat patches to curved surfaces, the way a flexible PCB wraps them.
+
+Placement maps the flat patch domain onto a triangle mesh around a point ``at``
+with the patch's x axis along an in-plane ``direction``:
+
+- ``method="logmap"`` (default): the inverse of the surface's logarithmic map
+  at ``at`` (the exponential map), computed with the vector heat method
+  (Sharp, Soliman, Crane 2019) as implemented by potpourri3d
+  (geometry-central). Geodesic distance and direction from ``at`` are kept
+  exactly; what strain remains is what the surface's Gaussian curvature forces
+  (none on developable surfaces such as cylinders and planes). The mesh is
+  cropped to the part within reach of the patch first, so a small patch on a
+  large mesh only factors a small system.
+- ``method="project"``: the baseline: lay the flat patch in the tangent plane at
+  ``at`` and move every taxel to its closest point on the surface. Cheap, but
+  distances shrink as the surface curves away (the benchmark shows how much).
+
+Every taxel lands on the surface (on a mesh face) with the interpolated surface
+normal, then moves ``offset`` metres along it. Taxels whose flat position maps
+outside an open boundary of the mesh are reported (``off_boundary``) and kept at
+their closest surface point, never silently dropped.
+
+The :class:`PlacementReport` gives per patch: the strain of module edges against
+the flat layout (edge length on the surface, measured as the arc through both
+taxels with their normals, over the flat length, minus one: bending is free for a
+flexible PCB, stretching is not), module overlaps (taxels of different modules
+closer than ``overlap_fraction`` of the pitch), off-boundary taxels, and the
+coverage of the chosen region (area of the region under module outlines over the
+region's area).
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from ..errors import InputError
+from .mesh import LayoutWarning
+from .model import Layout
+from .patches import Patch, fill_patch, make_patch
+
+OVERLAP_FRACTION = 0.75  #: taxels of different modules closer than this many pitches overlap
+
+
+@dataclass
+class PlacementReport:
+    """What a placement did to the patch.
+
+    strain : (E,) float, per module edge, (length on the surface / flat length) - 1.
+    strain_max : float, max |strain|. strain_mean : float, mean |strain|.
+    module_strain : (M,) float, per module max |strain|.
+    overlaps : list of (module_a, module_b) pairs that overlap.
+    off_boundary : (K,) int, taxel indices that fell off an open boundary.
+    coverage : float in [0, 1] or nan, fraction of the region under module outlines.
+    surface_distance_max : float, metres, max distance of a taxel (before offset) from the mesh.
+    method : "logmap" or "project"; notes : list of str.
+    """
+
+    strain: np.ndarray
+    module_strain: np.ndarray
+    overlaps: list
+    off_boundary: np.ndarray
+    coverage: float = float("nan")
+    surface_distance_max: float = 0.0
+    method: str = "logmap"
+    seconds: float = 0.0
+    notes: list = field(default_factory=list)
+
+    @property
+    def strain_max(self) -> float:
+        return float(np.abs(self.strain).max()) if len(self.strain) else 0.0
+
+    @property
+    def strain_mean(self) -> float:
+        return float(np.abs(self.strain).mean()) if len(self.strain) else 0.0
+
+    def as_dict(self) -> dict:
+        return {"method": self.method, "strain_max": self.strain_max, "strain_mean": self.strain_mean,
+                "overlaps": len(self.overlaps), "overlap_pairs": [list(map(int, p)) for p in self.overlaps],
+                "off_boundary": [int(i) for i in self.off_boundary], "coverage": _f(self.coverage),
+                "surface_distance_max_m": float(self.surface_distance_max), "seconds": float(self.seconds),
+                "notes": list(self.notes)}
+
+
+def _f(x):
+    return None if x is None or not np.isfinite(x) else float(x)
+
+
+# --- mesh preparation ------------------------------------------------------------------------------
+def clean_mesh(mesh):
+    """A copy of ``mesh`` fit for the solvers: duplicate vertices merged, degenerate and
+    duplicate faces removed, unreferenced vertices dropped. Returns ``(mesh, notes)``."""
+    import trimesh
+
+    notes = []
+    v = np.asarray(mesh.vertices, dtype=np.float64)
+    f = np.asarray(mesh.faces, dtype=np.int64)
+    if not len(f):
+        raise InputError("the mesh has no faces", key="mesh")
+    if not np.isfinite(v).all():
+        raise InputError("the mesh has non-finite vertices", key="mesh")
+    m = trimesh.Trimesh(v, f, process=True, validate=False)  # merges duplicate vertices
+    area = m.area_faces
+    scale = max(float(np.ptp(m.vertices, axis=0).max()), 1e-12)
+    good = area > 1e-14 * scale ** 2
+    fs = np.sort(m.faces, axis=1)
+    good &= (fs[:, 0] != fs[:, 1]) & (fs[:, 1] != fs[:, 2])
+    if (~good).any():
+        notes.append(f"removed {int((~good).sum())} degenerate faces")
+    _, first = np.unique(fs, axis=0, return_index=True)
+    dup = np.ones(len(fs), bool)
+    dup[first] = False
+    if (dup & good).any():
+        notes.append(f"removed {int((dup & good).sum())} duplicate faces")
+    good &= ~dup
+    m = trimesh.Trimesh(m.vertices, m.faces[good], process=False, validate=False)
+    m.remove_unreferenced_vertices()
+    return m, notes
+
+
+def _nonmanifold_edges(faces: np.ndarray) -> int:
+    e = np.sort(np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]), axis=1)
+    _, c = np.unique(e, axis=0, return_counts=True)
+    return int((c > 2).sum())
+
+
+def _split_nonmanifold(mesh):
+    """Faces sharing an edge with more than one other face are separated along that edge
+    (each face fan gets its own copy of the edge's vertices), so the result is edge-manifold."""
+    import trimesh
+
+    f = np.asarray(mesh.faces)
+    e = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
+    key, inv, cnt = np.unique(e, axis=0, return_inverse=True, return_counts=True)
+    inv = inv.ravel()
+    bad_edge = cnt[inv] > 2
+    if not bad_edge.any():
+        return mesh, 0
+    nf = len(f)
+    bad_face = np.zeros(nf, bool)
+    bad_face[np.arange(3 * nf)[bad_edge] % nf] = True
+    # give every face touching a non-manifold edge its own vertices (cheap, local, and the
+    # log map treats those faces as a separate boundary, which is what a PCB would do there)
+    v = np.asarray(mesh.vertices)
+    idx = np.flatnonzero(bad_face)
+    newv = v[f[idx].ravel()]
+    f2 = f.copy()
+    f2[idx] = len(v) + np.arange(3 * len(idx)).reshape(-1, 3)
+    out = trimesh.Trimesh(np.vstack([v, newv]), f2, process=False, validate=False)
+    return out, int(len(idx))
+
+
+# --- geometry helpers --------------------------------------------------------------------------------
+def _closest(mesh, points: np.ndarray):
+    """Closest points on ``mesh``: ``(points (n,3), face (n,), distance (n,))``."""
+    points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    try:
+        import open3d as o3d  # C++ BVH: far faster than trimesh's for many points
+
+        scene = o3d.t.geometry.RaycastingScene()
+        tm = o3d.t.geometry.TriangleMesh()
+        tm.vertex.positions = o3d.core.Tensor(np.asarray(mesh.vertices, np.float32))
+        tm.triangle.indices = o3d.core.Tensor(np.asarray(mesh.faces, np.int32))
+        scene.add_triangles(tm)
+        ans = scene.compute_closest_points(o3d.core.Tensor(points.astype(np.float32)))
+        face = ans["primitive_ids"].numpy().astype(np.int64)
+        # refine in float64 on the found face (open3d works in float32)
+        cp = _closest_on_faces(mesh, points, face)
+    except ImportError:  # pragma: no cover - open3d is in the pinned stack
+        import trimesh
+
+        cp, _, face = trimesh.proximity.closest_point(mesh, points)
+        face = np.asarray(face, np.int64)
+    return cp, face, np.linalg.norm(cp - points, axis=1)
+
+
+def _closest_on_faces(mesh, points, face):
+    """Closest point on the given face of each point (float64)."""
+    import trimesh
+
+    tri = np.asarray(mesh.vertices)[np.asarray(mesh.faces)[face]]
+    return trimesh.triangles.closest_point(tri, points)
+
+
+def _barycentric(tri: np.ndarray, pts: np.ndarray) -> np.ndarray:
+    """Barycentric coordinates (n, 3) of ``pts`` (n, d) in triangles ``tri`` (n, 3, d)."""
+    a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
+    v0, v1, v2 = b - a, c - a, pts - a
+    d00 = np.einsum("ij,ij->i", v0, v0)
+    d01 = np.einsum("ij,ij->i", v0, v1)
+    d11 = np.einsum("ij,ij->i", v1, v1)
+    d20 = np.einsum("ij,ij->i", v2, v0)
+    d21 = np.einsum("ij,ij->i", v2, v1)
+    den = d00 * d11 - d01 * d01
+    den = np.where(np.abs(den) > 1e-300, den, 1e-300)
+    v = (d11 * d20 - d01 * d21) / den
+    w = (d00 * d21 - d01 * d20) / den
+    return np.column_stack([1 - v - w, v, w])
+
+
+def _surface_normals(mesh, face: np.ndarray, bary: np.ndarray) -> np.ndarray:
+    vn = np.asarray(mesh.vertex_normals)
+    n = np.einsum("nk,nkj->nj", bary, vn[np.asarray(mesh.faces)[face]])
+    norm = np.linalg.norm(n, axis=1, keepdims=True)
+    fn = np.asarray(mesh.face_normals)[face]
+    return np.where(norm > 1e-12, n / np.maximum(norm, 1e-300), fn)
+
+
+def arc_lengths(p: np.ndarray, q: np.ndarray, n_p: np.ndarray, n_q: np.ndarray) -> np.ndarray:
+    """Length of the circular arc through ``p`` and ``q`` whose normals turn from ``n_p`` to ``n_q``:
+    chord * (theta/2) / sin(theta/2). Exact on spheres and along circles of cylinders."""
+    chord = np.linalg.norm(q - p, axis=1)
+    cosang = np.clip(np.einsum("ij,ij->i", n_p, n_q), -1.0, 1.0)
+    half = np.arccos(cosang) / 2
+    factor = np.where(half > 1e-8, half / np.where(half > 1e-8, np.sin(half), 1.0), 1.0)
+    return chord * factor
+
+
+def layout_strain(layout: Layout, flat: np.ndarray, edges: np.ndarray) -> np.ndarray:
+    """(E,) strain of ``edges`` (E, 2) of ``layout`` against ``flat`` (N, 2) coordinates."""
+    if not len(edges):
+        return np.zeros(0)
+    i, j = edges[:, 0], edges[:, 1]
+    lf = np.linalg.norm(flat[i] - flat[j], axis=1)
+    ls = arc_lengths(layout.positions[i], layout.positions[j], layout.normals[i], layout.normals[j])
+    return ls / np.where(lf > 0, lf, np.nan) - 1.0
+
+
+def find_overlaps(positions: np.ndarray, module_ids: np.ndarray, min_distance: float) -> list:
+    """Module pairs (a < b) that have taxels closer than ``min_distance`` metres."""
+    if len(positions) < 2:
+        return []
+    pairs = cKDTree(positions).query_pairs(min_distance, output_type="ndarray")
+    if not len(pairs):
+        return []
+    a, b = module_ids[pairs[:, 0]], module_ids[pairs[:, 1]]
+    cross = a != b
+    mp = np.unique(np.sort(np.column_stack([a[cross], b[cross]]), axis=1), axis=0)
+    return [tuple(map(int, r)) for r in mp]
+
+
+def _tangent_basis(normal: np.ndarray, direction) -> tuple[np.ndarray, np.ndarray]:
+    n = normal / np.linalg.norm(normal)
+    if direction is None:
+        helper = np.array([1.0, 0.0, 0.0]) if abs(n[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+        d = helper
+    else:
+        d = np.asarray(direction, dtype=np.float64).reshape(3)
+    t = d - n * (d @ n)
+    if np.linalg.norm(t) < 1e-9 * max(np.linalg.norm(d), 1e-300):
+        raise InputError("direction is parallel to the surface normal at 'at'; give an in-plane direction",
+                         key="direction")
+    t1 = t / np.linalg.norm(t)
+    return t1, np.cross(n, t1)
+
+
+# --- log map ----------------------------------------------------------------------------------------
+class LogMap:
+    """The logarithmic map of a mesh at a surface point, and its inverse (the exponential map).
+
+    mesh : trimesh.Trimesh (cleaned). at : (3,) metres. direction : (3,) or None.
+    radius : float, metres, or None: crop the mesh to the connected part within
+        this Euclidean distance of ``at`` before solving (faster for small patches).
+    After construction, ``uv`` (V, 2) holds the log coordinates of the (cropped)
+    mesh's vertices in a frame whose x axis points along ``direction``
+    (projected onto the tangent plane) and whose y axis is ``normal x x``.
+    """
+
+    def __init__(self, mesh, at, direction=None, radius: float | None = None):
+        import potpourri3d as pp3d
+        import trimesh
+
+        at = np.asarray(at, dtype=np.float64).reshape(3)
+        cp, face, _ = _closest(mesh, at[None])
+        self.notes = []
+        sub = mesh
+        if radius is not None and np.isfinite(radius):
+            keep_v = np.linalg.norm(np.asarray(mesh.vertices) - cp[0], axis=1) <= radius
+            keep_f = keep_v[np.asarray(mesh.faces)].any(axis=1)
+            keep_f[face[0]] = True
+            if not keep_f.all():
+                part = mesh.submesh([np.flatnonzero(keep_f)], append=True, repair=False)
+                # keep the component that holds 'at'
+                comp = trimesh.graph.connected_components(part.face_adjacency, nodes=np.arange(len(part.faces)))
+                cpp, fpp, _ = _closest(part, cp)
+                for c in comp:
+                    if fpp[0] in set(c.tolist()):
+                        part = part.submesh([np.asarray(c)], append=True, repair=False)
+                        break
+                sub = part
+        sub, nsplit = _split_nonmanifold(sub)
+        if nsplit:
+            self.notes.append(f"{nsplit} faces around non-manifold edges were split apart")
+        self.mesh = sub
+        cp, face, _ = _closest(sub, cp)
+        self.at = cp[0]
+        self.face = int(face[0])
+        tri = np.asarray(sub.vertices)[np.asarray(sub.faces)[self.face]]
+        bary = _barycentric(tri[None], cp)[0]
+        src = int(np.asarray(sub.faces)[self.face][np.argmax(bary)])
+        solver = pp3d.MeshVectorHeatSolver(np.asarray(sub.vertices), np.asarray(sub.faces))
+        raw = np.asarray(solver.compute_log_map(src), dtype=np.float64)
+        bx, by, bn = (np.asarray(a) for a in solver.get_tangent_frames())
+        normal = _surface_normals(sub, face, bary[None])[0]
+        t1, t2 = _tangent_basis(normal, direction)
+        # the solver's log coordinates are in its own tangent basis (bx, by) at the source vertex;
+        # express them in (t1, t2): a rotation, or a reflection if its basis is left-handed
+        ex, ey = bx[src], by[src]
+        m = np.array([[t1 @ ex, t1 @ ey], [t2 @ ex, t2 @ ey]])
+        u, _, vt = np.linalg.svd(m)
+        m = u @ vt
+        uv = raw @ m.T
+        # shift from the source vertex to the exact point 'at'
+        at_uv = bary @ uv[np.asarray(sub.faces)[self.face]]
+        self.uv = uv - at_uv
+        self.normal = normal
+        self.t1, self.t2 = t1, t2
+        self._tree = None
+
+    def exp(self, flat: np.ndarray):
+        """Map flat coordinates (n, 2) to the surface.
+
+        Returns ``(positions (n, 3), normals (n, 3), face (n,), found (n,) bool)``;
+        where ``found`` is false the point lies outside the mesh (off an open
+        boundary) and the position is the closest surface point of its
+        tangent-plane extrapolation.
+        """
+        flat = np.asarray(flat, dtype=np.float64).reshape(-1, 2)
+        F = np.asarray(self.mesh.faces)
+        V = np.asarray(self.mesh.vertices)
+        tri2 = self.uv[F]  # (F, 3, 2)
+        area = np.cross(tri2[:, 1] - tri2[:, 0], tri2[:, 2] - tri2[:, 0])
+        if self._tree is None:
+            self._cent = tri2.mean(axis=1)
+            self._rad = np.linalg.norm(tri2 - self._cent[:, None], axis=2).max(axis=1)
+            self._good = area > 1e-16 * max(np.abs(area).max(), 1e-300)  # orientation kept, not folded
+            self._tree = cKDTree(self._cent)
+            self._geo = np.linalg.norm(self._cent, axis=1)
+        n = len(flat)
+        k = int(min(16, len(F)))
+        _, cand = self._tree.query(flat, k)
+        cand = cand.reshape(n, k)
+        b = _barycentric(tri2[cand].reshape(-1, 3, 2), np.repeat(flat, k, axis=0)).reshape(n, k, 3)
+        inside = (b.min(axis=2) >= -1e-9) & self._good[cand]
+        # among the faces that contain the point, prefer the one nearest the source (before the cut locus)
+        score = np.where(inside, self._geo[cand], np.inf)
+        best = np.argmin(score, axis=1)
+        found = np.isfinite(score[np.arange(n), best])
+        if (~found).any():
+            # the k nearest centroids can miss a big face: test every face whose disc holds the point
+            miss = np.flatnonzero(~found)
+            for q in miss:
+                near = self._tree.query_ball_point(flat[q], self._rad.max())
+                near = np.asarray(near, dtype=np.int64)
+                if not len(near):
+                    continue
+                bb = _barycentric(tri2[near], np.repeat(flat[q][None], len(near), 0))
+                ok = (bb.min(axis=1) >= -1e-9) & self._good[near]
+                if ok.any():
+                    j = np.flatnonzero(ok)[np.argmin(self._geo[near[ok]])]
+                    cand[q, 0], b[q, 0], best[q], found[q] = near[j], bb[j], 0, True
+        face = cand[np.arange(n), best]
+        bary = b[np.arange(n), best]
+        pos = np.einsum("nk,nkj->nj", bary, V[F[face]])
+        nrm = _surface_normals(self.mesh, face, bary)
+        if (~found).any():
+            lost = np.flatnonzero(~found)
+            guess = self.at + flat[lost, :1] * self.t1 + flat[lost, 1:] * self.t2
+            cp, fc, _ = _closest(self.mesh, guess)
+            tri = V[F[fc]]
+            bb = _barycentric(tri, cp)
+            pos[lost], face[lost] = cp, fc
+            nrm[lost] = _surface_normals(self.mesh, fc, bb)
+        return pos, nrm, face, found
+
+
+# --- placement --------------------------------------------------------------------------------------
+def _as_patch(patch, module) -> Patch:
+    if isinstance(patch, Patch):
+        return patch
+    return make_patch(str(patch), module)
+
+
+def place(mesh, patch="hexagon", at=(0.0, 0.0, 0.0), direction=None, *, module: str = "cyskin10",
+          offset: float = 0.0, method: str = "logmap", region=None,
+          logmap: "LogMap | None" = None) -> tuple[Layout, PlacementReport]:
+    """Conform ``patch`` to ``mesh`` around the surface point nearest ``at``.
+
+    mesh : trimesh.Trimesh, metres (open, non-manifold or with degenerate faces is fine;
+        it is cleaned first). patch : a :class:`Patch` or ``"triangle"``, ``"hexagon"``,
+        ``"strip:N"`` (centred on ``at``). at : (3,) metres. direction : (3,) in-plane
+        direction of the patch's x axis (default: world x projected). module : module type
+        for named patches. offset : metres along the normal (e.g. a PCB's thickness).
+    method : ``"logmap"`` or ``"project"``. region : optional (F,) bool face mask of
+        ``mesh`` for the coverage figure (default: faces within the patch's radius).
+    logmap : a :class:`LogMap` of this mesh at this point to reuse (several patches, one solve).
+
+    Returns ``(layout, report)``; ``layout.meta["placement"]`` holds ``report.as_dict()``.
+    """
+    import time
+
+    t0 = time.perf_counter()
+    if method not in ("logmap", "project"):
+        raise InputError(f"unknown method {method!r}; use logmap or project", key="method")
+    p = _as_patch(patch, module)
+    if len(p) == 0:
+        raise InputError("the patch has no taxels", key="patch")
+    at = np.asarray(at, dtype=np.float64).reshape(-1)
+    if at.shape != (3,) or not np.isfinite(at).all():
+        raise InputError(f"'at' must be 3 finite numbers, got {at.tolist()}", key="at")
+    clean, notes = clean_mesh(mesh) if logmap is None else (mesh, [])
+    extent = float(np.hypot(*p.flat.T).max()) + p.module.pitch
+    if method == "logmap":
+        lm = logmap if logmap is not None else LogMap(clean, at, direction, radius=1.5 * extent + 2 * p.module.pitch)
+        notes += lm.notes
+        pos, nrm, face, found = lm.exp(p.flat)
+        surf_mesh = lm.mesh
+        uvmap = lm
+    else:
+        cp, face0, _ = _closest(clean, at[None])
+        tri = np.asarray(clean.vertices)[np.asarray(clean.faces)[face0]]
+        normal = _surface_normals(clean, face0, _barycentric(tri, cp))[0]
+        t1, t2 = _tangent_basis(normal, direction)
+        guess = cp[0] + p.flat[:, :1] * t1 + p.flat[:, 1:] * t2
+        pos, face, _ = _closest(clean, guess)
+        tri = np.asarray(clean.vertices)[np.asarray(clean.faces)[face]]
+        nrm = _surface_normals(clean, face, _barycentric(tri, pos))
+        # off an open boundary: the closest point is on the boundary, far from the tangent-plane point
+        boundary = _boundary_faces(clean)
+        found = ~(boundary[face] & (np.linalg.norm(pos - guess, axis=1) > 0.5 * p.module.pitch))
+        surf_mesh = clean
+        uvmap = None
+    _, _, dist = _closest(surf_mesh, pos)
+    pos = pos + offset * nrm
+    meta = {"placement_method": method, "at": at.tolist(),
+            "direction": None if direction is None else np.asarray(direction, float).tolist(),
+            "offset_m": float(offset)}
+    layout = p.to_layout(pos, nrm, meta)
+    strain = layout_strain(layout.subset(slice(None)) if offset == 0 else _unoffset(layout, offset), p.flat,
+                           p.module_edges)
+    mstrain = np.zeros(p.n_modules)
+    if len(strain):
+        np.maximum.at(mstrain, p.module_ids[p.module_edges[:, 0]], np.abs(np.nan_to_num(strain)))
+    overlaps = find_overlaps(layout.positions, layout.module_ids, OVERLAP_FRACTION * p.module.pitch)
+    off = np.flatnonzero(~found)
+    if len(off):
+        notes.append(f"{len(off)} taxels fall off an open boundary of the mesh")
+    cov = _coverage(clean, p, uvmap, region, extent)
+    report = PlacementReport(strain, mstrain, overlaps, off, cov, float(dist.max()), method,
+                             time.perf_counter() - t0, notes)
+    layout.meta["placement"] = report.as_dict()
+    for msg in notes:
+        warnings.warn(f"place: {msg}", LayoutWarning, stacklevel=2)
+    return layout, report
+
+
+def _unoffset(layout: Layout, offset: float) -> Layout:
+    out = layout.subset(slice(None))
+    out.positions = layout.positions - offset * layout.normals
+    return out
+
+
+def _boundary_faces(mesh) -> np.ndarray:
+    f = np.asarray(mesh.faces)
+    e = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
+    _, inv, cnt = np.unique(e, axis=0, return_inverse=True, return_counts=True)
+    on = cnt[inv.ravel()] == 1
+    out = np.zeros(len(f), bool)
+    out[np.arange(3 * len(f))[on] % len(f)] = True
+    return out
+
+
+def _coverage(mesh, patch: Patch, lm, region, extent) -> float:
+    """Fraction of the region's area under module outlines (in the flat domain of the log map)."""
+    if lm is None:
+        return float("nan")
+    F = np.asarray(lm.mesh.faces)
+    area = lm.mesh.area_faces
+    cent = lm.uv[F].mean(axis=1)
+    if region is None:
+        sel = np.hypot(*cent.T) <= float(np.hypot(*patch.flat.T).max())
+    else:
+        region = np.asarray(region, dtype=bool)
+        if len(region) != len(mesh.faces):
+            raise InputError(f"region has {len(region)} entries, the mesh {len(mesh.faces)} faces", key="region")
+        # the log map's mesh is a cleaned crop: match faces by centroid
+        c3 = np.asarray(lm.mesh.triangles_center)
+        _, near = cKDTree(np.asarray(mesh.triangles_center)).query(c3)
+        sel = region[near]
+    if not sel.any():
+        return float("nan")
+    inside = points_in_outlines(cent[sel], patch)
+    return float(area[sel][inside].sum() / area[sel].sum())
+
+
+def points_in_outlines(points: np.ndarray, patch: Patch) -> np.ndarray:
+    """(n,) bool: which flat points (n, 2) lie inside some module outline of ``patch``."""
+    out = np.zeros(len(points), bool)
+    if not patch.n_modules or not len(points):
+        return out
+    outl = patch.outlines()  # (M, m, 2)
+    tree = cKDTree(patch.poses[:, 1:])
+    cand = tree.query_ball_point(points, patch.module.radius)
+    rows = np.repeat(np.arange(len(points)), [len(c) for c in cand])
+    mods = np.concatenate([np.asarray(c, dtype=np.int64) for c in cand]) if len(rows) else np.zeros(0, np.int64)
+    if not len(rows):
+        return out
+    poly = outl[mods]  # (K, m, 2), counter-clockwise convex outlines
+    edge = np.roll(poly, -1, axis=1) - poly
+    rel = points[rows][:, None, :] - poly
+    cross = edge[..., 0] * rel[..., 1] - edge[..., 1] * rel[..., 0]
+    ins = np.all(cross >= 0, axis=1) | np.all(cross <= 0, axis=1)
+    out[rows[ins]] = True
+    return out
+
+
+def fill(mesh, at, direction=None, *, module: str = "cyskin10", region=None, radius: float | None = None,
+         offset: float = 0.0, max_strain: float = 0.05) -> tuple[Layout, PlacementReport]:
+    """Tile a region of ``mesh`` with whole modules, without overlap, by the log map at ``at``.
+
+    region : (F,) bool face mask of ``mesh`` (default: every face). radius :
+        metres, limit the fill to this geodesic radius around ``at`` (default:
+        the whole region). Modules that would fall off the region, strain more
+        than ``max_strain`` or overlap a module nearer to ``at`` are left out.
+    """
+    from .modules import get_module
+
+    mod = get_module(module)
+    clean, notes = clean_mesh(mesh)
+    if region is not None:
+        region = np.asarray(region, dtype=bool)
+        if len(region) != len(mesh.faces):
+            raise InputError(f"region has {len(region)} entries, the mesh {len(mesh.faces)} faces", key="region")
+        _, near = cKDTree(np.asarray(mesh.triangles_center)).query(np.asarray(clean.triangles_center))
+        creg = region[near]
+    else:
+        creg = np.ones(len(clean.faces), bool)
+    lm = LogMap(clean, at, direction, radius=None if radius is None else radius + 2 * mod.radius)
+    _, near = cKDTree(np.asarray(clean.triangles_center)).query(np.asarray(lm.mesh.triangles_center))
+    lreg = creg[near]
+    span = np.abs(lm.uv).max(axis=0)
+    lim = span if radius is None else np.minimum(span, radius)
+
+    def inside(flat):
+        _, _, face, found = lm.exp(flat)
+        ok = found & lreg[face]
+        if radius is not None:
+            ok &= np.hypot(*flat.T) <= radius
+        return ok
+
+    p = fill_patch(mod, inside, -lim, lim, angles=(0.0,), offsets=2)
+    if not p.n_modules:
+        raise InputError("no whole module fits in the region", key="region")
+    pos, nrm, face, found = lm.exp(p.flat)
+    tmp = p.to_layout(pos, nrm)
+    strain = layout_strain(tmp, p.flat, p.module_edges)
+    ms = np.zeros(p.n_modules)
+    np.maximum.at(ms, p.module_ids[p.module_edges[:, 0]], np.abs(np.nan_to_num(strain, nan=1.0)))
+    keep = ms <= max_strain
+    # overlaps (past the cut locus the map folds back): keep the module nearer to 'at'
+    dist_src = np.hypot(*p.poses[:, 1:].T)
+    pairs = find_overlaps(pos, p.module_ids, OVERLAP_FRACTION * mod.pitch)
+    for a, b in sorted(pairs, key=lambda ab: min(dist_src[ab[0]], dist_src[ab[1]])):
+        if keep[a] and keep[b]:
+            keep[b if dist_src[b] >= dist_src[a] else a] = False
+    p = p.select_modules(keep)
+    p.kind = "fill"
+    layout, report = place(clean, p, lm.at, direction, offset=offset, method="logmap", logmap=lm)
+    report.notes = notes + report.notes + [f"fill: {int((~keep).sum())} candidate modules left out "
+                                           f"(strain > {max_strain} or overlap)"]
+    # coverage of the requested region
+    F = np.asarray(lm.mesh.faces)
+    cent = lm.uv[F].mean(axis=1)
+    sel = lreg & (True if radius is None else (np.hypot(*cent.T) <= radius))
+    area = lm.mesh.area_faces
+    if np.any(sel):
+        report.coverage = float(area[sel][points_in_outlines(cent[sel], p)].sum() / area[sel].sum())
+    layout.meta["placement"] = report.as_dict()
+    return layout, report
