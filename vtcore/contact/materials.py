@@ -55,6 +55,9 @@ class SoftLayer:
     thickness : float, metres (0 means no layer: the skin is bare).
     material : str, a key of :data:`MATERIALS`.
     young_modulus, poisson : float or None; override the material's values (Pa, -).
+    extent : float or None, metres: radius of the layer around the patch centre
+        (seed 001: a 40 mm radius disc). None: the layer ends a few millimetres
+        beyond the outermost taxels. Contact outside it carries no force.
 
     The layer's outer surface is the end-effector surface offset by
     ``thickness`` along the taxel normals; taxels sit at its base.
@@ -64,6 +67,7 @@ class SoftLayer:
     material: str = "ecoflex_00_20"
     young_modulus: float | None = None
     poisson: float | None = None
+    extent: float | None = None
     source: str = field(default="", init=False)
 
     def __post_init__(self):
@@ -81,6 +85,10 @@ class SoftLayer:
         if not 0.0 <= nu < 0.5:
             raise InputError(f"must be in [0, 0.5), got {nu}", key="poisson")
         self.young_modulus, self.poisson = float(e), float(nu)
+        if self.extent is not None:
+            self.extent = float(self.extent)
+            if not self.extent > 0:
+                raise InputError(f"must be > 0 m, got {self.extent}", key="extent")
         self.source = m["source"] if (self.young_modulus == m["young_modulus"]) else "user value"
 
     @property

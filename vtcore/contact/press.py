@@ -21,7 +21,8 @@ ones, where taxels facing away from the object (normal . -u < 0.1) read zero.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
+from dataclasses import field as dc_field
 
 import numpy as np
 
@@ -105,7 +106,8 @@ class PressResult:
         the object's own deflection (object compliance; seed 000 Eq. 1).
     bottomed_out : bool, the layer would be compressed by more than its thickness.
     max_compression : m. model : str. iterations, converged : solver report.
-    field : ContactField on the grid.
+    field : ContactField on the grid. contact_point, contact_point_object : (3,) m,
+    the force-weighted centre of the contact in the end-effector / object frame (NaN without contact).
     """
 
     pressure: np.ndarray
@@ -122,9 +124,11 @@ class PressResult:
     model: str = "finite_layer"
     iterations: int = 0
     converged: bool = True
-    direction: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, -1.0]))
+    direction: np.ndarray = dc_field(default_factory=lambda: np.array([0.0, 0.0, -1.0]))
     field: ContactField | None = None
     spread: bool = True
+    contact_point: np.ndarray = dc_field(default_factory=lambda: np.full(3, np.nan))
+    contact_point_object: np.ndarray = dc_field(default_factory=lambda: np.full(3, np.nan))
 
 
 def _frame(layout, direction):
@@ -292,9 +296,10 @@ def press(layout, mesh, pose, layer: SoftLayer, *, force=None, indentation=None,
     dx = grid.spacing
     lo = xy.min(axis=0) - taxel_radius - grid.margin
     hi = xy.max(axis=0) + taxel_radius + grid.margin
-    if grid.extent is not None:
-        lo = np.minimum(lo, -grid.extent)
-        hi = np.maximum(hi, grid.extent)
+    extent = grid.extent if grid.extent is not None else layer.extent
+    if extent is not None:
+        lo = np.minimum(lo, -extent)
+        hi = np.maximum(hi, extent)
     # an even number of cells centred on the patch: cell centres sit half a cell off the
     # patch axes, so the edges of objects centred on the patch fall between cells
     mx, my = 2 * np.ceil((hi - lo) / (2 * dx)).astype(int)
@@ -306,8 +311,8 @@ def press(layout, mesh, pose, layer: SoftLayer, *, force=None, indentation=None,
     X, Y = np.meshgrid(xs, ys, indexing="ij")
     S = _surface_height(xy, z, X, Y)
     skin = np.ones_like(X, dtype=bool)
-    if grid.extent is not None:
-        skin &= np.hypot(X, Y) <= grid.extent
+    if extent is not None:
+        skin &= np.hypot(X, Y) <= extent
     pts = origin + X[..., None] * e1 + Y[..., None] * e2 + S[..., None] * n
     gap = np.full(X.shape, np.inf)
     gap[skin] = lower_envelope(pts[skin], n, posed, backend)
@@ -395,8 +400,13 @@ def press(layout, mesh, pose, layer: SoftLayer, *, force=None, indentation=None,
     else:
         taxel = surf.copy()
     defl = 0.0
-    if compliance is not None and total > 0:
+    cpt = np.full(3, np.nan)
+    cpt_obj = np.full(3, np.nan)
+    if total > 0:
         cpt = (fld.points() * p[..., None]).sum(axis=(0, 1)) / p.sum()
+        inv = np.linalg.inv(new_pose)
+        cpt_obj = inv[:3, :3] @ cpt + inv[:3, 3]
+    if compliance is not None and total > 0:
         k_obj = _object_stiffness(compliance, local, new_pose, cpt)
         defl = total / k_obj
     return PressResult(
@@ -404,7 +414,7 @@ def press(layout, mesh, pose, layer: SoftLayer, *, force=None, indentation=None,
         contact_area=float((p > 0).sum() * area), pose=new_pose, travel=travel,
         displacement=indent + defl, object_deflection=defl, bottomed_out=bool(bottomed),
         max_compression=max_c, model=model, iterations=iters, converged=bool(conv_ok),
-        direction=u, field=fld, spread=spread)
+        direction=u, field=fld, spread=spread, contact_point=cpt, contact_point_object=cpt_obj)
 
 
 def press_sequence(layout, mesh, poses, layer: SoftLayer, *, force=None, indentation=None, **kw):

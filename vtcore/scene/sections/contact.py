@@ -1,24 +1,216 @@
-"""``[layer]`` and ``[[objects]]``: the soft layer and what touches the skin."""
+"""``[layer]`` and ``[[objects]]``: the soft layer and what touches the skin.
+
+``[layer]``: thickness, material (or young_modulus/poisson), extent (radius of the
+layer), and how the contact is simulated (model, grid_spacing, samples_per_taxel,
+backend).
+
+``[[objects]]``: one table per object: ``kind`` (cube, cuboid, box, sphere,
+halfcylinder, cylinder, ruler, mug, or ``mesh`` with ``mesh = "file.stl"`` and
+``scale``), its dimensions (metres; defaults are seed 001's objects), where it is
+(``position`` [x, y] on the skin, ``yaw`` rad, ``gap`` m above the layer, ``flip``),
+optional trajectory ``keyframes`` ([{t, offset = [dx, dy, dz], yaw}]) and its
+compliance (``stiffness`` N/m, ``stiffness_edge`` N/m at its outline, or a
+per-vertex ``stiffness_file`` .npy).
+"""
 
 from __future__ import annotations
 
+import numpy as np
+
+from ...contact.materials import MATERIALS, SoftLayer
+from ...contact.objects import DEFAULTS, make_object, placement_pose
+from ...contact.proximity import OPEN_MESH
 from ..registry import register_section
 from ..schema import Field, Section
 
 LAYER = Section({
-    "thickness": Field("float", default=3e-3, ge=0, unit="m", doc="soft layer thickness"),
-    "young_modulus": Field("float", default=55e3, gt=0, unit="Pa",
-                           doc="Ecoflex 00-20, ~55 kPa (Smooth-On 100% modulus)"),
-    "poisson": Field("float", default=0.49, ge=0, lt=0.5, doc="Poisson's ratio"),
+    "thickness": Field("float", default=3e-3, gt=0, unit="m", doc="soft layer thickness"),
+    "material": Field("str", default="ecoflex_00_20", choices=tuple(MATERIALS), doc="layer material"),
+    "young_modulus": Field("float", default=None, gt=0, unit="Pa", doc="overrides the material's E"),
+    "poisson": Field("float", default=None, ge=0, lt=0.5, doc="overrides the material's Poisson ratio"),
+    "extent": Field("float", default=None, gt=0, unit="m", doc="radius of the layer (seed 001: 0.04)"),
+    "model": Field("str", default="finite_layer", choices=("finite_layer", "halfspace", "local"),
+                   doc="contact model (see docs/contact.md)"),
+    "grid_spacing": Field("float", default=1e-3, gt=0, unit="m", doc="contact grid cell size"),
+    "samples_per_taxel": Field("int", default=7, ge=1, doc="points averaged over each 4 mm taxel disc"),
+    "backend": Field("str", default="auto", choices=("auto", "open3d", "numpy"), doc="proximity back-end"),
+})
+
+_DIMS = {
+    "side": Field("float", default=None, gt=0, unit="m"),
+    "length": Field("float", default=None, gt=0, unit="m"),
+    "radius": Field("float", default=None, gt=0, unit="m"),
+    "height": Field("float", default=None, gt=0, unit="m"),
+    "width": Field("float", default=None, gt=0, unit="m"),
+    "thickness": Field("float", default=None, gt=0, unit="m"),
+    "wall": Field("float", default=None, gt=0, unit="m"),
+    "bottom": Field("float", default=None, gt=0, unit="m"),
+    "extents": Field("vec", default=None, length=3, unit="m"),
+    "subdivisions": Field("int", default=None, ge=0, le=7),
+    "sections": Field("int", default=None, ge=8, le=4096),
+}
+
+KEYFRAME = Section({
+    "t": Field("float", ge=0, unit="s", doc="time of the keyframe"),
+    "offset": Field("vec", default=[0.0, 0.0, 0.0], length=3, unit="m",
+                    doc="translation added to the object's placement (z: towards the skin is negative)"),
+    "yaw": Field("float", default=0.0, unit="rad", doc="extra rotation about the skin normal"),
 })
 
 OBJECT = Section({
     "name": Field("str", default="object"),
-    "shape": Field("str", default="sphere", choices=("sphere",)),
-    "radius": Field("float", default=0.03, gt=0, unit="m"),
+    "kind": Field("str", default="sphere", choices=tuple(DEFAULTS) + ("mesh",)),
+    **_DIMS,
+    "mesh": Field("path", default=None, doc="mesh file (kind = \"mesh\")"),
+    "scale": Field("float", default=1.0, gt=0, doc="mesh file units -> metres (0.001 for millimetres)"),
+    "open_mesh": Field("str", default="error", choices=OPEN_MESH,
+                       doc="what to do with an open mesh: error, fill its holes, or use its envelope only"),
     "position": Field("vec", default=[0.0, 0.0], length=2, unit="m",
-                      doc="where the object's axis crosses the skin plane"),
-})
+                      doc="where the object's axis crosses the skin"),
+    "yaw": Field("float", default=0.0, unit="rad"),
+    "gap": Field("float", default=1e-3, unit="m", doc="distance above the layer before pressing"),
+    "flip": Field("bool", default=True, doc="turn the object over so its top face meets the skin"),
+    "keyframes": Field("tables", default=[], section=KEYFRAME, doc="trajectory keyframes"),
+    "stiffness": Field("float", default=None, gt=0, unit="N/m", doc="object stiffness (object_compliance)"),
+    "stiffness_edge": Field("float", default=None, gt=0, unit="N/m",
+                            doc="stiffness at the object's outline; varies with r^2 from `stiffness` at its axis"),
+    "stiffness_file": Field("path", default=None, doc=".npy per-vertex stiffness, N/m"),
+}, check=lambda o: ([("mesh", "kind = \"mesh\" needs a mesh file")] if o["kind"] == "mesh" and not o["mesh"]
+                    else []) + ([("keyframes", "keyframe times must increase")]
+                                if any(b["t"] <= a["t"] for a, b in zip(o["keyframes"], o["keyframes"][1:]))
+                                else []))
 
 register_section("layer", Field("table", default=None, section=LAYER))
 register_section("objects", Field("tables", default=[], section=OBJECT))
+
+
+def build_layer(scene) -> SoftLayer:
+    """The scene's SoftLayer (defaults when there is no ``[layer]`` table)."""
+    t = scene["layer"] or LAYER.validate({}, _NullCtx())
+    try:
+        return SoftLayer(thickness=t["thickness"], material=t["material"], young_modulus=t["young_modulus"],
+                         poisson=t["poisson"], extent=t["extent"])
+    except ValueError as exc:
+        raise scene.error(f"layer.{getattr(exc, 'key', '') or 'thickness'}", getattr(exc, "reason", str(exc)))
+
+
+def layer_options(scene) -> dict:
+    """Keyword arguments for vtcore.contact.press from ``[layer]``: model, grid, samples, backend."""
+    from ...contact.press import ContactGrid
+
+    t = scene["layer"] or LAYER.validate({}, _NullCtx())
+    return {"model": t["model"], "grid": ContactGrid(spacing=t["grid_spacing"]),
+            "samples_per_taxel": t["samples_per_taxel"], "backend": None if t["backend"] == "auto" else t["backend"]}
+
+
+def object_mesh(scene, i: int):
+    """The mesh of ``[[objects]][i]`` (object frame, metres), checked closed unless open_mesh says otherwise."""
+    import trimesh
+
+    from ...contact.proximity import prepare_mesh
+
+    o = scene["objects"][i]
+    key = f"objects[{i}]"
+    try:
+        if o["kind"] == "mesh":
+            try:
+                mesh = trimesh.load(o["mesh"], force="mesh")
+            except Exception as exc:
+                raise scene.error(f"{key}.mesh", f"cannot read mesh: {exc}") from None
+            mesh.apply_scale(o["scale"])
+        else:
+            dims = {k: (tuple(o[k]) if k == "extents" else o[k]) for k in _DIMS if o[k] is not None}
+            mesh = make_object(o["kind"], **dims)
+        return prepare_mesh(mesh, open_mesh=o["open_mesh"], name=f"{key} ({o['name']})")
+    except ValueError as exc:
+        if getattr(exc, "file", None):
+            raise
+        k = getattr(exc, "key", None)
+        raise scene.error(f"{key}.{k}" if k and k in OBJECT.fields else key, getattr(exc, "reason", str(exc))) \
+            from None
+
+
+def _skin_top(scene) -> float:
+    """Height (z) of the layer's outer surface at its highest point, metres."""
+    layer = build_layer(scene)
+    try:
+        from .layout import build_layout
+
+        lay = build_layout(scene)
+        return float((lay.positions[:, 2] + layer.thickness * lay.normals[:, 2]).max())
+    except Exception:  # no layout tables: a flat skin at z = 0
+        return layer.thickness
+
+
+def object_pose(scene, i: int, mesh=None, top: float | None = None) -> np.ndarray:
+    """(4, 4) pose of ``[[objects]][i]`` before pressing (end-effector frame)."""
+    o = scene["objects"][i]
+    mesh = mesh if mesh is not None else object_mesh(scene, i)
+    top = _skin_top(scene) if top is None else top
+    return placement_pose(mesh, xy=o["position"], yaw=o["yaw"], top=top, gap=o["gap"], flip=o["flip"])
+
+
+def keyframe_poses(scene, i: int, times, mesh=None, top: float | None = None) -> np.ndarray:
+    """(T, 4, 4) poses of ``[[objects]][i]`` at ``times`` (s), linear between keyframes, held outside."""
+    o = scene["objects"][i]
+    base = object_pose(scene, i, mesh, top)
+    times = np.asarray(times, float).reshape(-1)
+    out = np.repeat(base[None], len(times), axis=0)
+    kf = o["keyframes"]
+    if not kf:
+        return out
+    kt = np.array([k["t"] for k in kf])
+    off = np.array([k["offset"] for k in kf], float)
+    yaw = np.array([k["yaw"] for k in kf], float)
+    ox = np.column_stack([np.interp(times, kt, off[:, j]) for j in range(3)])
+    yw = np.interp(times, kt, yaw)
+    c, s = np.cos(yw), np.sin(yw)
+    rz = np.zeros((len(times), 3, 3))
+    rz[:, 0, 0], rz[:, 0, 1], rz[:, 1, 0], rz[:, 1, 1], rz[:, 2, 2] = c, -s, s, c, 1.0
+    # rotate about the object's own axis (through its placement point), then translate
+    axis = base[:3, 3].copy()
+    out[:, :3, :3] = rz @ base[:3, :3]
+    out[:, :3, 3] = np.einsum("tij,j->ti", rz, base[:3, 3] - axis * np.array([1, 1, 0])) + \
+        axis * np.array([1, 1, 0]) + ox
+    return out
+
+
+def object_compliance(scene, i: int, mesh=None):
+    """Stiffness of ``[[objects]][i]`` for vtcore.contact.press(compliance=...): None, a number,
+    per-vertex values, or a callable of object-frame points."""
+    o = scene["objects"][i]
+    if o["stiffness_file"]:
+        vals = np.load(o["stiffness_file"]).astype(float).reshape(-1)
+        mesh = mesh if mesh is not None else object_mesh(scene, i)
+        if len(vals) != len(mesh.vertices):
+            raise scene.error(f"objects[{i}].stiffness_file",
+                              f"has {len(vals)} values but the mesh has {len(mesh.vertices)} vertices")
+        if not np.all(vals > 0):
+            raise scene.error(f"objects[{i}].stiffness_file", "stiffness values must be > 0 N/m")
+        return vals
+    k0 = o["stiffness"]
+    if k0 is None:
+        return None
+    if o["stiffness_edge"] is None:
+        return k0
+    mesh = mesh if mesh is not None else object_mesh(scene, i)
+    rmax = float(np.hypot(mesh.vertices[:, 0], mesh.vertices[:, 1]).max()) or 1.0
+    k1 = o["stiffness_edge"]
+    return lambda pts: k0 + (k1 - k0) * np.clip(np.hypot(pts[:, 0], pts[:, 1]) / rmax, 0, 1) ** 2
+
+
+def build_objects(scene) -> list[tuple[str, "object", np.ndarray]]:
+    """``[(name, mesh, pose)]`` for every ``[[objects]]`` table, in order."""
+    top = _skin_top(scene) if scene["objects"] else 0.0
+    out = []
+    for i, o in enumerate(scene["objects"]):
+        mesh = object_mesh(scene, i)
+        out.append((o["name"], mesh, object_pose(scene, i, mesh, top)))
+    return out
+
+
+class _NullCtx:
+    errors: list = []
+
+    def fail(self, key, reason):  # defaults never fail
+        raise AssertionError(f"{key}: {reason}")

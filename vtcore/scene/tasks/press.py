@@ -1,61 +1,232 @@
-"""Task ``press``: press the scene's object onto the skin at a target force and read the skin."""
+"""Task ``press``: press the scene's object onto the skin and read the skin.
+
+Hold mode (no keyframes): the object moves along the press direction until the
+total force is ``task.force`` (or, with ``task.target_response``, until the mean
+response reaches it, seed 000's p-bar*), and ``task.readings`` readings are taken
+at ``task.rate``. Trajectory mode (the object has ``keyframes``): the object
+follows its keyframed poses (no force control), simulated at ``task.rate``,
+each frame warm-started from the previous one.
+
+Contact-stage effects (``soft_layer``, ``object_compliance``) and sensor-stage
+effects run only when listed. Arrays: ``positions``, ``normals``, ``taxel_ids``,
+``timestamps (T,)``, ``frames (T, N)`` counts, ``pressure (T, N)`` Pa before
+the sensor effects, ``surface_pressure (T, N)``, ``force (T,)``,
+``contact_area (T,)``, ``indentation (T,)`` and, with object compliance,
+``displacement (T,)``; the last frame's grid: ``grid_x``, ``grid_y``,
+``grid_pressure`` (and ``grid_stress`` with ``soft_layer``).
+"""
 
 from __future__ import annotations
 
 import numpy as np
 
-from ...contact import median_taxel_area, press_sphere
+from ...contact import press, press_sequence, probe
 from ...plots import taxel_map
 from ..registry import TaskSpec, register_task
 from ..runner import TaskResult
 from ..schema import Field, Section
+from ..sections.contact import (build_layer, keyframe_poses, layer_options, object_compliance, object_mesh,
+                                object_pose)
 from ..sections.layout import build_layout
 
 PARAMS = Section({
     "force": Field("float", default=10.0, gt=0, unit="N", doc="target total normal force"),
+    "target_response": Field("float", default=None, gt=0,
+                             doc="target mean response p-bar* in counts (replaces force; seed 000: 4000)"),
+    "object": Field("int", default=0, ge=0, doc="which [[objects]] entry to press"),
     "readings": Field("int", default=10, ge=1, doc="sensor readings taken while holding the force"),
-    "rate": Field("float", default=20.0, gt=0, unit="Hz", doc="sensor sampling rate"),
+    "rate": Field("float", default=20.0, gt=0, unit="Hz", doc="simulation / sensor sampling rate"),
+    "direction": Field("vec", default=None, length=3, doc="press direction (default: -mean taxel normal)"),
 })
 
 
+def _plt():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _field_figure(fld, layout, title):
+    """Surface pressure and, when spread, the stress at the taxels' depth, with the taxel discs."""
+    plt = _plt()
+    panels = [("surface pressure", fld.pressure)] + ([("stress at the taxels' depth", fld.stress)]
+                                                     if fld.stress is not None else [])
+    fig, axes = plt.subplots(1, len(panels), figsize=(5.2 * len(panels), 4.4), squeeze=False)
+    rel = layout.positions - fld.origin
+    txy = np.column_stack([rel @ fld.e1, rel @ fld.e2]) * 1e3
+    ext = [fld.x[0] * 1e3, fld.x[-1] * 1e3, fld.y[0] * 1e3, fld.y[-1] * 1e3]
+    vmax = max(float(fld.pressure.max()), 1e-12)
+    for ax, (name, img) in zip(axes[0], panels):
+        im = ax.imshow(img.T, origin="lower", extent=ext, cmap="magma", vmin=0, vmax=vmax)
+        ax.scatter(txy[:, 0], txy[:, 1], s=16, facecolors="none", edgecolors="c", linewidths=0.6)
+        ax.set_title(name)
+        ax.set_xlabel("x (mm)")
+        ax.set_ylabel("y (mm)")
+        fig.colorbar(im, ax=ax, label="Pa", shrink=0.85)
+    fig.suptitle(title)
+    return fig
+
+
+def _profile_figure(fld, layout, values, title, label):
+    """Cut through the contact centre along x: surface pressure, stress at depth, taxel readings."""
+    plt = _plt()
+    p = fld.pressure
+    j = int(np.argmax(p.sum(axis=0))) if p.any() else len(fld.y) // 2
+    fig, ax = plt.subplots(figsize=(6.4, 3.6))
+    ax.plot(fld.x * 1e3, p[:, j], label="surface pressure (Pa)")
+    if fld.stress is not None:
+        ax.plot(fld.x * 1e3, fld.stress[:, j], label="stress at taxel depth (Pa)")
+    rel = layout.positions - fld.origin
+    tx, ty = rel @ fld.e1, rel @ fld.e2
+    near = np.abs(ty - fld.y[j]) < 3.75e-3
+    if near.any():
+        ax2 = ax.twinx()
+        ax2.plot(tx[near] * 1e3, values[near], "o", color="C3", ms=4, label=f"taxels ({label})")
+        ax2.set_ylabel(label)
+        ax2.set_ylim(bottom=0)
+    ax.set_xlabel("x (mm)")
+    ax.set_ylabel("Pa")
+    ax.set_title(title)
+    ax.legend(loc="upper left", fontsize=8)
+    return fig
+
+
+def _edge_step(layout, values):
+    """Largest neighbour-to-neighbour difference on the skin mesh, over the largest value."""
+    from ...layout import skin_mesh
+
+    try:
+        e = skin_mesh(layout).edges
+    except Exception:
+        return float("nan")
+    vmax = float(np.max(values)) if len(values) else 0.0
+    if len(e) == 0 or vmax <= 0:
+        return 0.0
+    return float(np.abs(values[e[:, 0]] - values[e[:, 1]]).max() / vmax)
+
+
+def halfmax_diameter(fld, values=None) -> float:
+    """Equivalent diameter (m) of the grid area where ``values`` (default: the stress at depth,
+    else the surface pressure) is at least half its maximum."""
+    v = values if values is not None else (fld.stress if fld.stress is not None else fld.pressure)
+    vmax = float(v.max()) if v.size else 0.0
+    if vmax <= 0:
+        return 0.0
+    area = float((v >= 0.5 * vmax).sum()) * fld.spacing**2
+    return 2.0 * np.sqrt(area / np.pi)
+
+
 def run(scene, ctx) -> TaskResult:
-    layout = build_layout(scene)
     if not scene["objects"]:
         raise scene.error("objects", "task 'press' needs at least one [[objects]] table")
-    obj = scene["objects"][0]
-    layer = scene["layer"]
-    area = median_taxel_area(layout.positions)
-    surface, depth = press_sphere(layout.positions, layout.normals, obj["position"], obj["radius"],
-                                  scene["task"]["force"], layer["thickness"], layer["young_modulus"],
-                                  layer["poisson"], taxel_area=area)
-    state = {"positions": layout.positions, "pressure": surface, "thickness": layer["thickness"],
-             "taxel_area": area}
-    pressure = ctx.pipeline.apply("contact", state, ctx)["pressure"]
-    t = scene["task"]["readings"]
-    pressure_t = np.broadcast_to(pressure, (t, len(layout))).copy()
-    frames = ctx.pipeline.apply("sensor", pressure_t.copy(), ctx)
-    timestamps = np.arange(t) / scene["task"]["rate"]
-    force = np.full(t, surface.sum() * area)
-    mean = frames.mean(axis=0)
-    flat = layout.flat
+    task = scene["task"]
+    k = task["object"]
+    if k >= len(scene["objects"]):
+        raise scene.error("task.object", f"there are only {len(scene['objects'])} [[objects]] tables")
+    layout = build_layout(scene)
+    layer = build_layer(scene)
+    opts = layer_options(scene)
+    obj = scene["objects"][k]
+    mesh = object_mesh(scene, k)
+    comp_eff = ctx.pipeline.get("object_compliance")
+    compliance = object_compliance(scene, k, mesh) if comp_eff is not None else None
+    direction = task["direction"]
+    rate = task["rate"]
+    kw = dict(opts, direction=direction, spread=False)
+
+    if obj["keyframes"]:
+        t_end = obj["keyframes"][-1]["t"]
+        times = np.arange(int(np.floor(t_end * rate + 1e-9)) + 1) / rate
+        poses = keyframe_poses(scene, k, times, mesh)
+        results = press_sequence(layout, mesh, poses, layer, **kw)
+        mode = "trajectory"
+    else:
+        pose = object_pose(scene, k, mesh)
+        if task["target_response"] is not None:
+            gain = ctx.pipeline.get("gain")
+            to_counts = gain.counts if gain is not None else (lambda p: np.asarray(p, float))
+            spread_kw = dict(kw, spread=ctx.pipeline.has("soft_layer"))
+            pr = probe(layout, mesh, pose, layer, target=task["target_response"], sensor=to_counts, **spread_kw)
+            res = press(layout, mesh, pose, layer, force=pr.force, **kw)
+        else:
+            res = press(layout, mesh, pose, layer, force=task["force"], **kw)
+        results = [res]
+        times = np.arange(task["readings"]) / rate
+        mode = "hold"
+
+    state = {"layout": layout, "layer": layer, "results": results, "mesh": mesh, "compliance": compliance,
+             "pressure": np.array([r.surface_pressure for r in results]),
+             "samples_per_taxel": opts["samples_per_taxel"]}
+    state = ctx.pipeline.apply("contact", state, ctx)
+    per = np.asarray(state["pressure"], float)
+    surf = np.array([r.surface_pressure for r in results])
+    force = np.array([r.force for r in results])
+    area = np.array([r.contact_area for r in results])
+    indent = np.array([r.indentation for r in results])
+    if mode == "hold":
+        rep = lambda a: np.repeat(a[:1], len(times), axis=0)  # noqa: E731
+        per, surf, force, area, indent = rep(per), rep(surf), rep(force), rep(area), rep(indent)
+        disp = rep(state["displacement"]) if "displacement" in state else None
+    else:
+        disp = state.get("displacement")
+    sensed = ctx.pipeline.apply("sensor", {"frames": per.copy(), "timestamps": times}, ctx)
+    frames, stamps = np.asarray(sensed["frames"], float), np.asarray(sensed["timestamps"], float)
+    if "sample_index" in sensed:  # the sampling clock picked some simulation frames
+        idx = sensed["sample_index"]
+        per, surf, force, area, indent = per[idx], surf[idx], force[idx], area[idx], indent[idx]
+        disp = disp[idx] if disp is not None else None
+
+    last = results[-1]
+    fld = last.field
+    mean = frames.mean(axis=0) if len(frames) else np.zeros(len(layout))
+    unit = "counts" if ctx.pipeline.stage("sensor") else "Pa"
+    pmax = float(per.max()) if per.size else 0.0
     metrics = {
-        "force_n": float(force[0]),
-        "indentation_mm": depth * 1e3,
+        "force_n": float(force[-1]) if len(force) else 0.0,
+        "indentation_mm": float(indent[-1]) * 1e3 if len(indent) else 0.0,
+        "contact_area_mm2": float(area[-1]) * 1e6 if len(area) else 0.0,
         "taxels": len(layout),
-        "active_taxels": int((pressure > 1e-3 * max(pressure.max(), 1e-12)).sum()),
-        "pressure_max_pa": float(pressure.max()),
+        "frames": int(len(frames)),
+        "active_taxels": int((per[-1] > 1e-3 * max(pmax, 1e-12)).sum()) if len(per) else 0,
+        "pressure_max_pa": pmax,
+        "surface_pressure_max_pa": float(fld.pressure.max()),
         "response_max": float(mean.max()),
         "response_mean": float(mean.mean()),
+        "response_edge_step": _edge_step(layout, per[-1]) if len(per) else 0.0,
+        "stress_halfmax_diameter_mm": halfmax_diameter(fld) * 1e3,
+        "solver_iterations": int(sum(r.iterations for r in results)),
+        "solver_converged": bool(all(r.converged for r in results)),
+        "bottomed_out": bool(any(r.bottomed_out for r in results)),
     }
+    if disp is not None:
+        metrics["displacement_mm"] = float(disp[-1]) * 1e3
+        if metrics["displacement_mm"] > 0:
+            metrics["compliance_attribute"] = float(mean.mean() / disp[-1])  # seed 000 Eq. 1
+    title = f"{scene.name}: {obj['name']} through {layer.thickness * 1e3:g} mm ({opts['model']})"
+    flat = layout.flat if layout.flat is not None else layout.positions[:, :2]
     figures = {
-        "response": taxel_map(flat, mean, title=f"{scene.name}: mean response, {obj['name']}",
-                              label="counts" if ctx.pipeline.stage("sensor") else "Pa"),
+        "response": taxel_map(flat, mean, title=f"{scene.name}: mean response, {obj['name']}", label=unit),
+        "pressure_field": _field_figure(fld, layout, title),
+        "profile": _profile_figure(fld, layout, mean, title, unit),
     }
-    return TaskResult(metrics=metrics, arrays={
+    arrays = {
         "positions": layout.positions, "normals": layout.normals, "taxel_ids": layout.taxel_ids,
-        "timestamps": timestamps, "frames": frames, "pressure": pressure_t, "force": force},
-        figures=figures)
+        "timestamps": stamps, "frames": frames, "pressure": per, "surface_pressure": surf, "force": force,
+        "contact_area": area, "indentation": indent,
+        "grid_x": fld.x, "grid_y": fld.y, "grid_pressure": fld.pressure,
+    }
+    if fld.stress is not None:
+        arrays["grid_stress"] = fld.stress
+    if disp is not None:
+        arrays["displacement"] = np.asarray(disp, float)
+    notes = [f"Contact model `{opts['model']}`, layer {layer.thickness * 1e3:g} mm of {layer.material} "
+             f"(E = {layer.young_modulus / 1e3:.1f} kPa, nu = {layer.poisson}; {layer.source}). "
+             f"Mode: {mode}, {len(frames)} frames."]
+    return TaskResult(metrics=metrics, arrays=arrays, figures=figures, sections=notes)
 
 
 register_task(TaskSpec("press", run, PARAMS, sections=("layout", "objects"),
-                       doc="press an object at a target force"))
+                       doc="press an object at a target force (or mean response), or along keyframes"))
