@@ -336,7 +336,13 @@ class LogMap:
         if self._tree is None:
             self._cent = tri2.mean(axis=1)
             self._rad = np.linalg.norm(tri2 - self._cent[:, None], axis=2).max(axis=1)
-            self._good = area > 1e-16 * max(np.abs(area).max(), 1e-300)  # orientation kept, not folded
+            good = area > 1e-16 * max(np.abs(area).max(), 1e-300)  # orientation kept, not folded
+            # near the cut locus the log map is garbage: a face's image must be close to isometric
+            t3 = V[F]
+            l3 = np.linalg.norm(t3 - np.roll(t3, 1, axis=1), axis=2)
+            l2 = np.linalg.norm(tri2 - np.roll(tri2, 1, axis=1), axis=2)
+            ratio = l2 / np.maximum(l3, 1e-300)
+            self._good = good & np.all((ratio > 0.5) & (ratio < 2.0), axis=1)
             self._tree = cKDTree(self._cent)
             self._geo = np.linalg.norm(self._cent, axis=1)
         n = len(flat)

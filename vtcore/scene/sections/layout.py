@@ -1,33 +1,197 @@
-"""``[end_effector]`` and ``[layout]``: the rigid body and the skin on it."""
+"""``[end_effector]`` and ``[layout]``: the rigid body and the skin on it.
+
+Conventions (metres): every built-in end-effector has its skin surface through
+the origin with outward normal +z there, so objects pressed along -z meet the
+skin. ``sphere``: centre ``(0, 0, -radius)``; ``cylinder``: axis along y through
+``(0, 0, -radius)``, ``length`` long; ``plane``: a box ``size`` wide with its top at
+z = 0; ``disc``: a cylinder of ``radius`` with its top at z = 0; ``mesh``: a mesh
+file (``scale`` converts its unit to metres). ``seed001_disc``,
+``seed002_planar`` and ``seed002_curved`` are the end-effectors of the seed
+papers and come with their own skin (``[layout] patch = "auto"``).
+
+``[layout]`` either loads a calibrated layout ``file`` or places a ``patch``
+(triangle, hexagon, strip:N, fill) of ``module`` on the end-effector at ``at``
+(default: the origin, the top of the skin surface) with its x axis along
+``direction``, ``offset`` metres out along the normal. On the analytic primitives
+with the default ``at`` the exponential map is exact (azimuthal equidistant on
+the sphere, unrolling on the cylinder); elsewhere the mesh log map is used.
+"""
 
 from __future__ import annotations
 
 import numpy as np
 
-from ...layout import Layout, hexagon_flat, wrap_on_sphere
+from ...layout import Layout, make_patch, wrap_on_sphere
+from ...layout.modules import MODULES, PITCH
 from ..registry import register_section
 from ..schema import Field, Section
 
+SHAPES = ("sphere", "plane", "cylinder", "disc", "mesh", "seed001_disc", "seed002_planar", "seed002_curved")
+SEEDS = ("seed001_disc", "seed002_planar", "seed002_curved")
+
+
+def _check_ee(t: dict) -> list:
+    if t["shape"] == "mesh" and not t["mesh"]:
+        return [("mesh", "shape 'mesh' needs mesh = \"FILE\" (STL, OBJ, PLY, ...)")]
+    if t["shape"] != "mesh" and t["mesh"]:
+        return [("mesh", f"a mesh file is only used with shape = \"mesh\", not {t['shape']!r}")]
+    return []
+
+
+def _patch_ok(v: str) -> str | None:
+    if v in ("auto", "triangle", "hexagon", "fill"):
+        return None
+    if v.startswith("strip:") and v[6:].isdigit() and int(v[6:]) >= 1:
+        return None
+    return f"must be auto, triangle, hexagon, fill or strip:N (N >= 1), got {v!r}"
+
+
 END_EFFECTOR = Section({
-    "shape": Field("str", default="sphere", choices=("sphere", "plane"),
-                   doc="primitive end-effector surface"),
-    "radius": Field("float", default=0.05, gt=0, unit="m", doc="radius of curvature of a sphere"),
-})
+    "shape": Field("str", default="sphere", choices=SHAPES, doc="end-effector body"),
+    "radius": Field("float", default=0.05, gt=0, unit="m", doc="radius of a sphere, cylinder or disc"),
+    "length": Field("float", default=0.12, gt=0, unit="m", doc="length of a cylinder (along y)"),
+    "size": Field("vec", default=[0.1, 0.1], length=2, unit="m", doc="x and y size of a plane"),
+    "thickness": Field("float", default=0.01, gt=0, unit="m", doc="thickness of a plane or disc"),
+    "mesh": Field("path", default=None, doc="mesh file for shape = \"mesh\""),
+    "scale": Field("float", default=1.0, gt=0, doc="factor from the mesh file's unit to metres (0.001 for mm)"),
+    "resolution": Field("float", default=0.004, gt=0, unit="m", doc="largest edge of a primitive's mesh"),
+}, check=_check_ee)
+
+
+def _check_layout(t: dict) -> list:
+    if t["file"] and t["patch"] not in ("auto",):
+        return [("patch", "give either file = ... or patch = ..., not both")]
+    return []
+
 
 LAYOUT = Section({
-    "patch": Field("str", default="hexagon", choices=("hexagon",), doc="patch type"),
-    "pitch": Field("float", default=7.5e-3, gt=0, unit="m", doc="taxel pitch"),
-})
+    "patch": Field("str", default="auto", check=_patch_ok,
+                   doc="auto (the seed end-effector's own skin, else hexagon), triangle, hexagon, strip:N, fill"),
+    "module": Field("str", default="cyskin10", choices=lambda: tuple(sorted(MODULES)), doc="module type"),
+    "pitch": Field("float", default=PITCH, gt=0, unit="m", doc="taxel pitch (scales the patch)"),
+    "center": Field("bool", default=False, doc="hexagon: add the centre taxel (61 instead of 60)"),
+    "at": Field("vec", default=None, length=3, unit="m", doc="surface point the patch is centred on"),
+    "direction": Field("vec", default=None, length=3, doc="in-plane direction of the patch's x axis"),
+    "offset": Field("float", default=0.0, unit="m", doc="distance along the normal above the surface"),
+    "method": Field("str", default="logmap", choices=("logmap", "project"), doc="placement method"),
+    "radius": Field("float", default=None, gt=0, unit="m", doc="fill: geodesic radius of the region"),
+    "file": Field("path", default=None, doc="calibrated layout file to load instead of placing a patch"),
+    "format": Field("str", default=None, choices=("json", "icub", "cyskin", "csv", "ply"),
+                    doc="format of the layout file (default: from its name and content)"),
+    "units": Field("str", default=None, choices=("m", "mm"), doc="length unit of the layout file"),
+}, check=_check_layout)
 
 register_section("end_effector", Field("table", default=None, section=END_EFFECTOR))
 register_section("layout", Field("table", default=None, section=LAYOUT))
 
+_EE_DEFAULTS = {k: f.default for k, f in END_EFFECTOR.fields.items()}
+_LAYOUT_DEFAULTS = {k: f.default for k, f in LAYOUT.fields.items()}
+
+
+def _tables(scene):
+    ee = scene["end_effector"] or dict(_EE_DEFAULTS)
+    lay = scene["layout"] or dict(_LAYOUT_DEFAULTS)
+    return ee, lay
+
+
+def _primitive(ee: dict):
+    import trimesh
+
+    shape, r, res = ee["shape"], ee["radius"], ee["resolution"]
+    if shape == "sphere":
+        # icosphere edge ~ 1.1 R / 2^s: pick the subdivision that reaches the resolution (capped)
+        s = int(np.clip(np.ceil(np.log2(max(1.1 * r / res, 1.0))), 2, 6))
+        m = trimesh.creation.icosphere(subdivisions=s, radius=r)
+        m.apply_translation([0.0, 0.0, -r])
+        return m
+    if shape == "cylinder":
+        sections = int(np.clip(np.ceil(2 * np.pi * r / res), 16, 512))
+        m = trimesh.creation.cylinder(radius=r, height=ee["length"], sections=sections)
+        m.apply_transform(trimesh.transformations.rotation_matrix(np.pi / 2, [1, 0, 0]))  # axis z -> y
+        m.apply_translation([0.0, 0.0, -r])
+        return m.subdivide_to_size(max(res, ee["length"] / 200))
+    if shape == "disc":
+        sections = int(np.clip(np.ceil(2 * np.pi * r / res), 16, 512))
+        m = trimesh.creation.cylinder(radius=r, height=ee["thickness"], sections=sections)
+        m.apply_translation([0.0, 0.0, -ee["thickness"] / 2])
+        return m
+    if shape == "plane":
+        sx, sy = ee["size"]
+        m = trimesh.creation.box(extents=[sx, sy, ee["thickness"]])
+        m.apply_translation([0.0, 0.0, -ee["thickness"] / 2])
+        return m.subdivide_to_size(max(res, max(sx, sy) / 100))
+    raise AssertionError(shape)
+
+
+def build_end_effector(scene) -> "trimesh.Trimesh":
+    """The end-effector of ``scene`` as a closed mesh in metres (see the module docstring)."""
+    ee, _ = _tables(scene)
+    shape = ee["shape"]
+    if shape in SEEDS:
+        from ... import layout as L
+
+        return getattr(L, shape)()[0]
+    if shape == "mesh":
+        import trimesh
+
+        try:
+            m = trimesh.load(ee["mesh"], force="mesh", process=True)
+        except Exception as exc:  # trimesh raises many types for bad files
+            raise scene.error("end_effector.mesh", f"cannot read mesh file {ee['mesh']}: {exc}") from None
+        if not len(getattr(m, "faces", [])):
+            raise scene.error("end_effector.mesh", f"mesh file {ee['mesh']} has no triangles")
+        m.apply_scale(ee["scale"])
+        return m
+    return _primitive(ee)
+
+
+def _scaled_patch(lay: dict):
+    p = make_patch(lay["patch"], lay["module"], center=lay["center"])
+    mod = MODULES[lay["module"]]
+    s = lay["pitch"] / mod.pitch
+    if s != 1.0:
+        p.flat = p.flat * s
+        p.poses[:, 1:] *= s
+    return p
+
 
 def build_layout(scene) -> Layout:
-    """The layout of ``scene``: its patch wrapped onto its end-effector."""
-    ee, lay = scene["end_effector"], scene["layout"]
-    flat, modules = hexagon_flat(lay["pitch"])
-    radius = ee["radius"] if ee["shape"] == "sphere" else np.inf
-    pos, nrm = wrap_on_sphere(flat, radius)
-    ids = (modules + 1) * 16 + np.tile(np.arange(1, 11), 6)[: len(modules)]
-    return Layout(pos, nrm, ids, modules, flat=flat, meta={"patch": lay["patch"]})
+    """The layout of ``scene``: a loaded file, a seed end-effector's own skin, or a patch
+    placed on the end-effector."""
+    from ... import layout as L
+
+    ee, lay = _tables(scene)
+    if lay["file"]:
+        return L.load(lay["file"], lay["format"], units=lay["units"])
+    shape = ee["shape"]
+    if lay["patch"] == "auto" and shape in SEEDS:
+        return getattr(L, shape)()[1]
+    kind = "hexagon" if lay["patch"] == "auto" else lay["patch"]
+    lay = dict(lay, patch=kind)
+    analytic = lay["at"] is None and lay["method"] == "logmap" and lay["direction"] is None \
+        and shape in ("sphere", "plane", "disc", "cylinder") and kind != "fill"
+    if analytic:
+        p = _scaled_patch(lay)
+        if shape == "sphere":
+            pos, nrm = wrap_on_sphere(p.flat, ee["radius"])
+        elif shape == "cylinder":
+            # unrolling: x wraps round the axis (along y), y runs along it
+            th = p.flat[:, 0] / ee["radius"]
+            r = ee["radius"]
+            pos = np.column_stack([r * np.sin(th), p.flat[:, 1], r * np.cos(th) - r])
+            nrm = np.column_stack([np.sin(th), np.zeros_like(th), np.cos(th)])
+        else:
+            pos = np.column_stack([p.flat, np.zeros(len(p))])
+            nrm = np.tile([0.0, 0.0, 1.0], (len(p), 1))
+        pos = pos + lay["offset"] * nrm
+        out = p.to_layout(pos, nrm, {"placement_method": "analytic", "end_effector": shape})
+        return out
+    mesh = build_end_effector(scene)
+    at = lay["at"] if lay["at"] is not None else [0.0, 0.0, 0.0]
+    if kind == "fill":
+        layout, _ = L.fill(mesh, at, lay["direction"], module=lay["module"], radius=lay["radius"],
+                           offset=lay["offset"])
+        return layout
+    layout, _ = L.place(mesh, _scaled_patch(lay), at, lay["direction"], offset=lay["offset"],
+                        method=lay["method"])
+    return layout

@@ -1,0 +1,243 @@
+"""``vtcore layout place|import|export|info``: design, convert and inspect skin layouts.
+
+- ``vtcore layout place MESH --patch {triangle,hexagon,strip:N,fill} --at X Y Z [--direction DX DY DZ]
+  [--module NAME] [--offset METRES] --out LAYOUT``
+- ``vtcore layout import FILE [--format icub|cyskin|csv|json|ply] --out LAYOUT``
+- ``vtcore layout export LAYOUT --format icub|cyskin|csv|json|ply|mjcf --out FILE [--transform FILE_OR_16_NUMBERS]``
+- ``vtcore layout info LAYOUT [--json]``
+
+Layouts are written in the format their ``--out`` name says (``.json`` is our own JSON).
+All lengths are metres.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+
+def _patch_arg(value: str) -> str:
+    import argparse
+
+    if value in ("triangle", "hexagon", "fill"):
+        return value
+    if value.startswith("strip:") and value[6:].isdigit() and int(value[6:]) >= 1:
+        return value
+    raise argparse.ArgumentTypeError(f"must be triangle, hexagon, fill or strip:N, got {value!r}")
+
+
+def _load_mesh(path: str, scale: float):
+    import trimesh
+
+    from ..errors import InputError
+
+    p = Path(path)
+    if not p.is_file():
+        raise InputError("mesh file not found", file=p)
+    try:
+        mesh = trimesh.load(p, force="mesh", process=True)
+    except Exception as exc:  # trimesh raises many types for bad files
+        raise InputError(f"cannot read mesh: {exc}", file=p) from None
+    if not len(getattr(mesh, "faces", [])):
+        raise InputError("the mesh has no triangles", file=p)
+    if scale != 1.0:
+        mesh.apply_scale(scale)
+    return mesh
+
+
+def _print_warnings(caught):
+    for w in caught:
+        print(f"vtcore: warning: {w.message}", file=sys.stderr)
+
+
+def cmd_place(args) -> int:
+    from ..layout import fill, place, save
+
+    mesh = _load_mesh(args.mesh, args.scale)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        if args.patch == "fill":
+            layout, report = fill(mesh, args.at, args.direction, module=args.module, radius=args.radius,
+                                  offset=args.offset)
+        else:
+            layout, report = place(mesh, args.patch, args.at, args.direction, module=args.module,
+                                   offset=args.offset, method=args.method)
+    _print_warnings(caught)
+    layout.meta["mesh"] = str(args.mesh)
+    save(layout, args.out, args.format)
+    cov = "n/a" if not np.isfinite(report.coverage) else f"{report.coverage:.3f}"
+    print(f"{args.out}: {len(layout)} taxels in {layout.n_modules} modules, strain max {report.strain_max:.4f}, "
+          f"overlaps {len(report.overlaps)}, off boundary {len(report.off_boundary)}, coverage {cov}, "
+          f"{report.seconds:.2f} s ({report.method})")
+    return 0
+
+
+def cmd_import(args) -> int:
+    from ..layout import load, save
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        layout = load(args.file, args.format, units=args.units)
+    _print_warnings(caught)
+    save(layout, args.out)
+    print(f"{args.out}: {len(layout)} taxels in {layout.n_modules} modules (from {layout.meta.get('source_format')})")
+    return 0
+
+
+def _read_transform(value: list[str]) -> np.ndarray:
+    from ..errors import InputError
+
+    if len(value) == 1:
+        p = Path(value[0])
+        if not p.is_file():
+            raise InputError("transform file not found (give a file or 16 numbers)", file=p, key="--transform")
+        text = p.read_text(encoding="utf-8")
+        try:
+            data = json.loads(text)
+            nums = np.asarray(data.get("transform", data) if isinstance(data, dict) else data, float).ravel()
+        except (ValueError, TypeError, AttributeError):
+            try:
+                nums = np.asarray(text.replace(",", " ").split(), float)
+            except ValueError:
+                raise InputError("transform file must hold 16 numbers (row-major 4x4) or JSON",
+                                 file=p) from None
+    else:
+        try:
+            nums = np.asarray(value, float)
+        except ValueError:
+            raise InputError(f"--transform needs 16 numbers, got {' '.join(value)}", key="--transform") from None
+    if nums.size != 16:
+        raise InputError(f"a transform has 16 numbers (row-major 4x4), got {nums.size}", key="--transform")
+    return nums.reshape(4, 4)
+
+
+def cmd_export(args) -> int:
+    from ..layout import load, save
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        layout = load(args.layout)
+    _print_warnings(caught)
+    transform = _read_transform(args.transform) if args.transform else None
+    save(layout, args.out, args.format, transform=transform)
+    print(f"{args.out}: {len(layout)} taxels as {args.format}")
+    return 0
+
+
+def layout_info(layout) -> dict:
+    """Summary numbers of a layout (the ``layout info`` fields)."""
+    from ..layout.conform import OVERLAP_FRACTION, find_overlaps, layout_strain
+    from ..layout.mesh import _nn_spacing
+
+    n = len(layout)
+    sp = _nn_spacing(layout.positions) if n > 1 else np.zeros(n)
+    pitch = float(layout.meta.get("pitch_m") or (np.median(sp) if n > 1 else 0.0))
+    placement = layout.meta.get("placement") or {}
+    strain_max = placement.get("strain_max")
+    strain_mean = placement.get("strain_mean")
+    if strain_max is None and layout.flat is not None and n >= 2:
+        from scipy.spatial import cKDTree
+
+        pairs = cKDTree(layout.flat).query_pairs(1.25 * pitch, output_type="ndarray")
+        pairs = pairs[layout.module_ids[pairs[:, 0]] == layout.module_ids[pairs[:, 1]]] if len(pairs) else pairs
+        s = layout_strain(layout, layout.flat, pairs) if len(pairs) else np.zeros(0)
+        s = s[np.isfinite(s)]
+        strain_max = float(np.abs(s).max()) if len(s) else 0.0
+        strain_mean = float(np.abs(s).mean()) if len(s) else 0.0
+    overlaps = find_overlaps(layout.positions, layout.module_ids, OVERLAP_FRACTION * pitch) if pitch > 0 else []
+    lo, hi = (layout.positions.min(axis=0), layout.positions.max(axis=0)) if n else (np.zeros(3), np.zeros(3))
+    return {
+        "taxels": int(n), "modules": int(layout.n_modules),
+        "spacing_min_mm": float(sp.min() * 1e3) if n > 1 else None,
+        "spacing_median_mm": float(np.median(sp) * 1e3) if n > 1 else None,
+        "strain_max": None if strain_max is None else float(strain_max),
+        "strain_mean": None if strain_mean is None else float(strain_mean),
+        "overlaps": len(overlaps),
+        "off_boundary": len(placement.get("off_boundary", [])),
+        "coverage": placement.get("coverage"),
+        "bbox_min_m": lo.tolist(), "bbox_max_m": hi.tolist(),
+        "frame": layout.frame, "module_type": layout.meta.get("module_type"),
+        "roles": {str(r): int(c) for r, c in zip(*np.unique(layout.roles.astype(str), return_counts=True))},
+    }
+
+
+def cmd_info(args) -> int:
+    from ..layout import load
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        layout = load(args.layout, args.format)
+    info = layout_info(layout)
+    if args.json:
+        info["warnings"] = [str(w.message) for w in caught]
+        print(json.dumps(info, indent=1))
+        return 0
+    _print_warnings(caught)
+    f = lambda v, fmt: "n/a" if v is None else format(v, fmt)  # noqa: E731
+    print(f"{args.layout}")
+    print(f"  taxels {info['taxels']}, modules {info['modules']} ({info['module_type'] or 'unknown type'}), "
+          f"roles {info['roles']}")
+    print(f"  neighbour spacing: min {f(info['spacing_min_mm'], '.2f')} mm, "
+          f"median {f(info['spacing_median_mm'], '.2f')} mm")
+    print(f"  strain: max {f(info['strain_max'], '.4f')}, mean {f(info['strain_mean'], '.4f')}; "
+          f"overlaps {info['overlaps']}; off boundary {info['off_boundary']}; "
+          f"coverage {f(info['coverage'], '.3f')}")
+    lo, hi = np.array(info["bbox_min_m"]) * 1e3, np.array(info["bbox_max_m"]) * 1e3
+    print(f"  bounding box (mm): [{lo[0]:.1f}, {lo[1]:.1f}, {lo[2]:.1f}] .. [{hi[0]:.1f}, {hi[1]:.1f}, {hi[2]:.1f}]"
+          f" in frame {info['frame']!r}")
+    return 0
+
+
+def register(sub) -> None:
+    from ..layout.io import FORMATS, READ_FORMATS
+    from ..layout.modules import MODULES
+
+    p = sub.add_parser("layout", help="place, import, export and inspect skin layouts")
+    lsub = p.add_subparsers(dest="layout_command", metavar="ACTION")
+
+    pl = lsub.add_parser("place", help="conform a patch of modules to a mesh")
+    pl.add_argument("mesh", metavar="MESH", help="end-effector mesh (STL, OBJ, PLY, ...)")
+    pl.add_argument("--patch", type=_patch_arg, default="hexagon", help="triangle, hexagon, strip:N or fill")
+    pl.add_argument("--at", type=float, nargs=3, required=True, metavar=("X", "Y", "Z"),
+                    help="surface point the patch is centred on (metres)")
+    pl.add_argument("--direction", type=float, nargs=3, metavar=("DX", "DY", "DZ"),
+                    help="in-plane direction of the patch's x axis")
+    pl.add_argument("--module", default="cyskin10", choices=sorted(MODULES), help="module type")
+    pl.add_argument("--offset", type=float, default=0.0, metavar="METRES", help="distance along the normal")
+    pl.add_argument("--method", default="logmap", choices=("logmap", "project"), help="placement method")
+    pl.add_argument("--radius", type=float, help="fill: geodesic radius of the region (metres)")
+    pl.add_argument("--scale", type=float, default=1.0, help="mesh unit to metres (0.001 for a mesh in mm)")
+    pl.add_argument("--format", choices=FORMATS, help="output format (default: from --out)")
+    pl.add_argument("--out", required=True, metavar="LAYOUT", help="layout file to write")
+    pl.set_defaults(func=cmd_place)
+
+    im = lsub.add_parser("import", help="read a layout file and write it as our JSON (or --out's format)")
+    im.add_argument("file", metavar="FILE")
+    im.add_argument("--format", choices=READ_FORMATS, help="input format (default: from name and content)")
+    im.add_argument("--units", choices=("m", "mm"), help="declare the file's length unit")
+    im.add_argument("--out", required=True, metavar="LAYOUT")
+    im.set_defaults(func=cmd_import)
+
+    ex = lsub.add_parser("export", help="write a layout in another format or frame")
+    ex.add_argument("layout", metavar="LAYOUT")
+    ex.add_argument("--format", required=True, choices=FORMATS)
+    ex.add_argument("--out", required=True, metavar="FILE")
+    ex.add_argument("--transform", nargs="+", metavar="FILE_OR_16_NUMBERS",
+                    help="4x4 rigid transform (row-major): a file or 16 numbers; taxels are written in that frame")
+    ex.set_defaults(func=cmd_export)
+
+    inf = lsub.add_parser("info", help="counts, spacing, strain, overlaps, coverage, bounding box")
+    inf.add_argument("layout", metavar="LAYOUT")
+    inf.add_argument("--format", choices=READ_FORMATS)
+    inf.add_argument("--json", action="store_true", help="print a JSON object")
+    inf.set_defaults(func=cmd_info)
+
+    def _help(args, parser=p):
+        parser.print_help(sys.stderr)
+        return 2
+
+    p.set_defaults(func=_help)
