@@ -79,6 +79,7 @@ class Codec:
     wire_max = 0
     wire_dtype = np.uint8
     rest_value = 0         # what an absent or masked channel is encoded as
+    full_dlc = 8           # a frame this long carries every channel of its stream
     default_period = 0.05  # s, 20 Hz
 
     def classify(self, batch: FrameBatch) -> tuple[np.ndarray, np.ndarray]:
@@ -99,6 +100,10 @@ class Codec:
 
     def present(self, batch: FrameBatch, keys: np.ndarray) -> np.ndarray:
         """``(M, n_channels) bool``: channels that the frame's DLC actually carries."""
+        return self.present_dlc(batch.dlc, keys)
+
+    def present_dlc(self, dlc: np.ndarray, keys: np.ndarray) -> np.ndarray:
+        """``(M, n_channels) bool`` for frames of streams ``keys`` with ``dlc`` data bytes."""
         raise NotImplementedError
 
     def diagnostics(self, batch: FrameBatch, keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -172,9 +177,9 @@ class IcubCodec(Codec):
     def values(self, batch):
         return batch.data[:, 1:8]
 
-    def present(self, batch, keys):
+    def present_dlc(self, dlc, keys):
         half = np.asarray(keys) & 1
-        n = np.where(half == 0, 7, 5)
+        n = np.minimum(np.where(half == 0, 7, 5), np.asarray(dlc, np.int64) - 1)
         return np.arange(7)[None, :] < n[:, None]
 
     def diagnostics(self, batch, keys):
@@ -307,8 +312,8 @@ class Cyskin16Codec(Codec):
         # the payload matrix read as little-endian uint16: np.frombuffer-style view, no copy
         return batch.data.view("<u2")
 
-    def present(self, batch, keys):
-        return np.arange(4)[None, :] * 2 + 2 <= batch.dlc.astype(np.int64)[:, None]
+    def present_dlc(self, dlc, keys):
+        return np.arange(4)[None, :] * 2 + 2 <= np.asarray(dlc, np.int64)[:, None]
 
     def streams_for(self, taxel_ids):
         t = np.asarray(taxel_ids, np.int64)

@@ -113,8 +113,11 @@ class StreamDecoder:
         self._kunit = np.zeros(0, np.int64)
         self._row0 = 0
         self._maxrow = -1
-        self._pv = np.zeros((0, len(self.taxel_ids)), codec.wire_dtype)
-        self._pm = np.zeros((0, len(self.taxel_ids)), bool)
+        # pending grids have one extra, last column that collects channels without a column
+        # (not in the layout, absent from a short frame): scatters then need no compress step
+        self._pv = np.zeros((0, len(self.taxel_ids) + 1), codec.wire_dtype)
+        self._pm = np.zeros((0, len(self.taxel_ids) + 1), bool)
+        self._lut_lo, self._lut = 0, np.zeros(0, np.int64)
         self._pt = np.zeros(0)
         self._pfill = np.zeros((0, 0), bool)
         self._perr: list[np.ndarray] = []         # pending (row, unit, code) arrays
@@ -145,8 +148,11 @@ class StreamDecoder:
                 self.taxel_ids = np.concatenate([self.taxel_ids, ids])
                 self._index_columns()
                 pad = len(ids)
-                self._pv = np.concatenate([self._pv, np.zeros((len(self._pv), pad), self._pv.dtype)], axis=1)
-                self._pm = np.concatenate([self._pm, np.zeros((len(self._pm), pad), bool)], axis=1)
+                self._pv = np.concatenate([self._pv[:, :-1], np.zeros((len(self._pv), pad + 1), self._pv.dtype)],
+                                          axis=1)
+                self._pm = np.concatenate([self._pm[:, :-1], np.zeros((len(self._pm), pad + 1), bool)], axis=1)
+                # columns of known streams are unchanged (ids are appended), the trash column moved
+                self._kcols = self._columns_of(self._kch)
         cols = self._columns_of(ch)
         keys = np.concatenate([self._keys, new])
         o = np.argsort(keys, kind="stable")
@@ -159,6 +165,23 @@ class StreamDecoder:
         fill = np.zeros((len(self._pfill), len(keys)), bool)
         fill[:, : self._pfill.shape[1]] = self._pfill
         self._pfill = fill[:, o]
+        lo, hi = int(self._keys[0]), int(self._keys[-1])
+        if hi - lo < (1 << 22):   # dense lookup table: key -> stream index without a search
+            self._lut_lo, self._lut = lo, np.full(hi - lo + 1, -1, np.int64)
+            self._lut[self._keys - lo] = np.arange(len(self._keys))
+        else:
+            self._lut = None
+
+    def _index_of(self, k: np.ndarray) -> np.ndarray:
+        """Stream index of each key, -1 for keys not seen yet."""
+        if len(self._keys) == 0:
+            return np.full(len(k), -1, np.int64)
+        if self._lut is not None:
+            rel = k - self._lut_lo
+            inside = (rel >= 0) & (rel < len(self._lut))
+            return np.where(inside, self._lut[np.where(inside, rel, 0)], -1)
+        pos = np.clip(np.searchsorted(self._keys, k), 0, len(self._keys) - 1)
+        return np.where(self._keys[pos] == k, pos, -1)
 
     # -- feeding ---------------------------------------------------------
     #: frames the period is estimated from (the first ones of the log, whatever the chunking)
@@ -200,13 +223,15 @@ class StreamDecoder:
         t = batch.timestamps[acc]
         k = keys[acc]
         s.period_s = self.period
-        new = np.setdiff1d(np.unique(k), self._keys)
-        if len(new):
-            self._add_keys(new)
-        ki = np.searchsorted(self._keys, k)
+        ki = self._index_of(k)
+        unknown = ki < 0
+        if unknown.any():
+            self._add_keys(_unique(k[unknown]))
+            ki = self._index_of(k)
 
         # --- out of order: earlier than the running max of its stream (segmented cummax) ---
-        o = np.argsort(ki, kind="stable")          # by stream, file order within
+        # by stream, file order within (16-bit keys get numpy's O(n) radix sort)
+        o = np.argsort(ki.astype(np.uint16) if len(self._keys) < 65536 else ki, kind="stable")
         ts, ks = t[o], ki[o]
         start = np.r_[True, ks[1:] != ks[:-1]]
         seg = np.cumsum(start) - 1
@@ -221,12 +246,12 @@ class StreamDecoder:
         ooo = (a + off) < prev
         if ooo.any():
             s.reject("out_of_order", int(ooo.sum()), batch.lines[acc[o[ooo]]])
-        keep = ~ooo
-        o, ts, ks = o[keep], ts[keep], ks[keep]
-        if len(o) == 0:
-            return None
-        start = np.r_[True, ks[1:] != ks[:-1]]
-        seg = np.cumsum(start) - 1
+            keep = ~ooo
+            o, ts, ks = o[keep], ts[keep], ks[keep]
+            if len(o) == 0:
+                return None
+            start = np.r_[True, ks[1:] != ks[:-1]]
+            seg = np.cumsum(start) - 1
         first = np.flatnonzero(start)
 
         # --- rows: chained per stream ---
@@ -275,60 +300,68 @@ class StreamDecoder:
         self._klast_t[ks[last]] = ts[last]
         self._klast_row[ks[last]] = rows[last]
 
-        # back to file order for lateness and duplicates
-        fo = np.argsort(o, kind="stable")
-        src = acc[o[fo]]                 # batch index of each frame, file order
-        rows, ks, ts = rows[fo], ks[fo], ts[fo]
-        runmax = np.maximum.accumulate(np.r_[self._maxrow, rows])[:-1]
-        late = (rows < runmax - self.window + 1) | (rows < self._row0)
+        # lateness needs the file order: running max of rows over the frames read before
+        rows_f = np.full(len(acc), np.iinfo(np.int64).min // 2, np.int64)
+        rows_f[o] = rows
+        runmax = np.maximum.accumulate(np.r_[self._maxrow, rows_f])[:-1]
+        late_f = (rows_f < runmax - self.window + 1) | (rows_f < self._row0)
+        late = late_f[o]
+        self._maxrow = max(self._maxrow, int(rows.max()))
         if late.any():
-            s.reject("late", int(late.sum()), batch.lines[src[late]])
-        ok = ~late
-        src, rows, ks, ts = src[ok], rows[ok], ks[ok], ts[ok]
-        self._maxrow = max(self._maxrow, int(rows.max()) if len(rows) else self._maxrow)
-        if not len(rows):
-            return self._emit(final=False)
+            s.reject("late", int(late.sum()), batch.lines[acc[o[late]]])
+            ok = ~late
+            o, rows, ks, ts = o[ok], rows[ok], ks[ok], ts[ok]
+            if not len(rows):
+                return self._emit(final=False)
 
         # grow the pending grid to the newest row
         need = self._maxrow - self._row0 + 1
         have = len(self._pt)
         if need > have:
-            n = len(self.taxel_ids)
+            n = len(self.taxel_ids) + 1
             self._pv = np.concatenate([self._pv, np.zeros((need - have, n), self._pv.dtype)])
             self._pm = np.concatenate([self._pm, np.zeros((need - have, n), bool)])
             self._pt = np.concatenate([self._pt, np.full(need - have, np.inf)])
             self._pfill = np.concatenate([self._pfill, np.zeros((need - have, len(self._keys)), bool)])
         r = rows - self._row0
 
-        # duplicates: first in file order wins, also against earlier chunks
-        lin = r * len(self._keys) + ks
-        _, first_idx = np.unique(lin, return_index=True)
-        dup = np.ones(len(lin), bool)
-        dup[first_idx] = False
+        # duplicates: rows never decrease within a stream here (out-of-order frames are gone),
+        # so a duplicate is the same row as the previous frame of its stream; the first read wins
+        dup = np.r_[False, (ks[1:] == ks[:-1]) & (r[1:] == r[:-1])]
         dup |= self._pfill[r, ks]
         if dup.any():
-            s.reject("duplicate", int(dup.sum()), batch.lines[src[dup]])
-        ok = ~dup
-        src, r, ks, ts = src[ok], r[ok], ks[ok], ts[ok]
+            s.reject("duplicate", int(dup.sum()), batch.lines[acc[o[dup]]])
+            ok = ~dup
+            o, r, ks, ts = o[ok], r[ok], ks[ok], ts[ok]
         self._pfill[r, ks] = True
+        src = acc[o]
         s.frames_used += len(src)
 
         # scatter the channels into the grid
-        vals = self.codec.values(batch.take(src))
-        pres = self.codec.present(batch.take(src), self._keys[ks])
-        cols = self._kcols[ks]
-        ch = self._kch[ks]
-        miss = pres & (ch >= 0) & (cols < 0)
-        if miss.any():
-            s.unmapped_samples += int(miss.sum())
-            s.unmapped_taxel_ids.update(int(x) for x in np.unique(ch[miss]))
-        put = pres & (cols >= 0)
-        rr = np.broadcast_to(r[:, None], put.shape)[put]
-        cc = cols[put]
-        self._pv[rr, cc] = vals[put]
-        self._pm[rr, cc] = True
+        vals = self.codec.values(batch)[src]
+        # channel presence and columns depend only on (stream, DLC): work them out once per
+        # combination seen (a handful), then gather one (M, C) column table for the frames
+        n = len(self.taxel_ids)
+        dl = batch.dlc[src].astype(np.int64)
+        combo = ks * 9 + dl
+        counts = np.bincount(combo, minlength=len(self._keys) * 9)
+        nz = np.flatnonzero(counts)
+        kc, dc = nz // 9, nz % 9
+        pres_c = self.codec.present_dlc(dc, self._keys[kc])                    # (combos, C)
+        cols_c = np.where(pres_c & (self._kcols[kc] >= 0), self._kcols[kc], n)
+        miss_c = pres_c & (self._kch[kc] >= 0) & (self._kcols[kc] < 0)
+        if miss_c.any():
+            s.unmapped_samples += int((miss_c.sum(axis=1) * counts[nz]).sum())
+            s.unmapped_taxel_ids.update(int(x) for x in np.unique(self._kch[kc][miss_c]))
+        lut = np.zeros(len(counts), np.int64)
+        lut[nz] = np.arange(len(nz))
+        cols = cols_c[lut[combo]]
+        lin = (r * (n + 1))[:, None] + cols  # one flat index: cheaper than 2-D fancy indexing
+        self._pv.reshape(-1)[lin] = vals
+        self._pm.reshape(-1)[lin] = True
         np.minimum.at(self._pt, r, ts)
-        err, _oor = self.codec.diagnostics(batch.take(src), self._keys[ks])
+        err, _oor = self.codec.diagnostics(batch, keys)
+        err = err[src]
         bad = err > 0
         if bad.any():
             codes, counts = np.unique(err[bad], return_counts=True)
@@ -350,17 +383,20 @@ class StreamDecoder:
         upto = len(self._pt) if final else max(0, self._maxrow - self.window + 1 - self._row0)
         if upto <= 0:
             return None
-        v, msk, tt = self._pv[:upto], self._pm[:upto].copy(), self._pt[:upto].copy()
+        n = len(self.taxel_ids)
+        v, msk, tt = self._pv[:upto, :n], self._pm[:upto, :n], self._pt[:upto].copy()
         errs = np.concatenate(self._perr) if self._perr else np.zeros((0, 3), np.int64)
         here = errs[:, 0] < self._row0 + upto
         now, self._perr = errs[here], ([errs[~here]] if (~here).any() else [])
+        now = now[np.lexsort((now[:, 1], now[:, 0]))]
         if len(now):
             # mask every sample of an erroring unit (triangle) in that row
             hit = (now[:, 1][:, None] == self._kunit[None, :])          # (E, K)
             e_i, k_i = np.nonzero(hit)
             cols = self._kcols[k_i]                                       # (pairs, C)
             rws = np.broadcast_to((now[e_i, 0] - self._row0)[:, None], cols.shape)
-            good = cols >= 0
+            good = (cols >= 0) & (cols < n)
+            msk = msk.copy()
             msk[rws[good], cols[good]] = False
         # rows without any frame: previous row's time + period
         empty = ~np.isfinite(tt)
@@ -376,14 +412,25 @@ class StreamDecoder:
             base_t = np.where(lastgood >= 0, tt[np.maximum(lastgood, 0)], ref_t)
             base_r = np.where(lastgood >= 0, lastgood + self._row0, ref_row)
             tt = np.where(empty, base_t + (idx + self._row0 - base_r) * self.period, tt)
-        block = Block(tt, v.copy(), msk, self.taxel_ids.copy(), self._row0, now)
+        block = Block(tt, v, msk, self.taxel_ids.copy(), self._row0, now)
         self.summary.rows += upto
-        self.summary.masked_samples += int((~msk).sum())
+        self.summary.masked_samples += int(msk.size - np.count_nonzero(msk))
         self._last_emit = (self._row0 + upto - 1, float(tt[-1]))
-        self._pv, self._pm, self._pt = self._pv[upto:], self._pm[upto:], self._pt[upto:]
-        self._pfill = self._pfill[upto:]
+        # the emitted rows are handed out as views: keep copies of the open rows only
+        self._pv, self._pm, self._pt = self._pv[upto:].copy(), self._pm[upto:].copy(), self._pt[upto:].copy()
+        self._pfill = self._pfill[upto:].copy()
         self._row0 += upto
         return block
+
+
+def _unique(k: np.ndarray) -> np.ndarray:
+    """Sorted unique values of an int array; a bincount when the range is small (no sort)."""
+    if len(k) == 0:
+        return k
+    lo, hi = int(k.min()), int(k.max())
+    if hi - lo < 4 * len(k) + 65536:
+        return np.flatnonzero(np.bincount(k - lo, minlength=hi - lo + 1)) + lo
+    return np.unique(k)
 
 
 def _join_blocks(a: Block | None, b: Block | None) -> Block | None:
@@ -413,7 +460,7 @@ def iter_decode(batches, codec: Codec, taxel_ids=None, period=None, window: int 
 
 def collect(blocks, codec: Codec, summary: Summary, taxel_ids=None) -> DecodeResult:
     """Concatenate blocks into one :class:`DecodeResult` (columns sorted by taxel id when dynamic)."""
-    blocks = list(blocks)
+    blocks = [b for b in blocks if b is not None]
     if taxel_ids is None:
         ids = np.unique(np.concatenate([b.taxel_ids for b in blocks])) if blocks else np.zeros(0, np.int64)
     else:
@@ -428,12 +475,17 @@ def collect(blocks, codec: Codec, summary: Summary, taxel_ids=None) -> DecodeRes
     for b in blocks:
         t = len(b.timestamps)
         pos = order[np.searchsorted(ids[order], b.taxel_ids)] if n else np.zeros(0, np.int64)
-        frames[i:i + t][:, pos] = b.frames
-        mask[i:i + t][:, pos] = b.mask
+        if len(pos) == n and np.array_equal(pos, np.arange(n)):
+            frames[i:i + t] = b.frames      # same columns: plain copy
+            mask[i:i + t] = b.mask
+        else:
+            frames[i:i + t][:, pos] = b.frames
+            mask[i:i + t][:, pos] = b.mask
         ts[i:i + t] = b.timestamps
         i += t
     errors = np.concatenate([b.errors for b in blocks]) if blocks else np.zeros((0, 3), np.int64)
-    frames[~mask] = 0
+    if not mask.all():
+        frames[~mask] = 0
     return DecodeResult(ts, frames, mask, ids, errors.reshape(-1, 3), summary, codec.name)
 
 

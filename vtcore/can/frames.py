@@ -132,7 +132,7 @@ class Summary:
             ex = self.examples.setdefault(reason, [])
             room = 5 - len(ex)
             if room > 0:
-                ex.extend(int(x) for x in np.asarray(lines).reshape(-1)[:room])
+                ex.extend(int(x) for x in np.sort(np.asarray(lines).reshape(-1))[:room])
 
     @property
     def rejected_total(self) -> int:
