@@ -52,23 +52,83 @@ MODELS = ("local", "halfspace", "finite_layer")
 _RHO_MAX = 40.0  # layer kernel cut-off, in layer thicknesses
 
 
-def layer_factor(kh, poisson):
-    """C(kh): compliance of a bonded layer relative to the half-space at wavenumber k (dimensionless)."""
+BASES = ("bonded", "frictionless")
+
+
+def layer_factor(kh, poisson, base="bonded"):
+    """C(kh): surface compliance of a layer on a rigid base relative to the half-space (dimensionless).
+
+    bonded: ((3-4nu) sinh 2t - 2t) / ((3-4nu) cosh 2t + 2t^2 + 5 - 12nu + 8nu^2);
+    frictionless (the layer slides on the base): (cosh 2t - 1) / (sinh 2t + 2t),
+    independent of nu beyond E*; thin-layer limit h / E* (a Winkler layer).
+    Both from the plane-strain Airy solution; :func:`layer_transfer` solves it numerically
+    and the tests check the two agree.
+    """
     t = np.asarray(kh, dtype=float)
-    fac = 3.0 - 4.0 * poisson
-    off = 5.0 - 12.0 * poisson + 8.0 * poisson**2
     tt = np.minimum(t, 20.0)  # beyond t = 20, C = 1 to 1e-14; avoids overflow
-    c = (fac * np.sinh(2 * tt) - 2 * tt) / (fac * np.cosh(2 * tt) + 2 * tt**2 + off)
+    if base == "frictionless":
+        with np.errstate(invalid="ignore"):
+            c = np.where(tt > 0, (np.cosh(2 * tt) - 1) / np.where(tt > 0, np.sinh(2 * tt) + 2 * tt, 1.0), 0.0)
+    else:
+        fac = 3.0 - 4.0 * poisson
+        off = 5.0 - 12.0 * poisson + 8.0 * poisson**2
+        c = (fac * np.sinh(2 * tt) - 2 * tt) / (fac * np.cosh(2 * tt) + 2 * tt**2 + off)
     return np.where(t >= 20.0, 1.0, c)
 
 
+def layer_transfer(kh, poisson, base="bonded"):
+    """Solve the layer's plane-strain Airy problem for a surface load p cos(kx).
+
+    Stress function phi = cos(kx) f(z), f = (A + B z) cosh kz + (C + D z) sinh kz,
+    z from the base (0) to the top (h); top: sigma_zz = -p, sigma_xz = 0; base:
+    u_x = u_z = 0 (bonded) or sigma_xz = u_z = 0 (frictionless).
+    Returns (C (K,), T (K,)): the surface compliance relative to the half-space
+    (= :func:`layer_factor`) and the base stress over the surface pressure (the
+    transfer function of the stress reaching taxels at the base).
+    """
+    t = np.atleast_1d(np.asarray(kh, dtype=float))
+    t = np.clip(t, 1e-6, 30.0)
+    nu = poisson
+
+    def basis(z):
+        c, s = np.cosh(z), np.sinh(z)
+        return (np.stack([c, z * c, s, z * s], -1), np.stack([s, c + z * s, c, s + z * c], -1),
+                np.stack([c, 2 * s + z * c, s, 2 * c + z * s], -1), np.stack([s, 3 * c + z * s, c, 3 * s + z * c], -1))
+
+    g, g1, g2, g3 = basis(t)
+    G, G1, G2, G3 = (np.broadcast_to(a, g.shape) for a in basis(np.zeros_like(t)))
+    if base == "frictionless":
+        r3, r4 = G1, G3
+    else:
+        r3, r4 = (1 - nu) * G2 + nu * G, (1 - nu) * (2 * G1 - G3) + nu * G1
+    m = np.stack([g, g1, r3, r4], axis=1)
+    rhs = np.zeros((len(t), 4))
+    rhs[:, 0] = 1.0
+    coef = np.linalg.solve(m, rhs[..., None])[..., 0]
+    c = np.abs(np.einsum("ij,ij->i", g3, coef)) / 2
+    tr = np.abs(np.einsum("ij,ij->i", G, coef))
+    return c, tr
+
+
+def base_transfer(kh, poisson, base="bonded"):
+    """T(kh): stress at the layer's base over the surface pressure, for wavenumber k (dimensionless)."""
+    t = np.asarray(kh, dtype=float)
+    flat = t.reshape(-1)
+    out = np.zeros_like(flat)
+    ok = flat < 30.0  # T ~ t exp(-t): nothing left beyond
+    if ok.any():
+        out[ok] = layer_transfer(flat[ok], poisson, base)[1]
+    out[flat < 1e-6] = 1.0
+    return out.reshape(t.shape)
+
+
 @lru_cache(maxsize=16)
-def _layer_table(poisson: float):
+def _layer_table(poisson: float, base: str = "bonded"):
     """rho (R,), F(rho) (R,) = int_0^20 (C(t) - 1) J0(t rho) dt, trapezoid on a fine t grid."""
     from scipy.special import j0
 
     t = np.linspace(0.0, 20.0, 4001)
-    g = layer_factor(t, poisson) - 1.0
+    g = layer_factor(t, poisson, base) - 1.0
     w = np.full_like(t, t[1] - t[0])
     w[[0, -1]] *= 0.5
     gw = g * w
@@ -129,7 +189,7 @@ def influence_kernel(shape, dx, dy, layer, model="finite_layer"):
     if model == "halfspace":
         return k
     h = layer.thickness
-    rho_t, f_t = _layer_table(round(float(layer.poisson), 6))
+    rho_t, f_t = _layer_table(round(float(layer.poisson), 6), getattr(layer, "base", "bonded"))
     reach = _RHO_MAX * h
     near = np.hypot(np.abs(X) - dx / 2, np.abs(Y) - dy / 2) < reach  # conservative
     near &= (np.abs(X) < reach + dx) & (np.abs(Y) < reach + dy)
@@ -148,11 +208,42 @@ def boussinesq_kernel(r, h):
     return 3.0 * h**3 / (2.0 * np.pi * (np.asarray(r, float) ** 2 + h**2) ** 2.5)
 
 
-def spreading_kernel(shape, dx, dy, h):
-    """Stress at depth h (Pa) at every offset per unit pressure (Pa) on one cell, (2mx, 2my) wrap order."""
+SPREADINGS = ("layer", "boussinesq")
+
+
+@lru_cache(maxsize=16)
+def _base_table(poisson: float, base: str):
+    """rho (R,), G(rho) (R,) = int_0^40 T(t) J0(t rho) t dt: base stress x 2 pi h^2 per unit point load."""
+    from scipy.special import j0
+
+    t = np.linspace(0.0, 40.0, 8001)
+    w = np.full_like(t, t[1] - t[0])
+    w[[0, -1]] *= 0.5
+    gw = base_transfer(t, poisson, base) * t * w
+    rho = np.linspace(0.0, 20.0, 2001)
+    out = np.empty_like(rho)
+    for s in range(0, len(rho), 250):
+        out[s:s + 250] = j0(np.outer(rho[s:s + 250], t)) @ gw
+    return rho, out
+
+
+def spreading_kernel(shape, dx, dy, h, kind="boussinesq", poisson=0.49, base="bonded"):
+    """Stress at depth h (Pa) at every offset per unit pressure (Pa) on one cell, (2mx, 2my) wrap order.
+
+    kind "boussinesq": half-space stress at depth h (the issue's kernel, width 1.13 h);
+    "layer": the exact stress at the base of the layer on its rigid base (bonded or
+    frictionless), from the Airy solution's transfer function T(kh) by a Hankel
+    transform, zero beyond 20 h (it decays exponentially).
+    """
     X, Y = _offsets(shape, dx, dy)
-    near = np.ones_like(X, dtype=bool)
-    k = _cell_average(lambda r: boussinesq_kernel(r, h), X, Y, dx, dy, h, near) * dx * dy
+    if kind == "boussinesq":
+        near = np.ones_like(X, dtype=bool)
+        fun = lambda r: boussinesq_kernel(r, h)  # noqa: E731
+    else:
+        rho_t, g_t = _base_table(round(float(poisson), 6), base)
+        near = (np.abs(X) < 20 * h + dx) & (np.abs(Y) < 20 * h + dy)
+        fun = lambda r: np.interp(r / h, rho_t, g_t, right=0.0) / (2 * np.pi * h * h)  # noqa: E731
+    k = _cell_average(fun, X, Y, dx, dy, h, near) * dx * dy
     return k
 
 
@@ -170,24 +261,28 @@ class Convolver:
 
 
 @lru_cache(maxsize=32)
-def _cached_convolver(kind, shape, dx, dy, e, nu, h):
+def _cached_convolver(kind, shape, dx, dy, e, nu, h, base):
     from .materials import SoftLayer
 
-    layer = SoftLayer(thickness=h, young_modulus=e, poisson=nu)
-    if kind == "spread":
-        return Convolver(spreading_kernel(shape, dx, dy, h), shape)
+    if kind.startswith("spread:"):
+        return Convolver(spreading_kernel(shape, dx, dy, h, kind.split(":", 1)[1], nu, base), shape)
+    layer = SoftLayer(thickness=h, young_modulus=e, poisson=nu, base=base)
     return Convolver(influence_kernel(shape, dx, dy, layer, kind), shape)
 
 
 def compliance_operator(shape, dx, dy, layer, model):
     """Cached ``u = K p`` for a grid of ``shape`` cells (displacement m from pressure Pa)."""
     return _cached_convolver(model, tuple(int(s) for s in shape), float(dx), float(dy),
-                             float(layer.young_modulus), float(layer.poisson), float(layer.thickness))
+                             float(layer.young_modulus), float(layer.poisson), float(layer.thickness),
+                             getattr(layer, "base", "bonded"))
 
 
-def spreading_operator(shape, dx, dy, h):
+def spreading_operator(shape, dx, dy, h, kind="boussinesq", poisson=0.49, base="bonded"):
     """Cached ``sigma_h = B p`` (stress at depth h from surface pressure, both Pa)."""
-    return _cached_convolver("spread", tuple(int(s) for s in shape), float(dx), float(dy), 1.0, 0.0, float(h))
+    if kind not in SPREADINGS:
+        raise InputError(f"spreading must be one of {', '.join(SPREADINGS)}, got {kind!r}", key="spreading")
+    return _cached_convolver(f"spread:{kind}", tuple(int(s) for s in shape), float(dx), float(dy), 1.0,
+                             round(float(poisson), 6), float(h), base)
 
 
 @dataclass

@@ -68,6 +68,7 @@ class SoftLayer:
     young_modulus: float | None = None
     poisson: float | None = None
     extent: float | None = None
+    base: str = "bonded"
     source: str = field(default="", init=False)
 
     def __post_init__(self):
@@ -85,6 +86,8 @@ class SoftLayer:
         if not 0.0 <= nu < 0.5:
             raise InputError(f"must be in [0, 0.5), got {nu}", key="poisson")
         self.young_modulus, self.poisson = float(e), float(nu)
+        if self.base not in ("bonded", "frictionless"):
+            raise InputError(f"must be 'bonded' or 'frictionless', got {self.base!r}", key="base")
         if self.extent is not None:
             self.extent = float(self.extent)
             if not self.extent > 0:

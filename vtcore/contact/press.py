@@ -205,12 +205,21 @@ def taxel_means(layout, fld: ContactField, values, samples_per_taxel=7, radius=T
     return np.where(facing, out, 0.0)
 
 
-def spread_field(fld: ContactField, thickness: float) -> np.ndarray:
-    """Stress (Pa) at depth ``thickness`` under the surface pressure of ``fld`` (Boussinesq kernel)."""
-    if thickness <= 0:
+def spread_field(fld: ContactField, layer, spreading: str = "layer") -> np.ndarray:
+    """Stress (Pa) at the layer's base under the surface pressure of ``fld``.
+
+    layer : SoftLayer (or a thickness in metres, then Boussinesq is used).
+    spreading : "layer" (exact base stress of the layer on its rigid base) or
+    "boussinesq" (half-space stress at depth h).
+    """
+    if not isinstance(layer, SoftLayer):
+        h, nu, base, spreading = float(layer), 0.49, "bonded", "boussinesq"
+    else:
+        h, nu, base = layer.thickness, layer.poisson, layer.base
+    if h <= 0:
         return fld.pressure.copy()
     dx = fld.spacing or 1.0
-    op = elastic.spreading_operator(fld.pressure.shape, dx, dx, thickness)
+    op = elastic.spreading_operator(fld.pressure.shape, dx, dx, h, spreading, nu, base)
     return op(fld.pressure)
 
 
@@ -240,7 +249,7 @@ def _object_stiffness(compliance, mesh_local, pose, point_world):
 
 def press(layout, mesh, pose, layer: SoftLayer, *, force=None, indentation=None, direction=None,
           model: str = "finite_layer", compliance=None, grid: ContactGrid | None = None,
-          spread: bool = True, samples_per_taxel: int = 7, taxel_radius: float = TAXEL_RADIUS,
+          spread: bool = True, spreading: str = "layer", samples_per_taxel: int = 7, taxel_radius: float = TAXEL_RADIUS,
           backend: str | None = None, open_mesh: str = "error", warm_start: PressResult | None = None,
           tol: float = 1e-7, maxiter: int = 1000) -> PressResult:
     """Press ``mesh`` onto the skin of ``layout`` through ``layer``.
@@ -255,6 +264,8 @@ def press(layout, mesh, pose, layer: SoftLayer, *, force=None, indentation=None,
     compliance : object stiffness in N/m in series with the layer: a number, a
         callable ``(points (M, 3) object frame) -> (M,)`` or per-vertex values (V,).
     grid : ContactGrid. spread : spread the surface pressure to the taxels' depth.
+    spreading : "layer" (exact base stress of the layer on its rigid base, default) or
+        "boussinesq" (half-space stress at depth h, half-maximum width 1.13 h).
     samples_per_taxel : points averaged over each 4 mm taxel disc.
     backend : proximity back-end ("open3d" / "numpy"). warm_start : a previous
         PressResult on the same layout (trajectories).
@@ -262,6 +273,9 @@ def press(layout, mesh, pose, layer: SoftLayer, *, force=None, indentation=None,
     Raises UnreachableTargetError when the force cannot be reached: the object
     misses the skin, or the layer would be compressed through its whole thickness.
     """
+    if spreading not in elastic.SPREADINGS:
+        raise InputError(f"spreading must be one of {', '.join(elastic.SPREADINGS)}, got {spreading!r}",
+                         key="spreading")
     if model not in elastic.MODELS:
         raise InputError(f"model must be one of {', '.join(elastic.MODELS)}, got {model!r}", key="model")
     if force is not None and indentation is not None:
@@ -395,7 +409,7 @@ def press(layout, mesh, pose, layer: SoftLayer, *, force=None, indentation=None,
         indent = max(-gmin, 0.0)
     surf = taxel_means(layout, fld, p, samples_per_taxel, taxel_radius)
     if spread:
-        fld.stress = spread_field(fld, h)
+        fld.stress = spread_field(fld, layer, spreading)
         taxel = taxel_means(layout, fld, fld.stress, samples_per_taxel, taxel_radius)
     else:
         taxel = surf.copy()

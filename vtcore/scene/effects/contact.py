@@ -28,6 +28,7 @@ class SoftLayerSpreading:
 
     def __init__(self, p, ctx):
         self.samples = p["samples_per_taxel"]
+        self.kernel = p["kernel"]
 
     def apply(self, state, ctx):
         if "results" not in state:  # the foundation's per-taxel form
@@ -36,10 +37,10 @@ class SoftLayerSpreading:
             state["pressure"] = spread_through_layer(state["positions"], state["pressure"],
                                                      state["thickness"], state["taxel_area"])
             return state
-        layout, h = state["layout"], state["layer"].thickness
+        layout, layer = state["layout"], state["layer"]
         rows = []
         for r in state["results"]:
-            r.field.stress = spread_field(r.field, h)
+            r.field.stress = spread_field(r.field, layer, self.kernel)
             s = self.samples or state.get("samples_per_taxel", 7)
             rows.append(taxel_means(layout, r.field, r.field.stress, s))
         state["pressure"] = np.asarray(rows).reshape(np.shape(state["pressure"]))
@@ -74,7 +75,9 @@ class ObjectCompliance:
 
 register_effect(EffectSpec("soft_layer", "contact", 10, SoftLayerSpreading, Section({
     "samples_per_taxel": Field("int", default=0, ge=0,
-                               doc="points averaged over each taxel disc (0: the [layer] setting)")}),
+                               doc="points averaged over each taxel disc (0: the [layer] setting)"),
+    "kernel": Field("str", default="layer", choices=("layer", "boussinesq"),
+                    doc="exact base stress of the layer, or the Boussinesq half-space stress at depth h")}),
     doc="Boussinesq spreading of stress through the layer to the taxels"))
 register_effect(EffectSpec("object_compliance", "contact", 20, ObjectCompliance, Section({
     "default_stiffness": Field("float", default=5000.0, gt=0, unit="N/m",

@@ -29,6 +29,8 @@ LAYER = Section({
     "young_modulus": Field("float", default=None, gt=0, unit="Pa", doc="overrides the material's E"),
     "poisson": Field("float", default=None, ge=0, lt=0.5, doc="overrides the material's Poisson ratio"),
     "extent": Field("float", default=None, gt=0, unit="m", doc="radius of the layer (seed 001: 0.04)"),
+    "base": Field("str", default="bonded", choices=("bonded", "frictionless"),
+                  doc="the layer's interface with the end-effector: glued, or a pad that slides"),
     "model": Field("str", default="finite_layer", choices=("finite_layer", "halfspace", "local"),
                    doc="contact model (see docs/contact.md)"),
     "grid_spacing": Field("float", default=1e-3, gt=0, unit="m", doc="contact grid cell size"),
@@ -89,7 +91,7 @@ def build_layer(scene) -> SoftLayer:
     t = scene["layer"] or LAYER.validate({}, _NullCtx())
     try:
         return SoftLayer(thickness=t["thickness"], material=t["material"], young_modulus=t["young_modulus"],
-                         poisson=t["poisson"], extent=t["extent"])
+                         poisson=t["poisson"], extent=t["extent"], base=t["base"])
     except ValueError as exc:
         raise scene.error(f"layer.{getattr(exc, 'key', '') or 'thickness'}", getattr(exc, "reason", str(exc)))
 
