@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import InputError, UnreachableTargetError
 from .cloud import two_cameras, visual_cloud
 from .compliance import ProbeModel, TactilePointCloud
 from .objects import CompliantObject
@@ -52,24 +52,47 @@ def sample_touches(n_points: int, touches: int, rng) -> np.ndarray:
 
 
 def probe_object(obj: CompliantObject, touches: int, probe: ProbeModel | None = None, *, cameras=None,
-                 n_points: int | None = 33676, rng=0, channels=("compliance",), probe_fn=None) -> ProbedObject:
+                 n_points: int | None = 33676, rng=0, channels=("compliance",), probe_fn=None,
+                 cloud=None) -> ProbedObject:
     """Visual cloud + ``touches`` probes of ``obj`` (seed 000, Sects. 2.1 and 3).
 
     probe_fn : optional ``(points (n,3), normals (n,3)) -> (p_mean (n,), v_ss (n,3))``
     replacing the self-contained :class:`ProbeModel` (e.g. the contact simulator).
+    cloud : optional ``(points (K, 3), normals (K, 3))`` visual cloud (e.g. read from a
+    PLY) used instead of the cameras; it must be in the object's frame, metres.
     channels : ``("compliance",)`` or ``("compliance", "friction")``: friction is
     read from the object's field with 5 % noise (a stand-in for a sliding probe).
     """
     rng = np.random.default_rng(rng)
     probe = probe or ProbeModel()
     cams = cameras if cameras is not None else two_cameras(target=_centre(obj))
-    pts, nrm = visual_cloud(obj.mesh, cams, n_points=n_points, rng=rng)
+    if cloud is None:
+        pts, nrm = visual_cloud(obj.mesh, cams, n_points=n_points, rng=rng)
+    else:
+        pts, nrm = (np.asarray(a, dtype=np.float64) for a in cloud)
     idx = sample_touches(len(pts), touches, rng)
     v, n = pts[idx], nrm[idx]
     if probe_fn is None:
         p_mean, v_ss = probe.probe(v, n, obj.stiffness(v), rng=rng)
     else:
         p_mean, v_ss = probe_fn(v, n)
+        # probes that could not reach the target (NaN) are replaced by other seeded samples of the cloud
+        for _ in range(5):
+            bad = ~np.isfinite(p_mean)
+            if not bad.any():
+                break
+            free = np.setdiff1d(np.arange(len(pts)), idx)
+            if len(free) < bad.sum():
+                break
+            idx[bad] = rng.choice(free, int(bad.sum()), replace=False)
+            v, n = pts[idx], nrm[idx]
+            p_mean[bad], v_ss[bad] = probe_fn(v[bad], n[bad])
+        if not np.all(np.isfinite(p_mean)):
+            raise UnreachableTargetError(f"{int((~np.isfinite(p_mean)).sum())} probes never reached the target "
+                                         "response even after resampling their contact points")
+        order = np.argsort(idx)
+        idx, p_mean, v_ss = idx[order], p_mean[order], v_ss[order]
+        v, n = pts[idx], nrm[idx]
     tactile = TactilePointCloud.from_probes(v, v_ss, p_mean, direction=-n)
     for ch in channels[1:]:
         if ch != "friction":

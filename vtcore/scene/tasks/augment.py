@@ -13,9 +13,9 @@ import time
 
 import numpy as np
 
-from ...augment import (ClusterPropagation, GPPropagation, ProbeModel, SmoothPropagation, colour_map,
+from ...augment import (ClusterPropagation, GPPropagation, ProbeModel, SmoothPropagation, colour_map, compliance,
                         load_probes, make_seed000_object, read_point_cloud, two_cameras, write_ply)
-from ...augment.experiment import probe_object, true_field
+from ...augment.experiment import probe_object
 from ...augment.objects import OBJECTS
 from ...augment.plots import augmented_panels
 from ..registry import TaskSpec, register_task
@@ -27,9 +27,18 @@ PARAMS = Section({
     "stiffness_scale": Field("float", default=1.0, gt=0, doc="multiplies the object's stiffness field"),
     "touches": Field("int", default=24, ge=1, doc="probes (paper: 24 on the bottles, 17 on the others)"),
     "target_response": Field("float", default=4000.0, gt=0, doc="p̄* of the probe, counts (paper: 4000)"),
-    "counts_per_newton": Field("float", default=2000.0, gt=0, doc="mean response per newton of probe force"),
+    "probe": Field("str", default="contact", choices=("contact", "series"),
+                   doc="contact: the contact simulator's force control on one CySkin module through [layer], "
+                       "object compliance from [effects.object_compliance]; series: the closed-form "
+                       "spring model (object in series with layer_stiffness), fast, with a dense ground truth"),
+    "counts_per_pa": Field("float", default=2.0, gt=0,
+                           doc="sensor gain of the contact probe when [effects.gain] is not listed"),
+    "readings": Field("int", default=10, ge=1, doc="steady-state readings averaged into p̄ (contact probe)"),
+    "validation_probes": Field("int", default=24, ge=1,
+                               doc="held-out probes that score the propagations (contact probe)"),
+    "counts_per_newton": Field("float", default=2000.0, gt=0, doc="series probe: mean response per newton"),
     "layer_stiffness": Field("float", default=5000.0, gt=0, unit="N/m",
-                             doc="soft layer under the probe, in series with the object"),
+                             doc="series probe: soft layer under the probe, in series with the object"),
     "response_noise": Field("float", default=5.0, ge=0, doc="counts, std of the averaged steady-state p̄"),
     "position_noise": Field("float", default=2e-5, ge=0, unit="m", doc="std of the measured v_ss"),
     "cameras": Field("int", default=2, ge=1, le=2, doc="virtual D415s (the paper merges two)"),
@@ -61,6 +70,23 @@ def _timed(fn, repeat=3):
     return best, out
 
 
+def _contact_prober(scene, ctx, obj):
+    """The contact simulator's probe, wired to the scene's [layer] and listed effects."""
+    from ...augment.probing import ContactProber
+    from ...contact import SoftLayer
+
+    lay = scene.get("layer") or {}
+    layer = SoftLayer(**{k: lay[k] for k in ("thickness", "material", "young_modulus", "poisson") if k in lay})
+    comp = ctx.pipeline.get("object_compliance")          # unlisted: a rigid object, no deflection
+    gain = scene.effects.get("gain")
+    cpp = gain.get("counts_per_pa", scene["task"]["counts_per_pa"]) if gain else scene["task"]["counts_per_pa"]
+    sensor = ctx.pipeline.stage("sensor")
+    return ContactProber(obj, layer, target=scene["task"]["target_response"], counts_per_pa=cpp,
+                         stiffness=comp.stiffness if comp is not None else None,
+                         readout=(lambda f: ctx.pipeline.apply("sensor", f, ctx)) if sensor else None,
+                         readings=scene["task"]["readings"], spread=ctx.pipeline.has("soft_layer"))
+
+
 def run(scene, ctx) -> TaskResult:
     p = scene["task"]
     if p["channels"][:1] != ["compliance"]:
@@ -80,14 +106,25 @@ def run(scene, ctx) -> TaskResult:
             raise scene.error("task.cloud", "the visual point cloud is empty")
         if nrm is None:
             raise scene.error("task.cloud", "the cloud has fewer than 3 points: cannot estimate normals")
+    prober = _contact_prober(scene, ctx, obj) if p["probe"] == "contact" else None
     probed = probe_object(obj, p["touches"], probe, cameras=cams, n_points=p["points"], rng=rng,
-                          channels=tuple(p["channels"]))
-    if p["cloud"]:
-        probed.points, probed.normals = pts, nrm
-        probed.truth = true_field(obj, pts, probe)
+                          channels=tuple(p["channels"]), probe_fn=prober,
+                          cloud=(pts, nrm) if p["cloud"] else None)
     tactile = load_probes(p["probes"]) if p["probes"] else probed.tactile
     x, v, c = probed.points, tactile.points, tactile.values
-    truth = probed.truth
+    if prober is None:
+        # the series model's noise-free Eq. 1 is known at every visual point: a dense ground truth
+        truth_points, truth, truth_kind = x, probed.truth, "dense ground truth"
+    else:
+        # no closed form with the contact solve: score on held-out probes at other cloud points
+        free = np.setdiff1d(np.arange(len(x)), probed.touch_index)
+        held = np.sort(ctx.child_rng("validation").choice(free, min(p["validation_probes"], len(free)),
+                                                          replace=False))
+        pm, vss = prober(x[held], probed.normals[held])
+        ok = np.isfinite(pm)                     # unreachable held-out probes score nothing
+        held, pm, vss = held[ok], pm[ok], vss[ok]
+        truth_points, truth_kind = x[held], f"{len(held)} held-out probes"
+        truth = compliance(pm, vss, x[held], direction=-probed.normals[held])
     k = p["k_nearest"] or None
 
     methods = {"cluster": ClusterPropagation(), "smooth": SmoothPropagation(beta=p["beta"], k_nearest=k)}
@@ -101,7 +138,8 @@ def run(scene, ctx) -> TaskResult:
             t_fit, _ = _timed(lambda: est.fit(v, c))
         t_pred, y = _timed(lambda: est.predict(x), repeat=1 if name == "gp" else 3)
         preds[name] = y
-        comp = y if y.ndim == 1 else y[:, 0]
+        yt = y if truth_points is x else est.predict(truth_points)
+        comp = yt if yt.ndim == 1 else yt[:, 0]
         metrics[f"{name}_ms"] = (t_fit + t_pred) * 1e3
         metrics[f"{name}_mae"] = float(np.mean(np.abs(comp - truth)))
         metrics[f"{name}_error_rel_pct"] = 100.0 * metrics[f"{name}_mae"] / float(np.mean(truth))
@@ -112,6 +150,8 @@ def run(scene, ctx) -> TaskResult:
         "c_min": float(np.min(c0)),
         "c_max": float(np.max(c0)),
         "c_true_mean": float(np.mean(truth)),
+        "probe_force_mean_n": float(np.mean([r.force for r in prober.results])) if prober else float("nan"),
+        "probes_unreachable": len(prober.failures) if prober else 0,
         "touches": len(v),
         "points": len(x),
         "displacement_mean_mm": float(np.mean(tactile.displacement)) * 1e3
@@ -135,12 +175,13 @@ def run(scene, ctx) -> TaskResult:
     if "gp" in preds:
         panels["GP"] = preds["gp"]
     panels = {k2: (y if y.ndim == 1 else y[:, 0]) for k2, y in panels.items()}
-    panels["ground truth"] = truth
+    if truth_points is x:
+        panels["ground truth"] = truth
     fig = augmented_panels(x, panels, v, c_min=p["c_min"], c_max=p["c_max"], cmap=p["cmap"],
                            title=f"{p['object']}: {len(v)} touches (red), dark = stiff")
     arrays = {"cloud_points": x, "cloud_normals": probed.normals, "contact_points": v, "contact_values": c,
-              "c_true": truth, **{f"c_{n}": y for n, y in preds.items()}}
-    table = ["## Propagation vs ground truth", "",
+              "truth_points": truth_points, "c_true": truth, **{f"c_{n}": y for n, y in preds.items()}}
+    table = [f"## Propagation vs {truth_kind}", "",
              "| method | time (ms) | mean abs error (counts/m) | relative error (%) |", "|---|---|---|---|"]
     for name in preds:
         table.append(f"| {name} | {metrics[name + '_ms']:.2f} | {metrics[name + '_mae']:.4g} | "
