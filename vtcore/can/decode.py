@@ -141,18 +141,6 @@ class StreamDecoder:
 
     def _add_keys(self, new: np.ndarray):
         ch = self.codec.channel_ids(new)
-        if self.dynamic:
-            ids = np.unique(ch[ch >= 0])
-            ids = np.setdiff1d(ids, self.taxel_ids)
-            if len(ids):
-                self.taxel_ids = np.concatenate([self.taxel_ids, ids])
-                self._index_columns()
-                pad = len(ids)
-                self._pv = np.concatenate([self._pv[:, :-1], np.zeros((len(self._pv), pad + 1), self._pv.dtype)],
-                                          axis=1)
-                self._pm = np.concatenate([self._pm[:, :-1], np.zeros((len(self._pm), pad + 1), bool)], axis=1)
-                # columns of known streams are unchanged (ids are appended), the trash column moved
-                self._kcols = self._columns_of(self._kch)
         cols = self._columns_of(ch)
         keys = np.concatenate([self._keys, new])
         o = np.argsort(keys, kind="stable")
@@ -171,6 +159,19 @@ class StreamDecoder:
             self._lut[self._keys - lo] = np.arange(len(self._keys))
         else:
             self._lut = None
+
+    def _add_columns(self, ids: np.ndarray):
+        """Dynamic columns: append taxel ids first seen in a frame (present channels only)."""
+        ids = np.setdiff1d(ids, self.taxel_ids)
+        if not len(ids):
+            return
+        self.taxel_ids = np.concatenate([self.taxel_ids, ids])
+        self._index_columns()
+        pad = len(ids)
+        # keep the trash column last
+        self._pv = np.concatenate([self._pv[:, :-1], np.zeros((len(self._pv), pad + 1), self._pv.dtype)], axis=1)
+        self._pm = np.concatenate([self._pm[:, :-1], np.zeros((len(self._pm), pad + 1), bool)], axis=1)
+        self._kcols = self._columns_of(self._kch)
 
     def _index_of(self, k: np.ndarray) -> np.ndarray:
         """Stream index of each key, -1 for keys not seen yet."""
@@ -348,6 +349,11 @@ class StreamDecoder:
         nz = np.flatnonzero(counts)
         kc, dc = nz // 9, nz % 9
         pres_c = self.codec.present_dlc(dc, self._keys[kc])                    # (combos, C)
+        if self.dynamic:
+            new_ids = self._kch[kc][pres_c & (self._kch[kc] >= 0) & (self._kcols[kc] < 0)]
+            if len(new_ids):
+                self._add_columns(np.unique(new_ids))
+                n = len(self.taxel_ids)
         cols_c = np.where(pres_c & (self._kcols[kc] >= 0), self._kcols[kc], n)
         miss_c = pres_c & (self._kch[kc] >= 0) & (self._kcols[kc] < 0)
         if miss_c.any():
