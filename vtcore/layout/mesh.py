@@ -201,6 +201,20 @@ def peel(tri: np.ndarray, pts: np.ndarray, spacing: np.ndarray, max_edge: float 
     return tri[keep], n0 - int(keep.sum())
 
 
+def _nn_spacing_oriented(pts: np.ndarray, nrm: np.ndarray, cos_limit: float = 0.5) -> np.ndarray:
+    """Nearest-neighbour distance among taxels whose normals agree (not across a thin part)."""
+    n = len(pts)
+    if n < 2:
+        return np.ones(n)
+    k = int(min(12, n))
+    d, idx = cKDTree(pts).query(pts, k)
+    ok = (np.einsum("nkj,nj->nk", nrm[idx], nrm) > cos_limit) & (d > 0)
+    d = np.where(ok, d, np.inf).min(axis=1)
+    fin = np.isfinite(d)
+    fallback = np.median(d[fin]) if fin.any() else 1.0
+    return np.where(fin, d, fallback)
+
+
 def _nn_spacing(pts: np.ndarray) -> np.ndarray:
     if len(pts) < 2:
         return np.ones(len(pts))
@@ -239,7 +253,7 @@ def _tangent_frames(normals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def surface_triangulation(positions: np.ndarray, normals: np.ndarray, spacing: np.ndarray | None = None,
-                          chart_radius: float = 4.0, cos_limit: float = 0.5) -> np.ndarray:
+                          chart_radius: float = 3.0, cos_limit: float = 0.5) -> np.ndarray:
     """Triangles (F, 3) over 3-D ``positions`` (N, 3) that follow the surface.
 
     normals : (N, 3) unit, consistently oriented (outward). spacing : (N,) metres,
@@ -252,21 +266,28 @@ def surface_triangulation(positions: np.ndarray, normals: np.ndarray, spacing: n
     n = len(p)
     if n < 3:
         return np.zeros((0, 3), np.int64)
-    s = _nn_spacing(p) if spacing is None else spacing
+    s = _nn_spacing_oriented(p, nrm, cos_limit) if spacing is None else spacing
     h = float(np.median(s)) * chart_radius
     tree = cKDTree(p)
-    # chart centres: one taxel per occupied voxel of size h (nearest to the voxel mean)
+    # chart centres: one taxel per occupied (voxel, normal direction) cell, the one nearest the
+    # cell's mean; binning the normals (6 cube directions) keeps the two faces of a thin part and the
+    # two sides of a thin tube in different charts even when they share a voxel
     vox = np.floor((p - p.min(axis=0)) / h).astype(np.int64)
-    _, inv = np.unique(vox, axis=0, return_inverse=True)
+    nbin = np.argmax(np.concatenate([nrm, -nrm], axis=1), axis=1)
+    key = np.column_stack([vox, nbin])
+    _, inv = np.unique(key, axis=0, return_inverse=True)
     inv = inv.ravel()
     means = np.zeros((inv.max() + 1, 3))
     np.add.at(means, inv, p)
     means /= np.bincount(inv)[:, None]
-    _, centres = tree.query(means)
-    centres = np.unique(centres)
+    d_to_mean = np.linalg.norm(p - means[inv], axis=1)
+    order = np.lexsort((d_to_mean, inv))
+    first = np.ones(len(order), bool)
+    first[1:] = inv[order][1:] != inv[order][:-1]
+    centres = np.sort(order[first])
     # every taxel's nearest centre (among centres whose normal agrees) decides where its triangles come from
     ctree = cKDTree(p[centres])
-    kk = min(8, len(centres))
+    kk = min(16, len(centres))
     dc, ic = ctree.query(p, kk)
     dc, ic = dc.reshape(n, kk), ic.reshape(n, kk)
     agree = np.einsum("nkj,nj->nk", nrm[centres][ic], nrm) > cos_limit
@@ -375,7 +396,7 @@ def skin_mesh(layout: Layout, *, method: str = "auto", duplicates: str = "merge"
             tri = surface_triangulation(p, nrm)
             if not len(tri):
                 chain = _chain(p)
-        spacing = _nn_spacing(p)
+        spacing = _nn_spacing_oriented(p, nrm)
         tri, peeled = peel(tri, p, spacing, max_edge)
     tri = uniq[tri] if len(tri) else np.zeros((0, 3), np.int64)
     chain = uniq[chain] if len(chain) else chain
