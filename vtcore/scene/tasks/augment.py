@@ -150,8 +150,8 @@ def run(scene, ctx) -> TaskResult:
         "c_min": float(np.min(c0)),
         "c_max": float(np.max(c0)),
         "c_true_mean": float(np.mean(truth)),
-        "probe_force_mean_n": float(np.mean([r.force for r in prober.results])) if prober else float("nan"),
-        "probes_unreachable": len(prober.failures) if prober else 0,
+        **({"probe_force_mean_n": float(np.mean([r.force for r in prober.results])),
+            "probes_unreachable": len(prober.failures)} if prober else {}),
         "touches": len(v),
         "points": len(x),
         "displacement_mean_mm": float(np.mean(tactile.displacement)) * 1e3

@@ -1,0 +1,90 @@
+"""Seed 000 scenes: augmented bottles, path following, reaching in clutter (series probe: fast)."""
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from vtcore.augment import read_ply_vertices
+from vtcore.errors import SceneError
+from vtcore.scene import run_scene
+
+SCENES = Path(__file__).resolve().parents[1] / "scenes"
+
+
+@pytest.fixture(scope="module")
+def bottles(tmp_path_factory):
+    out = {}
+    for name in ("empty_bottle", "full_bottle"):
+        d = tmp_path_factory.mktemp(name)
+        out[name] = (run_scene(SCENES / f"augment_{name}.toml", d), d)
+    return out
+
+
+def test_bottles_report_c_mean_and_empty_is_more_compliant(bottles):
+    empty, full = bottles["empty_bottle"][0]["metrics"], bottles["full_bottle"][0]["metrics"]
+    assert empty["touches"] == full["touches"] == 24
+    assert empty["points"] == 33676
+    assert 0 < empty["c_mean"] < full["c_mean"]
+    for m in (empty, full):
+        assert m["smooth_error_rel_pct"] < 30 and m["cluster_error_rel_pct"] < 30
+
+
+def test_empty_bottle_writes_both_plys_and_the_figure(bottles):
+    res, d = bottles["empty_bottle"]
+    assert {"augmented_cluster.ply", "augmented_smooth.ply"} <= set(res["files"])
+    assert "fig7_augmented.png" in res["figures"] and (d / "fig7_augmented.png").stat().st_size > 10_000
+    arr = np.load(d / "arrays.npz")
+    for name in ("cluster", "smooth"):
+        ply = read_ply_vertices(d / f"augmented_{name}.ply")
+        assert len(ply["x"]) == 33676
+        np.testing.assert_allclose(ply["tactile_color"], arr[f"c_{name}"], rtol=1e-6)
+        assert {"red", "green", "blue", "nx"} <= set(ply)
+    # cluster colours take only the touches' values; smooth ones vary continuously
+    assert len(np.unique(arr["c_cluster"])) <= 24 < len(np.unique(arr["c_smooth"]))
+
+
+def test_rerun_is_byte_identical(bottles, tmp_path):
+    _, d = bottles["empty_bottle"]
+    run_scene(SCENES / "augment_empty_bottle.toml", tmp_path)
+    assert (tmp_path / "arrays.npz").read_bytes() == (d / "arrays.npz").read_bytes()
+    assert (tmp_path / "augmented_smooth.ply").read_bytes() == (d / "augmented_smooth.ply").read_bytes()
+
+
+def test_vector_channels_and_bad_params(tmp_path):
+    res = run_scene(SCENES / "augment_tennis_ball.toml", tmp_path,
+                    overrides=['task.channels=["compliance", "friction"]', "task.points=3000", "output.plots=false"])
+    assert res["arrays"]["c_smooth"] == [3000, 2]
+    assert "friction" in read_ply_vertices(tmp_path / "augmented_smooth.ply")
+    with pytest.raises(SceneError, match="task.beta"):
+        run_scene(SCENES / "augment_tennis_ball.toml", tmp_path, overrides=["task.beta=300.0"])
+    with pytest.raises(SceneError, match="task.object"):
+        run_scene(SCENES / "augment_tennis_ball.toml", tmp_path, overrides=['task.object="teapot"'])
+
+
+def test_path_following_steps_vs_smooth(tmp_path):
+    m = run_scene(SCENES / "path_following_bottle.toml", tmp_path)["metrics"]
+    assert m["cluster_setpoint_steps"] >= 1 and m["smooth_setpoint_steps"] == 0
+    assert m["smooth_setpoint_max_jump"] < 0.1 * m["cluster_setpoint_max_jump"]
+    for k in ("cluster_tracking_error", "smooth_tracking_error"):
+        assert 0 < m[k] < 200
+    assert m["duration_s"] == pytest.approx(0.065 / 0.0015, rel=0.01)
+
+
+def test_reach_clutter(tmp_path):
+    m = run_scene(SCENES / "reach_clutter.toml", tmp_path)["metrics"]
+    assert m["augmented_reached"] and m["straight_reached"]
+    assert m["augmented_pole_contact_max_n"] == 0 < m["straight_pole_contact_max_n"]
+    assert m["pole_colour"] > 5 * m["prism_colour"]
+    assert m["pole_radius_eps_m"] == pytest.approx(0.07)
+
+
+def test_bench_quick(tmp_path):
+    from vtcore.augment import bench
+
+    rows = bench.run(tmp_path, quick=True)
+    assert {"table.md", "table.csv", "accuracy_vs_time.png"} <= {p.name for p in tmp_path.iterdir()}
+    methods = {r["method"] for r in rows}
+    assert {"cluster", "smooth", "smooth truncated", "GP"} <= methods
+    assert all(r["error_rel_pct"] is None or np.isfinite(r["error_rel_pct"]) for r in rows)
