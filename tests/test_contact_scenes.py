@@ -1,0 +1,143 @@
+"""Contact scenes: press task modes, effects only when listed, the 12 seed-001 scenes, the benchmark."""
+
+import json
+import tomllib
+
+import numpy as np
+import pytest
+
+from vtcore.scene import EFFECTS, registry, run_scene
+
+
+def _write(tmp_path, text):
+    p = tmp_path / "s.toml"
+    p.write_text(text)
+    return p
+
+
+BASE = """
+[scene]
+name = "t"
+task = "press"
+seed = 3
+[end_effector]
+shape = "plane"
+[layout]
+patch = "hexagon"
+[layer]
+thickness = 0.003
+extent = 0.04
+grid_spacing = 0.0015
+samples_per_taxel = 3
+[[objects]]
+name = "ball"
+kind = "sphere"
+radius = 0.03
+stiffness = 2000.0
+{extra_obj}
+[task]
+{task}
+[output]
+plots = false
+"""
+
+
+def _spy(monkeypatch):
+    registry.discover()
+    built = []
+    for name, spec in list(EFFECTS.items()):
+        def factory(params, ctx, _n=name, _orig=spec.factory):
+            built.append(_n)
+            return _orig(params, ctx)
+        monkeypatch.setattr(spec, "factory", factory)
+    return built
+
+
+def test_all_contact_and_sensor_effects_run_in_order(tmp_path, monkeypatch):
+    built = _spy(monkeypatch)
+    text = BASE.format(extra_obj="", task="force = 10.0\nreadings = 6") + """
+[effects.soft_layer]
+[effects.object_compliance]
+[effects.gain]
+[effects.baseline]
+offset = 100.0
+spread = 5.0
+[effects.drift]
+rate = 2.0
+[effects.noise]
+sigma = 3.0
+[effects.saturation]
+[effects.quantisation]
+[effects.sampling]
+rate = 10.0
+"""
+    res = run_scene(_write(tmp_path, text), tmp_path / "o")
+    names = [e["name"] for e in res["effects"]]
+    assert names == ["soft_layer", "object_compliance", "gain", "baseline", "drift", "noise", "saturation",
+                     "quantisation", "sampling"]
+    assert set(built) == set(names)
+    m = res["metrics"]
+    assert m["force_n"] == pytest.approx(10.0, rel=1e-6)
+    # series compliance: the object's own deflection is F / k on top of the layer's indentation
+    assert m["displacement_mm"] == pytest.approx(m["indentation_mm"] + 10.0 / 2000.0 * 1e3, rel=1e-6)
+    with np.load(tmp_path / "o" / "arrays.npz") as z:
+        t, n = z["frames"].shape
+        assert t == 3 and n == 60  # 6 readings at 20 Hz sampled at 10 Hz
+        assert z["pressure"].shape == (t, n) and z["timestamps"].shape == (t,)
+        assert np.all(z["frames"] == np.round(z["frames"])) and z["frames"].min() >= 0
+        assert "grid_stress" in z.files
+
+
+def test_unlisted_contact_effects_are_never_built(tmp_path, monkeypatch):
+    built = _spy(monkeypatch)
+    res = run_scene(_write(tmp_path, BASE.format(extra_obj="", task="force = 5.0\nreadings = 2")), tmp_path / "o")
+    assert built == [] and res["effects"] == []
+    assert "displacement_mm" not in res["metrics"]
+    with np.load(tmp_path / "o" / "arrays.npz") as z:
+        np.testing.assert_array_equal(z["frames"], z["pressure"])  # no spreading, no sensor
+        np.testing.assert_array_equal(z["pressure"], z["surface_pressure"])
+        assert "grid_stress" not in z.files
+
+
+def test_keyframed_trajectory_and_target_response(tmp_path):
+    kf = """keyframes = [{t = 0.0, offset = [0.0, 0.0, 0.0]}, {t = 0.2, offset = [0.0, 0.0, -0.0025]},
+             {t = 0.4, offset = [0.004, 0.0, -0.0025]}]"""
+    res = run_scene(_write(tmp_path, BASE.format(extra_obj=kf, task="rate = 20.0")), tmp_path / "o")
+    with np.load(tmp_path / "o" / "arrays.npz") as z:
+        f = z["force"]
+        assert len(f) == 9 and f[0] == 0 and f[4] > 0 and np.all(np.diff(f[:5]) >= 0)
+    assert res["metrics"]["solver_converged"]
+    text = BASE.format(extra_obj="", task="target_response = 300.0\nreadings = 1") + "[effects.gain]\n"
+    res = run_scene(_write(tmp_path, text), tmp_path / "p")
+    assert res["metrics"]["response_mean"] == pytest.approx(300.0, rel=1e-3)
+
+
+def test_scene_errors_name_the_object_key(tmp_path):
+    from vtcore.errors import SceneError
+
+    text = BASE.format(extra_obj='open_mesh = "sometimes"', task="force = 1.0")
+    with pytest.raises(SceneError, match=r"objects\[0\]\.open_mesh"):
+        run_scene(_write(tmp_path, text), tmp_path / "o")
+
+
+@pytest.mark.slow
+def test_seed001_scenes_validate_and_one_runs(tmp_path, scenes_dir):
+    from vtcore.scene import load_scene
+
+    files = sorted(scenes_dir.glob("press_*mm.toml"))
+    assert len(files) == 12
+    for f in files:
+        s = load_scene(f)
+        assert s["task"]["force"] == 10.0 and s["layer"]["extent"] == 0.04
+    res = run_scene(scenes_dir / "press_cube_3mm.toml", tmp_path / "c")
+    assert res["metrics"]["force_n"] == pytest.approx(10.0, rel=1e-6)
+    assert json.loads((tmp_path / "c" / "result.json").read_text())["figures"]
+
+
+def test_bench_quick(tmp_path):
+    from vtcore.contact import bench
+
+    rows = bench.run(tmp_path, quick=True)
+    assert rows and {"model", "grid_mm", "samples", "error", "ms_per_frame"} <= set(rows[0])
+    for name in ("table.md", "table.csv", "accuracy_vs_time.png"):
+        assert (tmp_path / name).exists()

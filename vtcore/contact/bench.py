@@ -1,0 +1,126 @@
+"""Benchmark of the contact simulation: accuracy and time per frame side by side.
+
+``vtcore bench contact --out DIR [--quick]``. A 30 mm sphere (20,480 triangles)
+slides across seed 002's non-planar patch (210 taxels) through 3 mm of
+Ecoflex 00-20 at a fixed pose-driven indentation of 1 mm, one frame per pose,
+each frame warm-started from the previous one. For every model x grid spacing
+x samples per taxel: the relative L2 error of the taxel readings against a
+fine-grid (0.25 mm, 19 samples) finite-layer reference at the same poses, and
+the wall time per frame (proximity + contact solve + spreading + sampling).
+Plus one row of the local model on a 4,000-taxel flat patch.
+"""
+
+from __future__ import annotations
+
+import csv
+import time
+from pathlib import Path
+
+import numpy as np
+
+from .._io import atomic_write
+from .materials import SoftLayer
+from .objects import make_object
+from .press import ContactGrid, press_sequence
+
+
+def _trajectory(layout, mesh, layer, frames):
+    """Poses of the sphere sliding 10 mm along x across the patch's top, 1 mm into the layer."""
+    from .objects import placement_pose
+
+    top = float((layout.positions[:, 2] + layer.thickness * layout.normals[:, 2]).max())
+    c = layout.positions[np.argmax(layout.positions[:, 2])]
+    base = placement_pose(mesh, xy=(c[0], c[1]), top=top, gap=-1e-3)
+    poses = np.repeat(base[None], frames, axis=0)
+    poses[:, 0, 3] += np.linspace(-5e-3, 5e-3, frames)
+    return poses
+
+
+def _time_run(layout, mesh, poses, layer, **kw):
+    press_sequence(layout, mesh, poses[:1], layer, **kw)  # builds and caches kernels, not timed
+    t0 = time.perf_counter()
+    res = press_sequence(layout, mesh, poses, layer, **kw)
+    dt = (time.perf_counter() - t0) / len(poses)
+    return np.array([r.pressure for r in res]), dt
+
+
+def run(out: Path, quick: bool = False) -> list[dict]:
+    """Run the benchmark, write ``table.md``, ``table.csv``, ``accuracy_vs_time.png`` into ``out``."""
+    from ..layout import seed002_curved
+
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    _, layout = seed002_curved()
+    layer = SoftLayer(thickness=3e-3)
+    mesh = make_object("sphere", subdivisions=3 if quick else 5)
+    frames = 3 if quick else 10
+    poses = _trajectory(layout, mesh, layer, frames)
+    ref_grid, ref_samples = (1e-3, 7) if quick else (0.25e-3, 19)
+    ref, ref_dt = _time_run(layout, mesh, poses, layer, model="finite_layer",
+                            grid=ContactGrid(spacing=ref_grid), samples_per_taxel=ref_samples)
+    norm = np.linalg.norm(ref, axis=1)
+    models = ("local", "finite_layer") if quick else ("local", "halfspace", "finite_layer")
+    grids = (2e-3, 1e-3) if quick else (2e-3, 1e-3, 0.5e-3)
+    samples = (1, 7) if quick else (1, 7, 19)
+    rows = []
+    for model in models:
+        for g in grids:
+            for s in samples:
+                p, dt = _time_run(layout, mesh, poses, layer, model=model, grid=ContactGrid(spacing=g),
+                                  samples_per_taxel=s)
+                err = float(np.mean(np.linalg.norm(p - ref, axis=1) / np.maximum(norm, 1e-12)))
+                rows.append({"model": model, "taxels": len(layout), "triangles": len(mesh.faces),
+                             "grid_mm": g * 1e3, "samples": s, "error": err, "ms_per_frame": dt * 1e3,
+                             "frames_per_s": 1.0 / dt})
+    rows.append({"model": "finite_layer (reference)", "taxels": len(layout), "triangles": len(mesh.faces),
+                 "grid_mm": ref_grid * 1e3, "samples": ref_samples, "error": 0.0, "ms_per_frame": ref_dt * 1e3,
+                 "frames_per_s": 1.0 / ref_dt})
+    if not quick:  # the local model on a large skin: 4,096 taxels on a flat 64 x 64 lattice
+        from ..layout import Layout
+
+        i, j = np.meshgrid(np.arange(64), np.arange(64), indexing="ij")
+        pos = np.column_stack([(i.ravel() - 31.5) * 4e-3, (j.ravel() - 31.5) * 4e-3, np.zeros(i.size)])
+        big = Layout(pos, np.tile([0, 0, 1.0], (len(pos), 1)), np.arange(len(pos)), np.zeros(len(pos), int))
+        bp = _trajectory(big, mesh, layer, frames)
+        _, dt = _time_run(big, mesh, bp, layer, model="local", grid=ContactGrid(spacing=2e-3), samples_per_taxel=1)
+        rows.append({"model": "local", "taxels": len(big), "triangles": len(mesh.faces), "grid_mm": 2.0,
+                     "samples": 1, "error": float("nan"), "ms_per_frame": dt * 1e3, "frames_per_s": 1.0 / dt})
+
+    keys = list(rows[0])
+    with atomic_write(out / "table.csv", "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=keys)
+        w.writeheader()
+        w.writerows(rows)
+    lines = ["| " + " | ".join(keys) + " |", "|" + "---|" * len(keys)]
+    for r in rows:
+        lines.append("| " + " | ".join(f"{v:.4g}" if isinstance(v, float) else str(v) for v in r.values()) + " |")
+    with atomic_write(out / "table.md", "w") as fh:
+        fh.write(f"# Contact benchmark ({'quick' if quick else 'full'})\n\nSphere r 30 mm sliding over "
+                 f"{len(layout)} taxels through 3 mm Ecoflex 00-20, {frames} warm-started frames; error = mean "
+                 f"relative L2 error of the taxel readings vs finite layer at {ref_grid * 1e3:g} mm, "
+                 f"{ref_samples} samples.\n\n" + "\n".join(lines) + "\n")
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6.4, 4.2))
+    for k, model in enumerate(models):
+        sel = [r for r in rows if r["model"] == model and r["taxels"] == len(layout)]
+        ax.scatter([r["ms_per_frame"] for r in sel], [max(r["error"], 1e-6) for r in sel], label=model,
+                   color=f"C{k}")
+        for r in sel:
+            ax.annotate(f"{r['grid_mm']:g}/{r['samples']}", (r["ms_per_frame"], max(r["error"], 1e-6)),
+                        fontsize=6)
+    ax.axvline(50, color="0.6", ls="--", lw=0.8)
+    ax.text(50, ax.get_ylim()[1] if ax.get_ylim()[1] > 0 else 1, " 20 Hz", fontsize=7, va="top")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("time per frame (ms)")
+    ax.set_ylabel("relative error vs fine finite layer")
+    ax.set_title("contact: accuracy vs time (labels: grid mm / samples per taxel)")
+    ax.legend()
+    with atomic_write(out / "accuracy_vs_time.png", "wb") as fh:
+        fig.savefig(fh, format="png", dpi=120, bbox_inches="tight")
+    plt.close(fig)
+    return rows
