@@ -477,7 +477,8 @@ def read_cyskin(path, units: str | None = None) -> Layout:
         frame = pf.get("name") or frame
         if len(parents) > 1:
             report.warn(f"{len(parents)} parent frames; used the first")
-    mods = np.where(ids > 0, ids >> 4, -1)
+    # UID = module_uid << 4 | sensor; our module ids are 0-based (module_uid - 1), -1 unknown
+    mods = np.where(ids > 0, (ids >> 4) - 1, -1)
     meta = {"info": info, "id_scheme": "cyskin", "parent_frame": parents[0] if parents else None,
             "faces": faces.tolist(), "maps": [{k: m.get(k) for k in ("key", "name", "type", "description")}
                                               for m in maps]}
@@ -622,7 +623,7 @@ def read_csv(path, units: str | None = None) -> Layout:
     _check_repeats(pos, report)
     ids = numeric("taxel_id", True) if "taxel_id" in col else np.arange(n)
     mods = numeric("module_id", True) if "module_id" in col else (
-        np.where(ids > 0, ids >> 4, -1) if "taxel_id" in col else np.zeros(n, np.int64))
+        np.where(ids > 0, (ids >> 4) - 1, -1) if "taxel_id" in col else np.zeros(n, np.int64))
     flat = np.column_stack([numeric("u"), numeric("v")]) * scale if ("u" in col and "v" in col) else None
     roles = np.asarray([toks[col["role"]] or "pressure" for _, toks in rows], dtype=object) \
         if "role" in col else None
