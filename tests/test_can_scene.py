@@ -63,3 +63,12 @@ def test_can_transport_effect_quantises_like_the_wire(codec, step):
     assert np.all(np.mod(out, step) == 0)
     single = eff.apply(counts[0], None)
     np.testing.assert_array_equal(single, out[0])
+
+
+def test_bench_quick_runs(tmp_path):
+    from vtcore.can.bench import run
+
+    rows = run(tmp_path, quick=True)
+    assert {"table.md", "table.csv", "accuracy_vs_time.png"} <= {p.name for p in tmp_path.iterdir()}
+    assert all(r["mismatched_samples"] == 0 for r in rows)
+    assert {r["method"] for r in rows} >= {"vectorised", "reference_cantools"}

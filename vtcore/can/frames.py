@@ -26,6 +26,10 @@ REASONS = (
 )
 
 
+def _EMPTY():
+    return (np.zeros(0), np.zeros(0, np.uint32), np.zeros(0, bool), np.zeros(0, np.uint8), np.zeros((0, 8), np.uint8))
+
+
 @dataclass
 class FrameBatch:
     """M classic CAN frames, column-wise.
@@ -60,8 +64,7 @@ class FrameBatch:
 
     @classmethod
     def empty(cls) -> "FrameBatch":
-        return cls(np.zeros(0), np.zeros(0, np.uint32), np.zeros(0, bool), np.zeros(0, np.uint8),
-                   np.zeros((0, 8), np.uint8))
+        return cls(*_EMPTY())
 
     def take(self, index) -> "FrameBatch":
         """The frames at ``index`` (boolean mask or integer indices)."""
@@ -81,14 +84,27 @@ class FrameBatch:
         """Columns from a sequence of ``can.Message`` (classic frames; FD payloads cut at 8 bytes)."""
         msgs = list(messages)
         m = len(msgs)
-        ts = np.fromiter((x.timestamp for x in msgs), np.float64, m)
-        ids = np.fromiter((x.arbitration_id for x in msgs), np.uint32, m)
-        ext = np.fromiter((x.is_extended_id for x in msgs), bool, m)
-        dlc = np.fromiter((min(len(x.data), 8) for x in msgs), np.uint8, m)
-        # One join and one frombuffer instead of M small array writes.
-        payload = b"".join(bytes(x.data[:8]).ljust(8, b"\0") for x in msgs)
-        data = np.frombuffer(payload, np.uint8).reshape(m, 8) if m else np.zeros((0, 8), np.uint8)
-        return cls(ts, ids, ext, dlc, data.copy(), lines)
+        if m == 0:
+            return cls.empty() if lines is None else cls(*_EMPTY(), lines=np.zeros(0, np.int64))
+        # one pass over the messages; everything after is vectorised
+        head = np.array([(x.timestamp, x.arbitration_id, x.is_extended_id, len(x.data)) for x in msgs],
+                        dtype=np.float64)
+        ts = head[:, 0]
+        ids = head[:, 1].astype(np.uint32)
+        ext = head[:, 2].astype(bool)
+        length = head[:, 3].astype(np.int64)
+        # all payloads joined once, then spread into rows of 8 with index arithmetic
+        payload = np.frombuffer(b"".join(x.data for x in msgs), np.uint8)
+        data = np.zeros((m, 8), np.uint8)
+        if np.all(length == 8):
+            data[:] = payload.reshape(m, 8)
+        else:
+            start = np.cumsum(length) - length
+            row = np.repeat(np.arange(m), length)
+            col = np.arange(len(payload)) - np.repeat(start, length)
+            keep = col < 8
+            data[row[keep], col[keep]] = payload[keep]
+        return cls(ts, ids, ext, np.minimum(length, 8).astype(np.uint8), data, lines)
 
     def to_messages(self, channel=None):
         """Yield ``can.Message`` objects (python-can imported here, lazily)."""
