@@ -1,4 +1,9 @@
-"""Seed 000 scenes: augmented bottles, path following, reaching in clutter (series probe: fast)."""
+"""Seed 000 scenes: augmented bottles, path following, reaching in clutter.
+
+Most tests switch the probe to the closed-form series model (``task.probe="series"``), which
+is fast and gives a dense ground truth; one slow test runs the bottle scenes as written,
+with the contact simulator's probe.
+"""
 
 import json
 from pathlib import Path
@@ -11,6 +16,7 @@ from vtcore.errors import SceneError
 from vtcore.scene import run_scene
 
 SCENES = Path(__file__).resolve().parents[1] / "scenes"
+FAST = ['task.probe="series"']
 
 
 @pytest.fixture(scope="module")
@@ -18,7 +24,7 @@ def bottles(tmp_path_factory):
     out = {}
     for name in ("empty_bottle", "full_bottle"):
         d = tmp_path_factory.mktemp(name)
-        out[name] = (run_scene(SCENES / f"augment_{name}.toml", d), d)
+        out[name] = (run_scene(SCENES / f"augment_{name}.toml", d, overrides=FAST), d)
     return out
 
 
@@ -47,20 +53,34 @@ def test_empty_bottle_writes_both_plys_and_the_figure(bottles):
 
 def test_rerun_is_byte_identical(bottles, tmp_path):
     _, d = bottles["empty_bottle"]
-    run_scene(SCENES / "augment_empty_bottle.toml", tmp_path)
+    run_scene(SCENES / "augment_empty_bottle.toml", tmp_path, overrides=FAST)
     assert (tmp_path / "arrays.npz").read_bytes() == (d / "arrays.npz").read_bytes()
     assert (tmp_path / "augmented_smooth.ply").read_bytes() == (d / "augmented_smooth.ply").read_bytes()
 
 
 def test_vector_channels_and_bad_params(tmp_path):
     res = run_scene(SCENES / "augment_tennis_ball.toml", tmp_path,
-                    overrides=['task.channels=["compliance", "friction"]', "task.points=3000", "output.plots=false"])
+                    overrides=FAST + ['task.channels=["compliance", "friction"]', "task.points=3000",
+                                                 "output.plots=false"])
     assert res["arrays"]["c_smooth"] == [3000, 2]
     assert "friction" in read_ply_vertices(tmp_path / "augmented_smooth.ply")
     with pytest.raises(SceneError, match="task.beta"):
         run_scene(SCENES / "augment_tennis_ball.toml", tmp_path, overrides=["task.beta=300.0"])
     with pytest.raises(SceneError, match="task.object"):
         run_scene(SCENES / "augment_tennis_ball.toml", tmp_path, overrides=['task.object="teapot"'])
+
+
+@pytest.mark.slow
+def test_bottle_scenes_as_written_with_the_contact_probe(tmp_path):
+    """Done-when of issue 6: both bottle scenes report c_mean, the empty one lower (contact simulator probe)."""
+    m = {}
+    for name in ("empty_bottle", "full_bottle"):
+        res = run_scene(SCENES / f"augment_{name}.toml", tmp_path / name)
+        m[name] = res["metrics"]
+        assert [e["name"] for e in res["effects"]][:2] == ["soft_layer", "object_compliance"]
+        assert m[name]["touches"] == 24 and np.isfinite(m[name]["c_mean"])
+    assert m["empty_bottle"]["c_mean"] < m["full_bottle"]["c_mean"]
+    assert (tmp_path / "empty_bottle" / "augmented_smooth.ply").exists()
 
 
 def test_path_following_steps_vs_smooth(tmp_path):

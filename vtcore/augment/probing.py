@@ -63,6 +63,9 @@ class ContactProber:
     readout : callable ``pressure (T, N) Pa -> counts (T, N)`` applied to ``readings``
         copies of the steady-state pressure (the scene's sensor effects), or None
         for the noise-free gain. spread : spread through the layer (``soft_layer``).
+    sensor : callable ``pressure (N,) Pa -> counts (N,)``, the noise-free transfer the
+        force control inverts (the scene's ``gain`` effect), default ``counts_per_pa * p``.
+    press_kw : further keywords for ``vtcore.contact.press`` (grid, backend, ...).
     on_unreachable : "nan" (default) marks a probe whose target cannot be reached
         (a sharp curvature where the flat module bottoms out the layer) with NaN
         and records it in ``failures``; "raise" raises UnreachableTargetError.
@@ -71,13 +74,15 @@ class ContactProber:
     def __init__(self, obj, layer, *, target: float = 4000.0, counts_per_pa: float = 0.5,
                  stiffness: Callable | None = None, readout: Callable | None = None, readings: int = 10,
                  spread: bool = True, model: str = "finite_layer", grid=None, force_max: float = 100.0,
-                 on_unreachable: str = "nan"):
+                 on_unreachable: str = "nan", sensor: Callable | None = None, press_kw: dict | None = None):
         self.obj, self.layer = obj, layer
         self.target, self.counts_per_pa = float(target), float(counts_per_pa)
         self.stiffness, self.readout, self.readings = stiffness, readout, int(readings)
         self.spread, self.model, self.grid, self.force_max = spread, model, grid, force_max
         self.layout = cyskin_module_layout()
         self.on_unreachable = on_unreachable
+        self.sensor = sensor
+        self.press_kw = dict(press_kw or {})
         self.results = []
         self.failures: list[tuple[np.ndarray, str]] = []
 
@@ -88,13 +93,15 @@ class ContactProber:
         nrm = np.atleast_2d(np.asarray(normals, float))
         p_mean = np.empty(len(pts))
         disp = np.empty(len(pts))
-        kw = {} if self.grid is None else {"grid": self.grid}
+        kw = dict(self.press_kw)
+        if self.grid is not None:
+            kw["grid"] = self.grid
         for i in range(len(pts)):          # one contact solve per touch (24 on a bottle)
             pose = probe_pose(pts[i], nrm[i], self.layer.thickness)
             try:
                 r = probe(self.layout, self.obj.mesh, pose, self.layer, target=self.target,
-                          counts_per_pa=self.counts_per_pa, force_max=self.force_max, model=self.model,
-                          spread=self.spread, **kw)
+                          counts_per_pa=self.counts_per_pa, sensor=self.sensor, force_max=self.force_max,
+                          model=self.model, spread=self.spread, **kw)
             except UnreachableTargetError as exc:
                 if self.on_unreachable == "raise":
                     raise UnreachableTargetError(f"probe {i} at {np.round(pts[i], 4).tolist()} m: {exc}") from None

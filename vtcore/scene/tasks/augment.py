@@ -71,20 +71,28 @@ def _timed(fn, repeat=3):
 
 
 def _contact_prober(scene, ctx, obj):
-    """The contact simulator's probe, wired to the scene's [layer] and listed effects."""
-    from ...augment.probing import ContactProber
-    from ...contact import SoftLayer
+    """The contact simulator's probe, wired to the scene's [layer] and its listed effects.
 
-    lay = scene.get("layer") or {}
-    layer = SoftLayer(**{k: lay[k] for k in ("thickness", "material", "young_modulus", "poisson") if k in lay})
+    ``object_compliance`` (if listed) gives the object's stiffness at each contact;
+    ``gain`` (if listed) is the transfer the force control inverts; the whole
+    sensor stage (noise, quantisation, ...) reads the steady state; ``soft_layer``
+    decides whether stress spreads through the layer.
+    """
+    from ...augment.probing import ContactProber
+    from ..sections.contact import build_layer, layer_options
+
     comp = ctx.pipeline.get("object_compliance")          # unlisted: a rigid object, no deflection
-    gain = scene.effects.get("gain")
-    cpp = gain.get("counts_per_pa", scene["task"]["counts_per_pa"]) if gain else scene["task"]["counts_per_pa"]
+    gain = ctx.pipeline.get("gain")
     sensor = ctx.pipeline.stage("sensor")
-    return ContactProber(obj, layer, target=scene["task"]["target_response"], counts_per_pa=cpp,
+    opts = layer_options(scene)
+    model = opts.pop("model", "finite_layer")
+    return ContactProber(obj, build_layer(scene), target=scene["task"]["target_response"],
+                         counts_per_pa=scene["task"]["counts_per_pa"],
+                         sensor=gain.counts if gain is not None else None,
                          stiffness=comp.stiffness if comp is not None else None,
                          readout=(lambda f: ctx.pipeline.apply("sensor", f, ctx)) if sensor else None,
-                         readings=scene["task"]["readings"], spread=ctx.pipeline.has("soft_layer"))
+                         readings=scene["task"]["readings"], spread=ctx.pipeline.has("soft_layer"), model=model,
+                         press_kw=opts)
 
 
 def run(scene, ctx) -> TaskResult:
