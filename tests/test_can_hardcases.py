@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from vtcore.can import (FORMATS, Cyskin16Codec, FrameBatch, IcubCodec, StreamDecoder, Summary, decode_batches,
-                        decode_log, encode, iter_batches, iter_decode, write_log)
+                        decode_log, encode, iter_batches, iter_decode, read_log, write_log)
 
 from test_can_helpers import hexagon_layout
 
@@ -330,3 +330,30 @@ def test_out_of_window_late_frame_counted():
     assert r.summary.rejected["late"] == 26 and r.summary.rejected_total == 26
     assert (~r.mask).sum() == 26 * 3                    # sensors 1..3 of module 1 in rows 0..25
     assert not r.mask[:26, :3].any() and r.mask[26:].all()
+
+
+@pytest.mark.parametrize("fmt", [".asc", ".trc", ".csv"])
+def test_one_percent_garbage_in_every_text_format(tmp_path, fmt):
+    """1% of the frame lines replaced by noise: the rest decodes identically, each line counted."""
+    layout = hexagon_layout()
+    wire = np.random.default_rng(5).integers(0, 65536, (120, 60))
+    path = tmp_path / f"clean{fmt}"
+    write_log(path, encode(1700000000.0 + np.arange(120) * 0.05, wire, layout.taxel_ids, Cyskin16Codec()))
+    lines = _lines(path)
+    clean = decode_log(path, "cyskin16", layout=layout)
+    frame_lines = [k for k, ln in enumerate(lines) if "8000" in ln and not ln.startswith((";", "/"))]
+    assert len(frame_lines) == 120 * 18
+    rng = np.random.default_rng(11)
+    bad = rng.choice(frame_lines, size=len(frame_lines) // 100, replace=False)
+    frames = read_log(path)                           # which frame each line held
+    by_line = dict(zip(frames.lines.tolist(), frames.ids.tolist()))
+    # taxels per frame: S00 carries the temperature + 3 taxels, S04 4, S08 3 (DLC 6)
+    lost = sum(4 if by_line[int(k) + 1] & 0xF == 4 else 3 for k in bad)
+    for k in bad:
+        lines[k] = "X" + "".join(chr(c) for c in rng.integers(33, 126, 40)) + "\n"
+    r = decode_log(_write(tmp_path / f"bad{fmt}", lines), "cyskin16", layout=layout)
+    assert r.summary.rejected_total == r.summary.rejected["unparsable_line"] == len(bad)
+    assert np.all(r.mask <= clean.mask)
+    np.testing.assert_array_equal(r.frames[r.mask], clean.frames[r.mask])
+    assert int((clean.mask & ~r.mask).sum()) == lost
+
