@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from vtcore.can import (FORMATS, Cyskin16Codec, FrameBatch, IcubCodec, StreamDecoder, Summary, decode_batches,
-                        decode_log, encode, iter_batches, iter_decode, read_log, write_log)
+                        decode_log, encode, iter_batches, read_log, write_log)
 
 from test_can_helpers import hexagon_layout
 
@@ -357,3 +357,33 @@ def test_one_percent_garbage_in_every_text_format(tmp_path, fmt):
     np.testing.assert_array_equal(r.frames[r.mask], clean.frames[r.mask])
     assert int((clean.mask & ~r.mask).sum()) == lost
 
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_random_losses_duplicates_and_jitter(seed):
+    """Random frame losses, duplicates and timing jitter: every kept frame lands in its own row."""
+    rng = np.random.default_rng(seed)
+    codec = IcubCodec()
+    t = 80
+    wire = rng.integers(0, 256, (t, 60))
+    b = encode(np.arange(t) * 0.05, wire, ICUB_IDS, codec)
+    b.timestamps += rng.uniform(-0.008, 0.008, len(b))            # bus jitter, well under a period
+    row_of = np.repeat(np.arange(t), 10)
+    lost = rng.random(len(b)) < 0.05
+    lost[:10] = False                                              # keep row 0 complete (time origin)
+    dup = (rng.random(len(b)) < 0.03) & ~lost
+    idx = np.sort(np.r_[np.flatnonzero(~lost), np.flatnonzero(dup)], kind="stable")
+    # streams stay in time order (jitter could swap two frames of one stream only if > period)
+    r = decode_batches(b.take(idx), codec, taxel_ids=ICUB_IDS, window=4)
+    assert r.summary.rejected["duplicate"] == dup.sum() and r.summary.rejected_total == dup.sum()
+    expect = np.ones((t, 60), bool)
+    keys, _ = codec.classify(b)
+    half = keys & 1
+    tri = (keys >> 1) & 0xF
+    for i in np.flatnonzero(lost):                                 # a handful of frames
+        cols = 12 * tri[i] + (np.arange(7) if half[i] == 0 else np.arange(7, 12))
+        expect[row_of[i], cols] = False
+    n_rows = len(r.timestamps)
+    np.testing.assert_array_equal(r.mask, expect[:n_rows])
+    np.testing.assert_array_equal(r.frames[r.mask], wire[:n_rows][r.mask])
+    assert n_rows >= t - 1
