@@ -133,10 +133,12 @@ def _split_nonmanifold(mesh):
     import trimesh
 
     f = np.asarray(mesh.faces)
-    e = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
-    key, inv, cnt = np.unique(e, axis=0, return_inverse=True, return_counts=True)
-    inv = inv.ravel()
-    bad_edge = cnt[inv] > 2
+    directed = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
+    e = np.sort(directed, axis=1)
+    _, inv, cnt = np.unique(e, axis=0, return_inverse=True, return_counts=True)
+    _, dinv, dcnt = np.unique(directed, axis=0, return_inverse=True, return_counts=True)
+    # an edge shared by more than two faces, or twice in the same direction (flipped neighbours)
+    bad_edge = (cnt[inv.ravel()] > 2) | (dcnt[dinv.ravel()] > 1)
     if not bad_edge.any():
         return mesh, 0
     nf = len(f)
@@ -150,6 +152,7 @@ def _split_nonmanifold(mesh):
     f2 = f.copy()
     f2[idx] = len(v) + np.arange(3 * len(idx)).reshape(-1, 3)
     out = trimesh.Trimesh(np.vstack([v, newv]), f2, process=False, validate=False)
+    out.remove_unreferenced_vertices()
     return out, int(len(idx))
 
 
@@ -172,17 +175,59 @@ def _closest(mesh, points: np.ndarray):
     except ImportError:  # pragma: no cover - open3d is in the pinned stack
         import trimesh
 
-        cp, _, face = trimesh.proximity.closest_point(mesh, points)
+        _, _, face = trimesh.proximity.closest_point(mesh, points)
         face = np.asarray(face, np.int64)
+        cp = _closest_on_faces(mesh, points, face)
     return cp, face, np.linalg.norm(cp - points, axis=1)
 
 
 def _closest_on_faces(mesh, points, face):
     """Closest point on the given face of each point (float64)."""
-    import trimesh
-
     tri = np.asarray(mesh.vertices)[np.asarray(mesh.faces)[face]]
-    return trimesh.triangles.closest_point(tri, points)
+    return closest_point_on_triangles(tri, points)
+
+
+def closest_point_on_triangles(tri: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """Closest point (n, 3) of triangles ``tri`` (n, 3, 3) to points ``p`` (n, 3).
+
+    Ericson's region test ("Real-Time Collision Detection", 5.1.5), vectorised. Written
+    here because trimesh.triangles.closest_point misplaces points on needle-thin
+    triangles (seen with 0.1 x 2.5 mm faces of a subdivided cylinder).
+    """
+    a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
+    ab, ac, ap = b - a, c - a, p - a
+    dot = lambda x, y: np.einsum("ij,ij->i", x, y)  # noqa: E731
+    d1, d2 = dot(ab, ap), dot(ac, ap)
+    bp = p - b
+    d3, d4 = dot(ab, bp), dot(ac, bp)
+    cp = p - c
+    d5, d6 = dot(ab, cp), dot(ac, cp)
+    va = d3 * d6 - d5 * d4
+    vb = d5 * d2 - d1 * d6
+    vc = d1 * d4 - d3 * d2
+    out = np.empty_like(p)
+    done = np.zeros(len(p), bool)
+
+    def put(mask, value):
+        m = mask & ~done
+        out[m] = value[m] if np.ndim(value) == 2 else value
+        done[m] = True
+
+    with np.errstate(divide="ignore", invalid="ignore"):
+        put((d1 <= 0) & (d2 <= 0), a)
+        put((d3 >= 0) & (d4 <= d3), b)
+        put((d6 >= 0) & (d5 <= d6), c)
+        v = np.where(d1 - d3 != 0, d1 / (d1 - d3), 0.0)
+        put((vc <= 0) & (d1 >= 0) & (d3 <= 0), a + v[:, None] * ab)
+        w = np.where(d2 - d6 != 0, d2 / (d2 - d6), 0.0)
+        put((vb <= 0) & (d2 >= 0) & (d6 <= 0), a + w[:, None] * ac)
+        den = (d4 - d3) + (d5 - d6)
+        w2 = np.where(den != 0, (d4 - d3) / den, 0.0)
+        put((va <= 0) & ((d4 - d3) >= 0) & ((d5 - d6) >= 0), b + w2[:, None] * (c - b))
+        s = va + vb + vc
+        s = np.where(s != 0, s, 1.0)
+        put(np.ones(len(p), bool), a + (vb / s)[:, None] * ab + (vc / s)[:, None] * ac)
+    return out
 
 
 def _barycentric(tri: np.ndarray, pts: np.ndarray) -> np.ndarray:
@@ -303,6 +348,9 @@ class LogMap:
         src = int(np.asarray(sub.faces)[self.face][np.argmax(bary)])
         solver = pp3d.MeshVectorHeatSolver(np.asarray(sub.vertices), np.asarray(sub.faces))
         raw = np.asarray(solver.compute_log_map(src), dtype=np.float64)
+        # parts not connected to the source (split-off non-manifold fins) have no log coordinates
+        self.reachable = np.isfinite(raw).all(axis=1)
+        raw[~self.reachable] = 0.0
         bx, by, bn = (np.asarray(a) for a in solver.get_tangent_frames())
         normal = _surface_normals(sub, face, bary[None])[0]
         t1, t2 = _tangent_basis(normal, direction)
@@ -342,7 +390,7 @@ class LogMap:
             l3 = np.linalg.norm(t3 - np.roll(t3, 1, axis=1), axis=2)
             l2 = np.linalg.norm(tri2 - np.roll(tri2, 1, axis=1), axis=2)
             ratio = l2 / np.maximum(l3, 1e-300)
-            self._good = good & np.all((ratio > 0.5) & (ratio < 2.0), axis=1)
+            self._good = good & np.all((ratio > 0.5) & (ratio < 2.0), axis=1) & self.reachable[F].all(axis=1)
             self._tree = cKDTree(self._cent)
             self._geo = np.linalg.norm(self._cent, axis=1)
         n = len(flat)
@@ -486,8 +534,9 @@ def _coverage(mesh, patch: Patch, lm, region, extent) -> float:
     F = np.asarray(lm.mesh.faces)
     area = lm.mesh.area_faces
     cent = lm.uv[F].mean(axis=1)
+    reach = lm.reachable[F].all(axis=1)
     if region is None:
-        sel = np.hypot(*cent.T) <= float(np.hypot(*patch.flat.T).max())
+        sel = (np.hypot(*cent.T) <= float(np.hypot(*patch.flat.T).max())) & reach
     else:
         region = np.asarray(region, dtype=bool)
         if len(region) != len(mesh.faces):
@@ -495,7 +544,7 @@ def _coverage(mesh, patch: Patch, lm, region, extent) -> float:
         # the log map's mesh is a cleaned crop: match faces by centroid
         c3 = np.asarray(lm.mesh.triangles_center)
         _, near = cKDTree(np.asarray(mesh.triangles_center)).query(c3)
-        sel = region[near]
+        sel = region[near] & reach
     if not sel.any():
         return float("nan")
     inside = points_in_outlines(cent[sel], patch)
