@@ -72,3 +72,15 @@ def test_bench_quick_runs(tmp_path):
     assert {"table.md", "table.csv", "accuracy_vs_time.png"} <= {p.name for p in tmp_path.iterdir()}
     assert all(r["mismatched_samples"] == 0 for r in rows)
     assert {r["method"] for r in rows} >= {"vectorised", "reference_cantools"}
+
+
+def test_decode_encode_decode_is_identity_with_errors(tmp_path):
+    from vtcore.can import encode_to_log
+
+    a = decode_log(SCENES / "data" / "replay_icub_press.asc", "icub")
+    encode_to_log(a.arrays(), "icub", tmp_path / "again.blf")
+    b = decode_log(tmp_path / "again.blf", "icub")
+    np.testing.assert_array_equal(a.frames, b.frames)
+    np.testing.assert_array_equal(a.mask, b.mask)
+    np.testing.assert_array_equal(a.errors, b.errors)
+    assert b.summary.triangle_errors == {2: 3}
