@@ -61,3 +61,39 @@ def augmented_panels(points, panels: dict, contacts=None, *, c_min, c_max, cmap=
     if title:
         fig.suptitle(title, fontsize=10)
     return fig
+
+
+def touch_sequence(points, contacts, values, counts=(0, 2, 13, 22), *, beta=-300.0, c_min, c_max,
+                   cmap="viridis_r", voxel=0.003, view_dir=(1.0, 0.0, 0.0), title=""):
+    """Seed 000's Fig. 2: the augmented cloud after 0, 2, 13, 22 touches, smooth (top) and cluster (bottom).
+
+    Built with :class:`AugmentedPointCloud`, one touch at a time (each update costs
+    O(M)); points without any touch yet are grey. Returns the Figure.
+    """
+    from .propagation import AugmentedPointCloud
+
+    plt = _plt()
+    counts = [k for k in counts if k <= len(contacts)]
+    keep = voxel_filter(points, voxel)
+    xy, depth = view_coordinates(points[keep], view_dir)
+    order = np.argsort(depth)
+    fig, axes = plt.subplots(2, len(counts), figsize=(2.2 * len(counts) + 0.6, 7.6), squeeze=False)
+    for row, method in enumerate(("smooth", "cluster")):
+        aug = AugmentedPointCloud(points, method, beta=beta)
+        done = 0
+        for col, k in enumerate(counts):
+            aug.add_touches(contacts[done:k], values[done:k])
+            done = k
+            ax = axes[row][col]
+            rgb = colour_map(aug.values[keep][order], c_min, c_max, cmap) / 255.0
+            ax.scatter(xy[order, 0] * 1e3, xy[order, 1] * 1e3, c=rgb, s=2, linewidths=0)
+            if k:
+                cxy, _ = view_coordinates(contacts[:k], view_dir)
+                ax.scatter(cxy[:, 0] * 1e3, cxy[:, 1] * 1e3, c="red", s=8, linewidths=0)
+            ax.set_aspect("equal")
+            ax.set_xticks([])
+            ax.set_yticks([])
+            ax.set_title(f"{method}, {k} touches", fontsize=8)
+    if title:
+        fig.suptitle(title, fontsize=10)
+    return fig

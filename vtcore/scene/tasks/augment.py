@@ -17,7 +17,7 @@ from ...augment import (ClusterPropagation, GPPropagation, ProbeModel, SmoothPro
                         load_probes, make_seed000_object, read_point_cloud, two_cameras, write_ply)
 from ...augment.experiment import probe_object
 from ...augment.objects import OBJECTS
-from ...augment.plots import augmented_panels
+from ...augment.plots import augmented_panels, touch_sequence
 from ..registry import TaskSpec, register_task
 from ..runner import TaskResult
 from ..schema import Field, Section
@@ -187,6 +187,10 @@ def run(scene, ctx) -> TaskResult:
         panels["ground truth"] = truth
     fig = augmented_panels(x, panels, v, c_min=p["c_min"], c_max=p["c_max"], cmap=p["cmap"],
                            title=f"{p['object']}: {len(v)} touches (red), dark = stiff")
+    figures = {"fig7_augmented": fig}
+    c_scalar = c if c.ndim == 1 else c[:, 0]
+    figures["fig2_touches"] = touch_sequence(x, v, c_scalar, beta=p["beta"], c_min=p["c_min"], c_max=p["c_max"],
+                                             cmap=p["cmap"], title=f"{p['object']}: touch by touch (Fig. 2)")
     arrays = {"cloud_points": x, "cloud_normals": probed.normals, "contact_points": v, "contact_values": c,
               "truth_points": truth_points, "c_true": truth, **{f"c_{n}": y for n, y in preds.items()}}
     table = [f"## Propagation vs {truth_kind}", "",
@@ -194,7 +198,7 @@ def run(scene, ctx) -> TaskResult:
     for name in preds:
         table.append(f"| {name} | {metrics[name + '_ms']:.2f} | {metrics[name + '_mae']:.4g} | "
                      f"{metrics[name + '_error_rel_pct']:.1f} |")
-    return TaskResult(metrics=metrics, arrays=arrays, figures={"fig7_augmented": fig}, sections=["\n".join(table)],
+    return TaskResult(metrics=metrics, arrays=arrays, figures=figures, sections=["\n".join(table)],
                       files=files)
 
 
