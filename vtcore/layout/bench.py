@@ -1,0 +1,226 @@
+"""``vtcore bench layout``: time and accuracy of placement and of the skin mesh, side by side.
+
+Cases (each row: what, method, setting, size, seconds, accuracy):
+
+1. ``place_1000``: 1,000 CySkin modules (one patch) placed on a ~100k-face cylinder
+   (radius 160 mm) by the log map and by closest-point projection; accuracy =
+   max and mean module-edge strain (a cylinder is developable, so the ideal is 0).
+2. ``exp_sphere``: a hexagonal patch on spheres meshed at several resolutions
+   (the log map's accuracy knob) and by projection; accuracy = max distance in mm
+   from the exact exponential map (azimuthal equidistant) and the strain.
+3. ``skin_mesh``: the skin mesh of 500-4,000 taxels, flat Delaunay and
+   surface-aware (3-D positions only); accuracy = edge agreement with the flat
+   Delaunay reference on a lattice wrapped round a cylinder.
+4. ``maker_agreement``: the surface-aware triangulation's chart size (its knob)
+   against edge agreement with the maker-style triangulation of the synthetic
+   CySkin half-cylinder (``vtcore.layout.synthetic``).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from .._io import atomic_write
+
+
+def _timeit(fn, repeat=1):
+    best, out = np.inf, None
+    for _ in range(repeat):
+        t = time.perf_counter()
+        out = fn()
+        best = min(best, time.perf_counter() - t)
+    return best, out
+
+
+def _cylinder_mesh(radius, length, faces_target):
+    import trimesh
+
+    # quads of a x b with 2 triangles each: sections * rings * 2 ~ faces_target
+    sections = int(np.sqrt(faces_target / 2 * 2 * np.pi * radius / length))
+    rings = max(int(faces_target / 2 / sections), 1)
+    th = np.linspace(0, 2 * np.pi, sections, endpoint=False)
+    z = np.linspace(-length / 2, length / 2, rings + 1)
+    T, Z = np.meshgrid(th, z, indexing="xy")
+    v = np.column_stack([radius * np.cos(T).ravel(), radius * np.sin(T).ravel(), Z.ravel()])
+    i, j = np.meshgrid(np.arange(sections), np.arange(rings), indexing="xy")
+    a = (j * sections + i).ravel()
+    b = (j * sections + (i + 1) % sections).ravel()
+    c = a + sections
+    d = b + sections
+    f = np.vstack([np.column_stack([a, b, d]), np.column_stack([a, d, c])])
+    return trimesh.Trimesh(v, f, process=False)
+
+
+def _big_patch(n_modules, width, height):
+    from .modules import get_module
+    from .patches import patch_from_poses, tile_poses
+
+    mod = get_module("cyskin10")
+    p = patch_from_poses(mod, tile_poses(mod, [-width / 2, -height / 2], [width / 2, height / 2]))
+    inside = np.all(np.abs(p.flat) <= [width / 2, height / 2], axis=1)
+    whole = np.bincount(p.module_ids, weights=inside, minlength=p.n_modules) == len(mod)
+    keep = np.flatnonzero(whole)
+    order = keep[np.argsort(np.hypot(*p.poses[keep, 1:].T), kind="stable")][:n_modules]
+    mask = np.zeros(p.n_modules, bool)
+    mask[order] = True
+    return p.select_modules(mask)
+
+
+def _place_rows(quick):
+    from .conform import place
+
+    faces = 10_000 if quick else 100_000
+    n_mod = 100 if quick else 1000
+    r, length = (0.06, 0.3) if quick else (0.16, 0.6)
+    mesh = _cylinder_mesh(r, length, faces)
+    w = min(2 * np.pi * r * 0.9, 0.9)
+    patch = _big_patch(n_mod, w, length * 0.9)
+    rows = []
+    for method in ("logmap", "project"):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            sec, (lay, rep) = _timeit(lambda: place(mesh, patch, (r, 0, 0), (0, 0, 1), method=method))
+        rows.append({"case": "place_1000" if not quick else "place_100", "method": method,
+                     "setting": f"{len(mesh.faces)} faces", "n": patch.n_modules, "seconds": sec,
+                     "accuracy": rep.strain_max, "accuracy_name": "strain_max",
+                     "extra": f"strain_mean={rep.strain_mean:.2e}, overlaps={len(rep.overlaps)}"})
+    return rows
+
+
+def _sphere_rows(quick):
+    import trimesh
+
+    from .conform import place
+    from .patches import make_patch, wrap_on_sphere
+
+    R = 0.04
+    p = make_patch("hexagon")
+    exact, _ = wrap_on_sphere(p.flat, R)
+    exact = exact + [0, 0, R]  # pole at (0, 0, R) for a sphere centred at the origin
+    rows = []
+    subs = (3, 4) if quick else (3, 4, 5, 6)
+    for s in subs:
+        mesh = trimesh.creation.icosphere(s, radius=R)
+        for method in ("logmap", "project"):
+            if method == "project" and s != subs[-1]:
+                continue
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                sec, (lay, rep) = _timeit(lambda: place(mesh, p, (0, 0, R), (1, 0, 0), method=method))
+            err = np.linalg.norm(lay.positions - exact, axis=1).max() * 1e3
+            rows.append({"case": "exp_sphere", "method": method, "setting": f"icosphere {s} ({len(mesh.faces)} faces)",
+                         "n": len(p), "seconds": sec, "accuracy": err, "accuracy_name": "max_error_mm",
+                         "extra": f"strain_max={rep.strain_max:.3f}"})
+    return rows
+
+
+def _skin_rows(quick):
+    from .mesh import skin_mesh
+    from .model import Layout
+    from .modules import get_module
+    from .patches import patch_from_poses, tile_poses
+    from .synthetic import edge_agreement
+
+    rows = []
+    mod = get_module("cyskin10")
+    for n in ((500, 1000) if quick else (500, 1000, 4000)):
+        side = np.sqrt(n * np.sqrt(3) / 2) * mod.pitch
+        p = patch_from_poses(mod, tile_poses(mod, [-side / 2] * 2, [side / 2] * 2))
+        keep = np.all(np.abs(p.flat) <= side / 2, axis=1)
+        f = p.flat[keep][:n]
+        r = 0.05
+        th = f[:, 0] / r  # wrap round a cylinder (more than once for big n: the flat method still works)
+        pos = np.column_stack([r * np.sin(th), f[:, 1], r * np.cos(th)])
+        nrm = np.column_stack([np.sin(th), 0 * th, np.cos(th)])
+        lay = Layout(pos, nrm, np.arange(len(f)), np.zeros(len(f)), flat=f)
+        sec, ref = _timeit(lambda: skin_mesh(lay), repeat=3)
+        rows.append({"case": "skin_mesh", "method": "flat", "setting": "Delaunay of flat coords", "n": len(f),
+                     "seconds": sec, "accuracy": 1.0, "accuracy_name": "edge_agreement", "extra": ""})
+        if 2 * np.pi * r > np.ptp(f[:, 0]):
+            lay3 = Layout(pos, nrm, lay.taxel_ids, lay.module_ids)
+            sec, m = _timeit(lambda: skin_mesh(lay3), repeat=3)
+            rows.append({"case": "skin_mesh", "method": "surface", "setting": "3-D positions only", "n": len(f),
+                         "seconds": sec, "accuracy": edge_agreement(m.edges, ref.edges),
+                         "accuracy_name": "edge_agreement", "extra": ""})
+        else:
+            # too wide to wrap once: measure the surface method on the flat lattice instead
+            lay3 = Layout(np.column_stack([f, 0 * f[:, 0]]), np.tile([0, 0, 1.0], (len(f), 1)),
+                          lay.taxel_ids, lay.module_ids)
+            sec, m = _timeit(lambda: skin_mesh(lay3), repeat=3)
+            rows.append({"case": "skin_mesh", "method": "surface", "setting": "3-D positions only (plane)",
+                         "n": len(f), "seconds": sec, "accuracy": edge_agreement(m.edges, ref.edges),
+                         "accuracy_name": "edge_agreement", "extra": ""})
+    return rows
+
+
+def _maker_rows(quick):
+    from .mesh import _nn_spacing_oriented, peel, surface_triangulation, mesh_from_triangles
+    from .synthetic import cyskin_half_cylinder, edge_agreement, faces_to_edges
+
+    lay, faces, _ = cyskin_half_cylinder(seed=0)
+    ref = faces_to_edges(faces)
+    rows = []
+    for cr in ((2.0, 3.0) if quick else (1.5, 2.0, 3.0, 4.0, 6.0)):
+        def run():
+            tri = surface_triangulation(lay.positions, lay.normals, chart_radius=cr)
+            s = _nn_spacing_oriented(lay.positions, lay.normals)
+            tri, _ = peel(tri, lay.positions, s)
+            return mesh_from_triangles(lay.positions, lay.normals, tri)
+
+        sec, m = _timeit(run, repeat=2)
+        rows.append({"case": "maker_agreement", "method": "surface", "setting": f"chart radius {cr} spacings",
+                     "n": len(lay), "seconds": sec, "accuracy": edge_agreement(m.edges, ref),
+                     "accuracy_name": "edge_agreement (synthetic maker)", "extra": ""})
+    return rows
+
+
+def run(out: Path, quick: bool = False) -> list[dict]:
+    """Run the layout benchmarks; write ``table.md``, ``table.csv``, ``accuracy_vs_time.png`` into ``out``."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    rows = _place_rows(quick) + _sphere_rows(quick) + _skin_rows(quick) + _maker_rows(quick)
+    cols = ["case", "method", "setting", "n", "seconds", "accuracy_name", "accuracy", "extra"]
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=cols, lineterminator="\n")
+    w.writeheader()
+    for r in rows:
+        w.writerow({k: (f"{r[k]:.6g}" if isinstance(r[k], float) else r[k]) for k in cols})
+    with atomic_write(out / "table.csv", "w", encoding="utf-8", newline="") as fh:
+        fh.write(buf.getvalue())
+    md = ["# Layout benchmark" + (" (quick)" if quick else ""), "",
+          "Targets: 1,000 modules on a 100k-face mesh <= 5 s; skin mesh of 4,000 taxels <= 0.5 s.", "",
+          "| case | method | setting | n | seconds | accuracy | value | notes |", "|---|---|---|---|---|---|---|---|"]
+    md += [f"| {r['case']} | {r['method']} | {r['setting']} | {r['n']} | {r['seconds']:.3f} | {r['accuracy_name']} | "
+           f"{r['accuracy']:.4g} | {r['extra']} |" for r in rows]
+    with atomic_write(out / "table.md", "w", encoding="utf-8") as fh:
+        fh.write("\n".join(md) + "\n")
+    fig, axes = plt.subplots(1, 3, figsize=(13, 4))
+    for ax, case, ylab in ((axes[0], ("place_1000", "place_100"), "max module-edge strain"),
+                           (axes[1], ("exp_sphere",), "max error vs exact exp map (mm)"),
+                           (axes[2], ("skin_mesh", "maker_agreement"), "edge agreement")):
+        for r in rows:
+            if r["case"] not in case:
+                continue
+            mk = "o" if r["method"] in ("logmap", "flat") else ("s" if r["method"] == "project" else "^")
+            ax.scatter(r["seconds"], r["accuracy"], marker=mk, label=f"{r['method']}: {r['setting']}, n={r['n']}")
+        ax.set_xscale("log")
+        ax.set_xlabel("seconds")
+        ax.set_ylabel(ylab)
+        ax.set_title("/".join(case))
+        ax.legend(fontsize=6)
+    fig.tight_layout()
+    with atomic_write(out / "accuracy_vs_time.png", "wb") as fh:
+        fig.savefig(fh, format="png", dpi=110)
+    plt.close(fig)
+    return rows
