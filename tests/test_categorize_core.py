@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from vtcore.categorize import (PAPER_OBJECTS, CategoryFormation, accuracy, cluster_match, confusion,
-                               decision_boundary, design_sweep, format_ranges_mm, make_tasks,
+                               decision_boundary, design_sweep, format_ranges_mm, kmeans_splits, make_tasks,
                                resolution_study, tactile_images, task_accuracies)
 from vtcore.errors import InputError
 
@@ -286,11 +286,39 @@ def test_design_sweep_reports_the_solving_thicknesses():
     t6 = sweep.solving_thicknesses(5)
     assert 0.001 in np.round(t5, 6) and 0.010 in np.round(t6, 6)
     assert not set(np.round(t5, 6)) & set(np.round(t6, 6))
-    assert sweep.solved().shape == (10, 7) and sweep.mean_accuracy().max() <= 1.0
+    assert sweep.solved().shape == (10, 7) and sweep.mean_accuracy().max() <= 1.0 + 1e-12
+    rate = sweep.solve_rate()
+    assert ((rate >= 0) & (rate <= 1 + 1e-12)).all()
+    # at most one split of the objects can be formed at a time: probabilities over tasks sum to <= 1
+    assert (sweep.p_solve.sum(axis=2) <= 1 + 1e-9).all()
+    # the seeded procedure's draws agree with the exact distribution where it is certain
+    sure = sweep.p_solve[..., 5] > 1 - 1e-9
+    assert (sweep.accuracy[..., 5][sure] == 1.0).all()
     assert format_ranges_mm([0.003, 0.004, 0.005, 0.009], step=0.001) == "3-5, 9 mm"
     assert format_ranges_mm([]) == "none"
     with pytest.raises(InputError):
         design_sweep([-0.001], images_at, TASKS)
+    with pytest.raises(InputError):
+        design_sweep(hs, images_at, TASKS, solve_probability=0.0)
+
+
+def test_kmeans_splits_are_exact_over_random_starts():
+    # a square: both 2-2 splits are K-Means fixed points; the diagonal split is not
+    w = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0]])
+    w = w * np.array([1.0, 1.2])  # make the horizontal pairing the better one
+    rows = kmeans_splits(w, n_runs=3)
+    assert abs(sum(r["p_accepted"] for r in rows) - 1.0) < 1e-12
+    assert abs(sum(r["p_run"] for r in rows) - 1.0) < 1e-12
+    assert all(abs(r["p_run"] * 6 - round(r["p_run"] * 6)) < 1e-12 for r in rows)  # 6 starting pairs
+    # empirical check against the seeded procedure: the frequency of each split over many seeds
+    counts = {}
+    for seed in range(150):
+        est = CategoryFormation(random_state=seed, max_retries=200).fit(w)
+        counts[tuple(est.labels_)] = counts.get(tuple(est.labels_), 0) + 1
+    for r in rows:
+        freq = counts.get(tuple(r["labels"]), 0) / 150
+        assert abs(freq - r["p_accepted"]) < 0.12, (r, freq)
+    assert kmeans_splits(np.zeros((4, 2))) == []
 
 
 def test_figures_draw_for_ok_and_degenerate_outcomes(tmp_path):

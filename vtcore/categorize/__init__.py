@@ -11,15 +11,15 @@ Figures are in :mod:`vtcore.categorize.plots`.
 """
 
 from .designer import LayerSweep, design_sweep, format_ranges_mm
-from .formation import CategoryFormation, canonical, decision_boundary
+from .formation import CategoryFormation, canonical, decision_boundary, kmeans_splits, single_threaded
 from .images import tactile_images
 from .resolution import ResolutionStudy, resolution_study
-from .tasks import (PAPER_OBJECTS, PAPER_TASK_NOTES, PAPER_TASKS, Task, accuracy, cluster_match, confusion,
+from .tasks import (PAPER_FIG8, PAPER_OBJECTS, PAPER_TASK_NOTES, PAPER_TASKS, Task, accuracy, cluster_match, confusion,
                     make_tasks, task_accuracies)
 
 __all__ = [
-    "CategoryFormation", "canonical", "decision_boundary", "tactile_images", "make_tasks", "Task",
+    "CategoryFormation", "canonical", "decision_boundary", "kmeans_splits", "single_threaded", "tactile_images", "make_tasks", "Task",
     "cluster_match", "accuracy", "confusion", "task_accuracies", "PAPER_OBJECTS", "PAPER_TASKS",
-    "PAPER_TASK_NOTES", "resolution_study", "ResolutionStudy", "design_sweep", "LayerSweep",
+    "PAPER_TASK_NOTES", "PAPER_FIG8", "resolution_study", "ResolutionStudy", "design_sweep", "LayerSweep",
     "format_ranges_mm",
 ]

@@ -23,6 +23,7 @@ Outcomes (``status_``), none of which produces NaN:
 
 from __future__ import annotations
 
+import contextlib
 import warnings
 
 import numpy as np
@@ -31,6 +32,33 @@ from ..errors import InputError
 
 #: Relative tolerance under which two tactile images (or projections) count as identical.
 IDENTICAL_RTOL = 1e-12
+
+_DEPTH = [0]
+
+
+@contextlib.contextmanager
+def single_threaded():
+    """Limit BLAS/OpenMP pools to one thread while fitting a handful of points.
+
+    scikit-learn's K-Means starts an OpenMP pool per fit; for 4 points in 2-D that
+    overhead is the whole cost (about 3x slower on a busy 2-core machine).
+    Re-entrant: only the outermost call touches the pools (entering costs ~2 ms).
+    """
+    if _DEPTH[0]:
+        _DEPTH[0] += 1
+        try:
+            yield
+        finally:
+            _DEPTH[0] -= 1
+        return
+    from threadpoolctl import threadpool_limits
+
+    _DEPTH[0] += 1
+    try:
+        with threadpool_limits(1):
+            yield
+    finally:
+        _DEPTH[0] -= 1
 
 
 def _distinct_rows(a: np.ndarray, scale: float) -> int:
@@ -75,6 +103,7 @@ class CategoryFormation:
     explained_variance_ratio_ : (2,) float, fraction of the total variance (0 when degenerate).
     centroids_ : (2, 2) float, cluster centroids in the projection (rows: cluster 0, 1).
     n_attempts_, n_retries_ : int, attempts made and attempts discarded.
+    run_labels_ : (n_attempts_ * n_runs, N) int, the (canonical) split of every K-Means run made.
     n_components_ : int, PCA components actually fitted (0 when degenerate).
     """
 
@@ -116,6 +145,10 @@ class CategoryFormation:
     # -- fitting ----------------------------------------------------------------------------------
     def fit(self, X, y=None) -> "CategoryFormation":
         """Form two categories from the tactile images ``X`` (N objects, D taxels), any units."""
+        with single_threaded():
+            return self._fit(X)
+
+    def _fit(self, X):
         from sklearn.cluster import KMeans
         from sklearn.decomposition import PCA
 
@@ -130,6 +163,7 @@ class CategoryFormation:
         self.explained_variance_ = np.zeros(2)
         self.explained_variance_ratio_ = np.zeros(2)
         self.n_components_ = 0
+        self.run_labels_ = np.zeros((0, n), dtype=np.int64)
 
         # Work on X / max|X|: K-Means and the split do not depend on the scale, and squares of
         # huge counts (or tiny pressures) neither overflow nor underflow.
@@ -168,6 +202,7 @@ class CategoryFormation:
                     labels = km.fit_predict(w)
                 guesses.append(canonical(labels))
             g = np.stack(guesses)
+            self.run_labels_ = np.concatenate([self.run_labels_, g])
             split = (g == 0).any(axis=1) & (g == 1).any(axis=1)
             if split.all() and (g == g[0]).all():
                 break
@@ -205,3 +240,47 @@ def decision_boundary(centroids) -> tuple[np.ndarray, np.ndarray]:
     if norm == 0.0:
         return mid, np.array([0.0, 1.0])
     return mid, np.array([-diff[1], diff[0]]) / norm
+
+
+def kmeans_splits(projection, n_runs: int = 3, max_iter: int = 300) -> list[dict]:
+    """Every split K-Means can return from a random initialisation, with its exact probability.
+
+    scikit-learn's ``init="random"`` starts from two distinct objects drawn
+    uniformly; Lloyd's iterations are deterministic from there. Enumerating all
+    ``N (N - 1) / 2`` starting pairs therefore gives the exact distribution of
+    one run's outcome, ``p``. An attempt of :class:`CategoryFormation` is
+    accepted when its ``n_runs`` independent runs agree, so the split finally
+    reported is split ``i`` with probability ``p_i**n_runs / sum_j p_j**n_runs``.
+
+    projection : (N, d) float, the encodings (``CategoryFormation.projection_``).
+    Returns a list of ``{"labels" (N,) int canonical, "p_run", "p_accepted",
+    "inertia"}`` sorted by decreasing ``p_accepted``; empty when fewer than two
+    distinct points exist.
+    """
+    from sklearn.cluster import KMeans
+
+    w = np.asarray(projection, dtype=np.float64)
+    n = len(w)
+    scale = max(float(np.abs(w).max()) if w.size else 0.0, np.finfo(float).tiny)
+    if n < 2 or _distinct_rows(w / scale, 1.0) < 2:
+        return []
+    counts: dict[tuple, int] = {}
+    with single_threaded(), warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for i in range(n):
+            for j in range(i + 1, n):
+                km = KMeans(n_clusters=2, init=w[[i, j]], n_init=1, max_iter=max_iter)
+                key = tuple(canonical(km.fit_predict(w)).tolist())
+                counts[key] = counts.get(key, 0) + 1
+    total = sum(counts.values())
+    rows = []
+    for key, c in counts.items():
+        lab = np.asarray(key, dtype=np.int64)
+        both = (lab == 0).any() and (lab == 1).any()
+        inertia = sum(float(((w[lab == k] - w[lab == k].mean(axis=0)) ** 2).sum()) for k in (0, 1) if (lab == k).any())
+        rows.append({"labels": lab, "p_run": c / total, "valid": bool(both), "inertia": inertia})
+    weights = np.array([r["p_run"] ** n_runs if r["valid"] else 0.0 for r in rows])
+    for r, wgt in zip(rows, weights):
+        r["p_accepted"] = float(wgt / weights.sum()) if weights.sum() > 0 else 0.0
+    rows.sort(key=lambda r: (-r["p_accepted"], r["inertia"]))
+    return rows

@@ -154,25 +154,32 @@ def resolution_figure(study, tasks, show, *, title=""):
 
 
 def sweep_figure(sweep, tasks, *, title="", paper_layers_mm=(3, 6, 10)):
-    """Accuracy of every task against layer thickness; filled markers where the thickness solves it."""
+    """The designer's plot: expected accuracy (top) and solve probability (bottom) of every task
+    against layer thickness; filled markers where the thickness solves the task."""
     plt = _plt()
-    fig, ax = plt.subplots(figsize=(7.5, 4.4))
+    fig, (ax, ax2) = plt.subplots(2, 1, figsize=(8.0, 7.0), sharex=True)
     mm = sweep.thicknesses * 1e3
     acc = sweep.mean_accuracy()
+    rate = sweep.solve_rate()
     solved = sweep.solved()
     for k, task in enumerate(tasks):
-        line, = ax.plot(mm, acc[:, k] + 0.004 * (k - len(tasks) / 2), "-", lw=1.4,
-                        label=f"Task {task.number}: {task.label}")
-        ax.scatter(mm[solved[:, k]], acc[solved[:, k], k] + 0.004 * (k - len(tasks) / 2), s=40,
-                   color=line.get_color(), zorder=3)
-    for h in paper_layers_mm or ():
-        if mm.min() <= h <= mm.max():
-            ax.axvline(h, color="0.7", ls=":", lw=1)
-    ax.set_xlabel("soft layer thickness (mm)")
-    ax.set_ylabel(f"accuracy (mean of {sweep.accuracy.shape[1]} noise draws)")
+        jitter = 0.004 * (k - len(tasks) / 2)  # keeps coinciding lines apart
+        line, = ax.plot(mm, acc[:, k] + jitter, "-", lw=1.4, label=f"Task {task.number}: {task.label}")
+        ax.scatter(mm[solved[:, k]], acc[solved[:, k], k] + jitter, s=40, color=line.get_color(), zorder=3)
+        ax2.plot(mm, rate[:, k] + jitter, "-", lw=1.4, color=line.get_color())
+        ax2.scatter(mm[solved[:, k]], rate[solved[:, k], k] + jitter, s=40, color=line.get_color(), zorder=3)
+    for a in (ax, ax2):
+        for h in paper_layers_mm or ():
+            if mm.min() <= h <= mm.max():
+                a.axvline(h, color="0.7", ls=":", lw=1)
+        a.grid(alpha=0.3)
+    ax2.axhline(sweep.threshold, color="k", ls="--", lw=0.8)
+    ax.set_ylabel(f"expected accuracy\n(mean of {sweep.expected.shape[1]} noise draws)")
     ax.set_ylim(0.4, 1.05)
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.0, 0.5))
-    ax.set_title(title or "which layer solves which task (dots: solved)")
+    ax2.set_ylabel("probability of forming\nexactly the task's split")
+    ax2.set_ylim(-0.03, 1.05)
+    ax2.set_xlabel("soft layer thickness (mm)")
+    ax.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.0, 0.0))
+    ax.set_title(title or "which layer solves which task (dots: solved; dotted: seed 001's 3, 6, 10 mm)")
     fig.tight_layout()
     return fig

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
-from .formation import CategoryFormation
+from .formation import CategoryFormation, single_threaded
 from .tasks import Task, task_accuracies
 
 
@@ -94,12 +94,13 @@ def resolution_study(images, tasks: list[Task], sizes=(6, 12, 18, 24, 30, 36), r
     subsets = np.full((len(sizes), runs, int(sizes.max())), -1, dtype=np.int64)
     cells = [(i, r) for i in range(len(sizes)) for r in range(runs)]
     it = progress(cells, desc="resolution study", total=len(cells)) if progress else cells
-    for i, r in it:
-        idx = np.sort(rng.choice(n, size=int(sizes[i]), replace=False))
-        subsets[i, r, : len(idx)] = idx
-        est = CategoryFormation(random_state=rng, **formation).fit(x[:, idx])
-        retries[i, r] = est.n_retries_
-        if est.ok:
-            ok[i, r] = True
-            acc[i, r] = task_accuracies(est.labels_, tasks)
+    with single_threaded():
+        for i, r in it:
+            idx = np.sort(rng.choice(n, size=int(sizes[i]), replace=False))
+            subsets[i, r, : len(idx)] = idx
+            est = CategoryFormation(random_state=rng, **formation).fit(x[:, idx])
+            retries[i, r] = est.n_retries_
+            if est.ok:
+                ok[i, r] = True
+                acc[i, r] = task_accuracies(est.labels_, tasks)
     return ResolutionStudy(sizes, acc, ok, retries, subsets)

@@ -163,3 +163,13 @@ def task_accuracies(labels, tasks) -> np.ndarray:
     # Eq. 7: the relabelled guess gets N - wrong right; keep v on ties.
     right = np.maximum(len(v) - wrong, wrong)
     return right / len(v)
+
+#: Accuracy per task (1..7) that seed 001 reports in Fig. 8 for its three layers (metres -> row).
+#: For side-by-side comparison in reports only; nothing is fitted to it. Note that Eq. 7 with
+#: "fraction of objects matched" cannot give 0.00 for a 2-2 task scored against a different 2-2
+#: split (it gives 0.50), so the paper's 0.00 entries do not follow from its own definition.
+PAPER_FIG8 = {
+    0.003: (0.75, 0.75, 0.75, 0.75, 1.00, 0.00, 0.00),
+    0.006: (0.50, 1.00, 0.50, 0.50, 0.75, 0.75, 0.75),
+    0.010: (0.75, 0.75, 0.75, 0.75, 0.00, 1.00, 0.00),
+}
