@@ -66,7 +66,8 @@ class ContactField:
     layer's outer surface along n. gap (mx, my) : m, object above the surface
     along n at the solution pose before deformation (inf: no object; negative:
     interference). pressure (mx, my) : Pa on the surface. stress (mx, my) or None :
-    Pa at depth h.
+    Pa at depth h. thickness : m, the layer's (taxels are read below the surface point
+    above them along their normal).
     """
 
     x: np.ndarray
@@ -79,6 +80,7 @@ class ContactField:
     gap: np.ndarray
     pressure: np.ndarray
     stress: np.ndarray | None = None
+    thickness: float = 0.0
 
     @property
     def spacing(self) -> float:
@@ -151,8 +153,10 @@ def _frame(layout, direction):
 
 
 def _surface_height(xy, z, X, Y):
-    """Height field through (xy, z): quadratic least squares + linear interpolation of residuals."""
-    from scipy.interpolate import LinearNDInterpolator
+    """Height field through (xy, z): quadratic least squares + C1 (Clough-Tocher) interpolation of
+    the residuals; a piecewise-linear surface would put ridges at the taxel triangles' edges, and a
+    sphere pressed on a ridge gives grid-dependent pressure peaks."""
+    from scipy.interpolate import CloughTocher2DInterpolator
 
     def design(x, y):
         cols = [np.ones_like(x), x, y, x * x, x * y, y * y]
@@ -164,7 +168,7 @@ def _surface_height(xy, z, X, Y):
     res = z - A @ coef
     if len(z) >= 4 and np.ptp(xy[:, 0]) > 0 and np.ptp(xy[:, 1]) > 0 and np.abs(res).max() > 1e-12:
         try:
-            base = base + LinearNDInterpolator(xy, res, fill_value=0.0)(X, Y)
+            base = base + CloughTocher2DInterpolator(xy, res, fill_value=0.0)(X, Y)
         except Exception:  # degenerate (collinear) taxels: keep the smooth fit
             pass
     return base
@@ -195,7 +199,7 @@ def _sample(field_xy, values, x, y):
 
 def taxel_means(layout, fld: ContactField, values, samples_per_taxel=7, radius=TAXEL_RADIUS):
     """Mean of a grid field (mx, my) over each taxel's disc -> (N,). Taxels facing away read 0."""
-    pos = np.asarray(layout.positions, float)
+    pos = np.asarray(layout.positions, float) + fld.thickness * np.asarray(layout.normals, float)
     rel = pos - fld.origin
     xy = np.column_stack([rel @ fld.e1, rel @ fld.e2])
     off = disc_offsets(samples_per_taxel, radius)
@@ -247,6 +251,130 @@ def _object_stiffness(compliance, mesh_local, pose, point_world):
     return k
 
 
+# --- caches: what stays fixed along a trajectory is built once ---------------------------
+
+_MESH_CACHE: dict = {}
+_SKIN_CACHE: dict = {}
+
+
+def _digest(*arrays) -> int:
+    import zlib
+
+    c = 0
+    for a in arrays:
+        a = np.ascontiguousarray(a)
+        c = zlib.crc32(a.view(np.uint8).reshape(-1), c)
+        c = zlib.crc32(str(a.shape).encode(), c)
+    return c
+
+
+def _prepared(mesh, open_mesh):
+    """(checked float64 mesh, lazily built open3d scene holder) for ``mesh``, cached by content."""
+    try:  # trimesh keeps a content hash that is cached until the arrays change: ~10 us
+        content = hash(mesh)
+    except TypeError:
+        content = _digest(np.asarray(mesh.vertices), np.asarray(mesh.faces))
+    key = (id(mesh), content, open_mesh)
+    hit = _MESH_CACHE.get(key)
+    if hit is None:
+        if len(_MESH_CACHE) > 16:
+            _MESH_CACHE.clear()
+        hit = (prepare_mesh(mesh, open_mesh=open_mesh), {})
+        _MESH_CACHE[key] = hit
+    return hit
+
+
+def _envelope_posed(points, n, local, scene, pose, backend):
+    """lower_envelope of the posed mesh, computed in the object's frame (distances are rigid-invariant),
+    so the object's BVH is built once per mesh, not once per pose."""
+    from .proximity import default_backend
+
+    r, t = pose[:3, :3], pose[:3, 3]
+    p_obj = (np.asarray(points, float) - t) @ r
+    n_obj = np.asarray(n, float) @ r
+    backend = backend or default_backend()
+    if backend == "open3d":
+        return _envelope_open3d(p_obj, n_obj, local, scene)
+    return lower_envelope(p_obj, n_obj, local, backend)
+
+
+def _envelope_open3d(pts, n, local, holder):
+    import open3d as o3d
+
+    v = np.asarray(local.vertices, float)
+    f = np.asarray(local.faces, np.int64)
+    if "scene" not in holder:
+        o = v.mean(axis=0)
+        sc = o3d.t.geometry.RaycastingScene()
+        sc.add_triangles(o3d.core.Tensor((v - o).astype(np.float32)), o3d.core.Tensor(f.astype(np.uint32)))
+        tri = v[f]
+        holder.update(scene=sc, o=o, tri=tri, nrm=np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]))
+    o = holder["o"]
+    n = n / np.linalg.norm(n)
+    pl = pts - o
+    start = max(0.0, float((pl @ n).max() - ((v - o) @ n).min())) + 1e-3
+    rays = np.hstack([pl - start * n, np.broadcast_to(n, pl.shape)]).astype(np.float32)
+    ans = holder["scene"].cast_rays(o3d.core.Tensor(rays))
+    hit = ans["t_hit"].numpy().astype(np.float64)
+    out = np.full(len(pts), np.inf)
+    ok = np.isfinite(hit)
+    if ok.any():
+        prim = ans["primitive_ids"].numpy().astype(np.int64)[ok]
+        nrm, a = holder["nrm"][prim], holder["tri"][prim, 0]
+        den = nrm @ n
+        good = np.abs(den) > 1e-30
+        exact = np.einsum("ij,ij->i", nrm, a - pts[ok]) / np.where(good, den, 1.0)
+        out[ok] = np.where(good, exact, hit[ok] - start)  # float64 plane intersection
+    return out
+
+
+def _skin_grid(layout, h, layer_extent, direction, grid, taxel_radius):
+    """The grid on the layer's outer surface (frame, cells, surface heights), cached per layout."""
+    key = (_digest(np.asarray(layout.positions, float), np.asarray(layout.normals, float)), float(h),
+           layer_extent, None if direction is None else tuple(np.asarray(direction, float).ravel()),
+           grid.spacing, grid.margin, grid.extent, float(taxel_radius))
+    hit = _SKIN_CACHE.get(key)
+    if hit is not None:
+        return hit
+    u, n, e1, e2 = _frame(layout, direction)
+    pos = np.asarray(layout.positions, float)
+    nrm = np.asarray(layout.normals, float)
+    outer = pos + h * nrm
+    facing = nrm @ n > 0.1
+    if not facing.any():
+        raise InputError("no taxel faces the press direction", key="direction")
+    origin = outer[facing].mean(axis=0)
+    rel = outer[facing] - origin
+    xy, z = np.column_stack([rel @ e1, rel @ e2]), rel @ n
+    dx = grid.spacing
+    lo = xy.min(axis=0) - taxel_radius - grid.margin
+    hi = xy.max(axis=0) + taxel_radius + grid.margin
+    extent = grid.extent if grid.extent is not None else layer_extent
+    if extent is not None:
+        lo = np.minimum(lo, -extent)
+        hi = np.maximum(hi, extent)
+    # an even number of cells centred on the patch: cell centres sit half a cell off the
+    # patch axes, so the edges of objects centred on the patch fall between cells
+    mx, my = 2 * np.ceil((hi - lo) / (2 * dx)).astype(int)
+    if mx * my > 4_000_000:
+        raise InputError(f"grid of {mx} x {my} cells is too large; increase grid.spacing", key="grid.spacing")
+    cx, cy = (lo + hi) / 2
+    xs = cx + dx * (np.arange(mx) - (mx - 1) / 2)
+    ys = cy + dx * (np.arange(my) - (my - 1) / 2)
+    X, Y = np.meshgrid(xs, ys, indexing="ij")
+    S = _surface_height(xy, z, X, Y)
+    skin = np.ones_like(X, dtype=bool)
+    if extent is not None:
+        skin &= np.hypot(X, Y) <= extent
+    pts = origin + X[..., None] * e1 + Y[..., None] * e2 + S[..., None] * n
+    hit = {"u": u, "n": n, "e1": e1, "e2": e2, "origin": origin, "x": xs, "y": ys, "X": X, "Y": Y, "S": S,
+           "skin": skin, "pts": pts}
+    if len(_SKIN_CACHE) > 16:
+        _SKIN_CACHE.clear()
+    _SKIN_CACHE[key] = hit
+    return hit
+
+
 def press(layout, mesh, pose, layer: SoftLayer, *, force=None, indentation=None, direction=None,
           model: str = "finite_layer", compliance=None, grid: ContactGrid | None = None,
           spread: bool = True, spreading: str = "layer", samples_per_taxel: int = 7, taxel_radius: float = TAXEL_RADIUS,
@@ -293,47 +421,25 @@ def press(layout, mesh, pose, layer: SoftLayer, *, force=None, indentation=None,
     pose = np.asarray(pose, float).reshape(4, 4)
     if not np.all(np.isfinite(pose)):
         raise InputError("pose has non-finite entries", key="pose")
-    local = prepare_mesh(mesh, open_mesh=open_mesh)
-    posed = local.copy()
-    posed.apply_transform(pose)
-
-    u, n, e1, e2 = _frame(layout, direction)
-    pos = np.asarray(layout.positions, float)
-    nrm = np.asarray(layout.normals, float)
-    outer = pos + h * nrm
-    facing = nrm @ n > 0.1
-    if not facing.any():
-        raise InputError("no taxel faces the press direction", key="direction")
-    origin = outer[facing].mean(axis=0)
-    rel = outer[facing] - origin
-    xy, z = np.column_stack([rel @ e1, rel @ e2]), rel @ n
-    dx = grid.spacing
-    lo = xy.min(axis=0) - taxel_radius - grid.margin
-    hi = xy.max(axis=0) + taxel_radius + grid.margin
-    extent = grid.extent if grid.extent is not None else layer.extent
-    if extent is not None:
-        lo = np.minimum(lo, -extent)
-        hi = np.maximum(hi, extent)
-    # an even number of cells centred on the patch: cell centres sit half a cell off the
-    # patch axes, so the edges of objects centred on the patch fall between cells
-    mx, my = 2 * np.ceil((hi - lo) / (2 * dx)).astype(int)
-    if mx * my > 4_000_000:
-        raise InputError(f"grid of {mx} x {my} cells is too large; increase grid.spacing", key="grid.spacing")
-    cx, cy = (lo + hi) / 2
-    xs = cx + dx * (np.arange(mx) - (mx - 1) / 2)
-    ys = cy + dx * (np.arange(my) - (my - 1) / 2)
-    X, Y = np.meshgrid(xs, ys, indexing="ij")
-    S = _surface_height(xy, z, X, Y)
-    skin = np.ones_like(X, dtype=bool)
-    if extent is not None:
-        skin &= np.hypot(X, Y) <= extent
-    pts = origin + X[..., None] * e1 + Y[..., None] * e2 + S[..., None] * n
-    gap = np.full(X.shape, np.inf)
-    gap[skin] = lower_envelope(pts[skin], n, posed, backend)
+    local, scene = _prepared(mesh, open_mesh)
+    sk = _skin_grid(layout, h, layer.extent, direction, grid, taxel_radius)
+    u, n, e1, e2, origin = sk["u"], sk["n"], sk["e1"], sk["e2"], sk["origin"]
+    xs, ys, S, dx = sk["x"], sk["y"], sk["S"], grid.spacing
+    gap = np.full(S.shape, np.inf)
+    # only cells under the object's footprint can meet it: cast rays there alone
+    corners = np.array([[a, b, c] for a in (0, 1) for b in (0, 1) for c in (0, 1)], float)
+    box = local.bounds[0] + corners * (local.bounds[1] - local.bounds[0])
+    box = box @ pose[:3, :3].T + pose[:3, 3] - origin
+    bx, by = box @ e1, box @ e2
+    cand = sk["skin"] & (sk["X"] >= bx.min() - dx) & (sk["X"] <= bx.max() + dx) & \
+        (sk["Y"] >= by.min() - dx) & (sk["Y"] <= by.max() + dx)
+    if cand.any():
+        gap[cand] = _envelope_posed(sk["pts"][cand], n, local, scene, pose, backend)
     finite = np.isfinite(gap)
     area = dx * dx
+    mx, my = gap.shape
 
-    fld = ContactField(xs, ys, origin, e1, e2, n, S, gap, np.zeros_like(gap))
+    fld = ContactField(xs, ys, origin, e1, e2, n, S, gap, np.zeros_like(gap), thickness=h)
     gmin = float(gap[finite].min()) if finite.any() else np.inf
     if force is not None and force > 0 and not finite.any():
         raise UnreachableTargetError(
@@ -418,8 +524,8 @@ def press(layout, mesh, pose, layer: SoftLayer, *, force=None, indentation=None,
     cpt_obj = np.full(3, np.nan)
     if total > 0:
         cpt = (fld.points() * p[..., None]).sum(axis=(0, 1)) / p.sum()
-        inv = np.linalg.inv(new_pose)
-        cpt_obj = inv[:3, :3] @ cpt + inv[:3, 3]
+        r_, t_ = new_pose[:3, :3], new_pose[:3, 3]
+        cpt_obj = r_.T @ (cpt - t_)  # rigid inverse
     if compliance is not None and total > 0:
         k_obj = _object_stiffness(compliance, local, new_pose, cpt)
         defl = total / k_obj
