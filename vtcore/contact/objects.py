@@ -106,12 +106,13 @@ def make_object(kind: str, **dims) -> "trimesh.Trimesh":
         r, w = d["radius"], d["wall"]
         if w >= r:
             raise InputError(f"mug: wall ({w} m) must be thinner than the radius ({r} m)", key="wall")
-        tube = trimesh.creation.annulus(r_min=r - w, r_max=r, height=d["height"], sections=int(d["sections"]))
-        tube.apply_translation((0, 0, d["height"] / 2))
-        # The bottom fills the tube's hole (disjoint volumes), so the union stays closed.
-        bottom = trimesh.creation.cylinder(radius=r - w, height=d["bottom"], sections=int(d["sections"]))
-        bottom.apply_translation((0, 0, d["bottom"] / 2))
-        mesh = trimesh.util.concatenate([tube, bottom])
+        # one solid of revolution (outer wall, rim, inner wall, inner bottom): a tube plus a
+        # separate bottom would share the inner wall and stop being a manifold once merged
+        h, b = d["height"], d["bottom"]
+        if b >= h:
+            raise InputError(f"mug: bottom ({b} m) must be thinner than the height ({h} m)", key="bottom")
+        prof = np.array([[0, 0], [r, 0], [r, h], [r - w, h], [r - w, b], [0, b]], float)
+        mesh = trimesh.creation.revolve(prof, sections=int(d["sections"]))
     if mesh.volume < 0:
         mesh.invert()
     mesh.metadata["kind"] = kind
