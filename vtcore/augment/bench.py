@@ -6,7 +6,7 @@ ground truth is known at every point). Each method's colours are compared with
 that truth (mean absolute error, % of the mean colour) next to its time
 (best of several runs, fit + predict). Rows: cluster-based (brute force and
 KD-tree), smooth (float64, float32, truncated to k contacts, beta sweep), the
-incremental per-touch update, the GP baseline (plain, and with the paper's
+incremental per-touch update, 1,000 noise-free touches (where truncation pays), the GP baseline (plain, and with the paper's
 3 cm neighbourhood augmentation), fewer touches, and 1 M points x 24 touches.
 """
 
@@ -80,6 +80,16 @@ def run(out: Path, quick: bool = False) -> list[dict]:
     for n in (3, 7, 13):
         measure("cluster", f"{n} touches", ClusterPropagation(), touches=v[:n], values=c[:n])
         measure("smooth", f"{n} touches", SmoothPropagation(), touches=v[:n], values=c[:n])
+
+    # many touches (e.g. a densely explored object): where truncation pays
+    many = 200 if quick else 1000
+    pick = np.random.default_rng(2).choice(len(x), many, replace=False)
+    vm, cm = x[pick], probe.true_c(obj.stiffness(x[pick]))
+    measure("smooth", f"{many} touches, dense", SmoothPropagation(), touches=vm, values=cm)
+    for k in (4, 16):
+        measure("smooth truncated", f"{many} touches, k_nearest={k}", SmoothPropagation(k_nearest=k), touches=vm,
+                values=cm)
+    measure("cluster", f"{many} touches (KD-tree)", ClusterPropagation(), touches=vm, values=cm)
 
     # incremental: cost of adding the 24th touch to a cloud that has 23
     for method in ("cluster", "smooth"):
