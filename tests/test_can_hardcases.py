@@ -387,3 +387,78 @@ def test_random_losses_duplicates_and_jitter(seed):
     np.testing.assert_array_equal(r.mask, expect[:n_rows])
     np.testing.assert_array_equal(r.frames[r.mask], wire[:n_rows][r.mask])
     assert n_rows >= t - 1
+
+
+def _shift_line(line, dt):
+    ts = float(line[1:line.index(")")])
+    return f"({ts + dt:.6f})" + line[line.index(")") + 1:]
+
+
+@pytest.mark.parametrize("k", [0, 1, 205, 206, 399])
+@pytest.mark.parametrize("chunk", [7, 65536])
+def test_lone_forward_clock_jump_does_not_poison_the_stream(tmp_path, k, chunk):
+    """One frame 100 s in the future (first, middle and last lines; any chunking): only that
+    frame is lost, counted as clock_jump; every later frame of its stream is still used."""
+    path, wire = _icub_log(tmp_path)
+    lines = _lines(path)
+    r0 = decode_log(path, "icub")
+    half = 7 if "#40" in lines[k] else 5
+    lines[k] = _shift_line(lines[k], 100.0)
+    r = decode_log(_write(tmp_path / "j.log", lines), "icub", chunk=chunk)
+    assert r.summary.rejected["clock_jump"] == 1 and r.summary.rejected_total == 1
+    assert r.summary.examples["clock_jump"] == [k + 1]
+    _same_elsewhere(r0, r, lost_cells=half)
+    np.testing.assert_allclose(r.timestamps, r0.timestamps)
+
+
+def test_run_of_forward_outliers_on_several_streams(tmp_path):
+    path, wire = _icub_log(tmp_path)
+    lines = _lines(path)
+    r0 = decode_log(path, "icub")
+    lost = 0
+    for k, dt in ((150, 30.0), (151, 30.0), (152, 31.0), (300, 5.0)):   # 5 s = 100 periods
+        lost += 7 if "#40" in lines[k] else 5
+        lines[k] = _shift_line(lines[k], dt)
+    r = decode_log(_write(tmp_path / "j.log", lines), "icub")
+    assert r.summary.rejected["clock_jump"] == 4 and r.summary.rejected_total == 4
+    _same_elsewhere(r0, r, lost_cells=lost)
+
+
+def test_small_forward_step_is_not_a_clock_jump(tmp_path):
+    """A frame a few periods late in time (within the window) stays an ordinary frame: it lands
+    in its own later row and the stream's following frames are out of order, as before."""
+    path, wire = _icub_log(tmp_path)
+    lines = _lines(path)
+    lines[205] = _shift_line(lines[205], 0.05 * 3)
+    r = decode_log(_write(tmp_path / "s.log", lines), "icub")
+    assert r.summary.rejected["clock_jump"] == 0
+    assert r.summary.rejected["out_of_order"] + r.summary.rejected["duplicate"] >= 1
+
+
+def test_genuine_gap_becomes_masked_rows(tmp_path):
+    """Frames missing for 10 periods (more than the window), then the clock continues: the
+    periods are masked rows, nothing is rejected."""
+    path, wire = _icub_log(tmp_path)
+    lines = _lines(path)
+    r = decode_log(_write(tmp_path / "g.log", lines[:100] + lines[200:]), "icub")
+    assert r.summary.rejected_total == 0
+    assert r.frames.shape == wire.shape
+    assert not r.mask[10:20].any() and r.mask[:10].all() and r.mask[20:].all()
+    np.testing.assert_array_equal(r.frames[r.mask], wire[r.mask])
+    np.testing.assert_allclose(np.diff(r.timestamps), 0.05, atol=1e-3)
+    assert r.summary.masked_samples == 10 * 60
+
+
+@pytest.mark.parametrize("chunk", [7, 65536])
+def test_logger_clock_jumps_forward_for_good(tmp_path, chunk):
+    """Every frame from line 200 on is 100 s later (a clock that really jumped, or the bus
+    silent for 100 s): the jump is a gap of masked rows, not rejected frames."""
+    path, wire = _icub_log(tmp_path)
+    lines = _lines(path)
+    lines = lines[:200] + [_shift_line(ln, 100.0) for ln in lines[200:]]
+    r = decode_log(_write(tmp_path / "g.log", lines), "icub", chunk=chunk)
+    assert r.summary.rejected_total == 0
+    assert r.frames.shape == (40 + 2000, 60)
+    assert r.mask[:20].all() and not r.mask[20:2020].any() and r.mask[2020:].all()
+    np.testing.assert_array_equal(r.frames[2020:], wire[20:])
+    assert r.timestamps[2020] - r.timestamps[19] == pytest.approx(100.05, abs=1e-3)

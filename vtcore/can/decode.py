@@ -16,6 +16,12 @@ What is rejected, and counted (``Summary.rejected``)
 ----------------------------------------------------
 ``unknown_id``, ``short_dlc``, ``bad_header`` (from the codec),
 ``out_of_order`` (earlier than an earlier-read frame of the same stream),
+``clock_jump`` (more than ``window`` periods after the median time of the 7 frames
+around it in file order: a lone forward outlier, or a run of up to 3, whose
+neighbours continue the old clock; see :meth:`StreamDecoder._clock_jumps`. Without
+this, its stream's later frames would all be out of order and every other stream's
+late. After a genuine gap the following frames continue the new clock and win the
+vote, so the gap becomes masked rows),
 ``duplicate`` (a second frame of a stream in one row: the first read wins),
 ``late`` (its row was already emitted; rows stay open for ``window`` periods
 after the newest row seen). A frame whose triangle reports an error keeps its
@@ -34,6 +40,8 @@ import numpy as np
 
 from .codecs import Codec
 from .frames import REASONS, FrameBatch, Summary
+
+_CLOCK_JUMP = REASONS.index("clock_jump")
 
 
 @dataclass
@@ -124,6 +132,8 @@ class StreamDecoder:
         self._last_emit: tuple[int, float] | None = None
         self._started = False
         self.max_pending_rows = 0                  # for tests of bounded memory
+        self._tail = FrameBatch.empty()            # frames held back as look-ahead
+        self._ctx = np.zeros(0)                    # timestamps of the last frames processed
 
     # -- columns ---------------------------------------------------------
     def _index_columns(self):
@@ -187,6 +197,7 @@ class StreamDecoder:
     # -- feeding ---------------------------------------------------------
     #: frames the period is estimated from (the first ones of the log, whatever the chunking)
     ESTIMATE_FRAMES = 4096
+    JUMP_CONTEXT = 3   # frames on each side that vote on a clock jump (runs of up to 3 outliers)
 
     def feed(self, batch: FrameBatch) -> Block | None:
         """Decode one chunk of frames; return the rows it closed, or None."""
@@ -195,10 +206,10 @@ class StreamDecoder:
             self._hold = getattr(self, "_hold", []) + [batch]
             if sum(len(b) for b in self._hold) < self.ESTIMATE_FRAMES:
                 return None
-            return self._release()
-        return self._feed(batch)
+            return self._release(final=False)
+        return self._feed(batch, final=False)
 
-    def _release(self) -> Block | None:
+    def _release(self, final: bool) -> Block | None:
         held = FrameBatch.concat(getattr(self, "_hold", []))
         self._hold = []
         head = held.take(slice(0, self.ESTIMATE_FRAMES))
@@ -206,15 +217,62 @@ class StreamDecoder:
         ok = reason < 0
         self.period = estimate_period(head.timestamps[ok], keys[ok], self.codec.default_period)
         self.summary.period_s = self.period
-        return self._feed(held)
+        return self._feed(held, final)
 
-    def _feed(self, batch: FrameBatch) -> Block | None:
+    def _feed(self, batch: FrameBatch, final: bool) -> Block | None:
+        """Hold back the last ``JUMP_CONTEXT`` frames (the look-ahead clock-jump detection needs
+        the frames after each one), process the rest with the frames before as context."""
+        k = self.JUMP_CONTEXT
+        if len(self._tail):
+            batch = FrameBatch.concat([self._tail, batch])
+        cut = len(batch) if final else max(len(batch) - k, 0)
+        proc, self._tail = batch.take(slice(0, cut)), batch.take(slice(cut, None))
+        if len(proc) == 0:
+            return None
+        jump = self._clock_jumps(proc.timestamps, None if final else self._tail.timestamps)
+        self._ctx = np.r_[self._ctx, proc.timestamps[-k:]][-k:]
+        return self._process(proc, jump)
+
+    def _clock_jumps(self, t: np.ndarray, ahead: np.ndarray | None) -> np.ndarray:
+        """``(M,) bool``: frames whose timestamp jumped far ahead of the log's clock.
+
+        A frame is a clock jump when it lies more than ``window`` periods after the median
+        timestamp of the ``2 k + 1`` frames around it in file order (``k = JUMP_CONTEXT``
+        before, itself, ``k`` after; frames of every stream, since all share the logger's
+        clock). A lone outlier (or a run of up to ``k``) is outvoted by its neighbours; after a
+        genuine gap the frames that follow continue the new clock and carry the median with
+        them. At either end of the log the window is shorter (the median of the frames there),
+        so a lone outlier on the first or last line is still caught, and a forward step
+        followed by fewer than ``k`` frames before the log ends is not confirmed (a jump).
+        Only frames within ``k`` of a forward step of more than ``window`` periods can qualify,
+        so the median is evaluated at a handful of places (the log's hot path is one ``diff``).
+        """
+        k = self.JUMP_CONTEXT
+        m = len(t)
+        before = np.r_[np.full(k - len(self._ctx), np.nan), self._ctx]
+        after = np.zeros(0) if ahead is None else ahead[:k]
+        after = np.r_[after, np.full(k - len(after), np.nan)]
+        ext = np.r_[before, t, after]                    # t[i] is ext[k + i]
+        jump = np.zeros(m, bool)
+        limit = self.window * self.period
+        prev = ext[k - 1:k - 1 + m]
+        fwd = np.flatnonzero(np.isnan(prev) | (ext[k:k + m] - prev > limit))   # nan: first frame of the log
+        if len(fwd) == 0:
+            return jump
+        cand = np.unique((fwd[:, None] + np.arange(k)[None, :]).reshape(-1))
+        cand = cand[cand < m]
+        med = np.nanmedian(ext[cand[:, None] + np.arange(2 * k + 1)[None, :]], axis=1)
+        jump[cand] = t[cand] - med > limit
+        return jump
+
+    def _process(self, batch: FrameBatch, jump: np.ndarray) -> Block | None:
         s = self.summary
         m = len(batch)
         s.frames_read += m
         if m == 0:
             return None
         keys, reason = self.codec.classify(batch)
+        reason = np.where((reason < 0) & jump, _CLOCK_JUMP, reason).astype(np.int8)
         for code in np.unique(reason[reason >= 0]):
             sel = reason == code
             s.reject(REASONS[code], int(sel.sum()), batch.lines[sel])
@@ -379,11 +437,8 @@ class StreamDecoder:
 
     def finish(self) -> Block | None:
         """Close and return every pending row."""
-        if self.period is None:
-            first = self._release()
-            last = self._emit(final=True)
-            return _join_blocks(first, last)
-        return self._emit(final=True)
+        first = self._release(final=True) if self.period is None else self._feed(FrameBatch.empty(), final=True)
+        return _join_blocks(first, self._emit(final=True))
 
     def _emit(self, final: bool) -> Block | None:
         upto = len(self._pt) if final else max(0, self._maxrow - self.window + 1 - self._row0)

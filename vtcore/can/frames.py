@@ -21,6 +21,7 @@ REASONS = (
     "short_dlc",         # too few data bytes for the taxels the frame must carry
     "bad_header",        # iCub: data[0] neither 0x40 nor 0xC0
     "out_of_order",      # timestamp earlier than the previous frame of the same stream
+    "clock_jump",        # timestamp far ahead of the frames around it (a lone forward outlier)
     "duplicate",         # a second frame of the same stream in the same period
     "late",              # arrived after its period was already emitted (streaming window)
 )
