@@ -202,7 +202,7 @@ class ContourFollower:
                 reason = "explored"
                 break
             cur = cur @ motion_matrix(*motion(f, self.step))
-        n = len(pres[0]) if pres else 0
+        n = len(pres[0]) if pres else int(getattr(self.detector, "n", 0))
         return ContourRun(
             poses=np.array(poses).reshape(-1, 4, 4), x_ref=np.array(xr).reshape(-1, 3),
             pressure=np.array(pres).reshape(-1, n), centroid=np.array(cen).reshape(-1, 2),
