@@ -19,9 +19,9 @@ def _layout(radius=np.inf):
 FLAT = _layout()
 
 
-def _press(kind, h, force=10.0, layout=FLAT, **kw):
+def _press(kind, h, force=10.0, layout=FLAT, base="bonded", **kw):
     m = make_object(kind)
-    return press(layout, m, placement_pose(m, top=h, gap=1e-3), SoftLayer(thickness=h, extent=0.04),
+    return press(layout, m, placement_pose(m, top=h, gap=1e-3), SoftLayer(thickness=h, extent=0.04, base=base),
                  force=force, **kw)
 
 
@@ -167,24 +167,37 @@ def test_flat_punch_edges_concentrate_only_with_nonlocal_models():
 
 # --- press: the "Done when" ---------------------------------------------------------
 
-def test_sphere_through_10mm_is_wider_and_lower_than_through_3mm():
+@pytest.mark.parametrize("base", ["bonded", "frictionless"])
+@pytest.mark.parametrize("spreading", ["layer", "boussinesq"])
+def test_sphere_through_10mm_is_wider_and_lower_than_through_3mm(base, spreading):
     from vtcore.scene.tasks.press import halfmax_diameter
 
-    thin, thick = _press("sphere", 0.003), _press("sphere", 0.010)
+    thin = _press("sphere", 0.003, base=base, spreading=spreading)
+    thick = _press("sphere", 0.010, base=base, spreading=spreading)
     for r in (thin, thick):
         assert r.force == pytest.approx(10.0, rel=0.01)
     assert halfmax_diameter(thick.field) > halfmax_diameter(thin.field)
     assert thick.pressure.max() < thin.pressure.max()
 
 
-def test_cube_edge_is_sharper_through_3mm_than_10mm():
+@pytest.mark.parametrize("base", ["bonded", "frictionless"])
+def test_cube_edge_is_sharper_through_3mm_than_10mm(base):
     edges = skin_mesh(FLAT).edges
 
     def step(r):
         v = r.pressure
         return np.abs(v[edges[:, 0]] - v[edges[:, 1]]).max()
 
-    assert step(_press("cube", 0.003)) > step(_press("cube", 0.010))
+    assert step(_press("cube", 0.003, base=base)) > step(_press("cube", 0.010, base=base))
+
+
+def test_oblique_press_direction():
+    m = make_object("sphere")
+    d = np.array([np.sin(0.3), 0.0, -np.cos(0.3)])
+    pose = placement_pose(m, top=3e-3, gap=2e-3)
+    r = press(FLAT, m, pose, SoftLayer(), force=5.0, direction=d)
+    assert r.force == pytest.approx(5.0, rel=1e-6) and np.allclose(r.direction, d)
+    assert np.allclose(r.pose[:3, 3] - pose[:3, 3], r.travel * d)
 
 
 # --- hard cases ------------------------------------------------------------------------------
