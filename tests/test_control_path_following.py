@@ -54,3 +54,39 @@ def test_losing_contact_reads_zero(line_field):
 def test_bad_path():
     with pytest.raises(InputError, match="zero length"):
         follow_path([0, 0, 0], [0, 0, 0], lambda x: np.ones(len(x)), lambda x: np.ones(len(x)), c_max=1.0)
+
+
+def test_response_table_plant_matches_the_series_plant(line_field):
+    """A tabulated linear contact (the contact simulator's format) behaves like the series model."""
+    from vtcore.control.path_following import ResponseTable
+
+    v, c, truth = line_field
+    s = np.linspace(0, 0.06, 31)
+    u = np.linspace(0, 0.01, 6)[None, :].repeat(len(s), axis=0)
+    table = ResponseTable(s=s, u=u, p=truth(np.c_[np.zeros((31, 2)), s])[:, None] * u)
+    est = SmoothPropagation().fit(v, c)
+    ctl = ForceController(noise=0.0)
+    a = follow_path([0, 0, 0], [0, 0, 0.06], est.predict, truth, c_max=c.max(), controller=ctl)
+    b = follow_path([0, 0, 0], [0, 0, 0.06], est.predict, response=table, c_max=c.max(), controller=ctl)
+    np.testing.assert_allclose(b.response, a.response, rtol=0.02, atol=2.0)
+    assert table.displacement_for(0.0, 2000.0) == pytest.approx(2000.0 / 2e6)
+    assert table.response(0.0, 0.02) == pytest.approx(2e6 * 0.02)      # extrapolated with the last slope
+    with pytest.raises(InputError, match="plant"):
+        follow_path([0, 0, 0], [0, 0, 0.06], est.predict, c_max=1.0)
+
+
+def test_contact_response_table_on_the_bottle():
+    from vtcore.augment import make_seed000_object
+    from vtcore.contact import SoftLayer
+    from vtcore.control.path_following import contact_response_table
+
+    o = make_seed000_object("empty_bottle")
+    start, end = np.array([0.032, 0, 0.11]), np.array([0.032, 0, 0.07])
+    stiff = lambda r: float(o.stiffness(r.contact_point_object[None])[0])
+    soft = contact_response_table(o.mesh, start, end, [1.0, 0, 0], SoftLayer(thickness=0.003), stiffness=stiff,
+                                  stations=3, forces=(0.1, 0.5, 1.0))
+    rigid = contact_response_table(o.mesh, start, end, [1.0, 0, 0], SoftLayer(thickness=0.003), stations=3,
+                                   forces=(0.1, 0.5, 1.0))
+    assert np.all(np.diff(soft.p, axis=1) > 0) and np.all(np.diff(soft.u, axis=1) > 0)
+    np.testing.assert_allclose(soft.p, rigid.p, rtol=1e-6)           # same force, same pressure ...
+    assert np.all(soft.u[:, -1] > rigid.u[:, -1] + 1e-3)             # ... but the soft wall deflects

@@ -17,15 +17,23 @@ from ...augment.objects import BOTTLE, bottle_radius_at
 from ...augment.cloud import colour_map
 from ...augment.experiment import voxel_filter
 from ...augment.plots import view_coordinates
-from ...control.path_following import ForceController, follow_path
+from ...control.path_following import ForceController, contact_response_table, follow_path
 from ..registry import TaskSpec, register_task
 from ..runner import TaskResult
 from ..schema import Field, Section
+from ..sections.contact import build_layer, layer_options
+from .augment import _contact_prober
 
 PARAMS = Section({
     "object": Field("str", default="empty_bottle", choices=("empty_bottle", "full_bottle")),
     "touches": Field("int", default=24, ge=1),
     "target_response": Field("float", default=4000.0, gt=0, doc="p̄* of the probes, counts"),
+    "probe": Field("str", default="contact", choices=("contact", "series"),
+                   doc="contact: touches probed and the sliding contact solved by the contact simulator "
+                       "([layer], object_compliance, gain); series: the closed-form spring model"),
+    "counts_per_pa": Field("float", default=2.0, gt=0, doc="sensor gain when [effects.gain] is not listed"),
+    "readings": Field("int", default=10, ge=1),
+    "stations": Field("int", default=27, ge=2, doc="contact solves along the path (contact plant)"),
     "counts_per_newton": Field("float", default=2000.0, gt=0),
     "layer_stiffness": Field("float", default=5000.0, gt=0, unit="N/m"),
     "points": Field("int", default=33676, ge=1),
@@ -45,7 +53,7 @@ PARAMS = Section({
     "dt": Field("float", default=2e-3, gt=0, unit="s"),
     "setpoint_period": Field("float", default=1e-2, gt=0, unit="s", doc="on-the-fly query period"),
     "c_min": Field("float", default=0.0),
-    "c_max": Field("float", default=1.0e7, gt=0, doc="shared colour scale of the pictures, counts/m"),
+    "c_max": Field("float", default=2.0e7, gt=0, doc="shared colour scale of the pictures, counts/m"),
 })
 
 
@@ -55,9 +63,10 @@ def run(scene, ctx) -> TaskResult:
     probe = ProbeModel(target=p["target_response"], counts_per_newton=p["counts_per_newton"],
                        layer_stiffness=p["layer_stiffness"])
     lo, hi = np.asarray(obj.mesh.bounds)
+    prober = _contact_prober(scene, ctx, obj) if p["probe"] == "contact" else None
     probed = probe_object(obj, p["touches"], probe, cameras=two_cameras(target=tuple((lo + hi) / 2),
                                                                           depth_noise=3e-4),
-                          n_points=p["points"], rng=ctx.child_rng("augment"))
+                          n_points=p["points"], rng=ctx.child_rng("augment"), probe_fn=prober)
     v, c = probed.tactile.points, probed.tactile.values
     z0, z1 = p["start_height"], p["start_height"] - p["length"]
     if z1 < 0 or z0 > BOTTLE["body_top"] + 0.02:
@@ -74,6 +83,14 @@ def run(scene, ctx) -> TaskResult:
     def gap(x):                                  # the real surface below the straight planned path
         return np.clip(r_line - bottle_radius_at(x[:, 2]), 0.0, None)
 
+    table = None
+    if prober is not None:
+        comp = ctx.pipeline.get("object_compliance")
+        stiff = (lambda r: comp.stiffness(obj.stiffness, obj.mesh, r)) if comp is not None else None
+        opts = layer_options(scene)
+        table = contact_response_table(obj.mesh, start, end, radial, build_layer(scene), stiffness=stiff,
+                                       counts=prober.sensor or (lambda pr: prober.counts_per_pa * pr),
+                                       stations=p["stations"], spread=ctx.pipeline.has("soft_layer"), **opts)
     ctl = ForceController(ki=p["ki"], omega=p["omega"], zeta=p["zeta"], noise=p["noise"], dt=p["dt"],
                           setpoint_period=p["setpoint_period"])
     runs, preds = {}, {}
@@ -82,8 +99,9 @@ def run(scene, ctx) -> TaskResult:
         preds[name] = est.predict(probed.points)
         path_pts = start + np.linspace(0, 1, 200)[:, None] * (end - start)
         c_max = float(preds[name].max() if p["c_max_from"] == "cloud" else est.predict(path_pts).max())
-        runs[name] = follow_path(start, end, est.predict, plant_c, gap=gap, speed=p["speed"], p_max=p["p_max"],
-                                 c_max=c_max, controller=ctl, rng=ctx.child_rng(f"path_{name}"))
+        plant = {"response": table} if table is not None else {"plant_c": plant_c, "gap": gap}
+        runs[name] = follow_path(start, end, est.predict, speed=p["speed"], p_max=p["p_max"], c_max=c_max,
+                                 controller=ctl, rng=ctx.child_rng(f"path_{name}"), **plant)
         runs[name].c_max = c_max
 
     metrics = {}
@@ -94,6 +112,8 @@ def run(scene, ctx) -> TaskResult:
         metrics[f"{name}_setpoint_steps"] = int(np.sum(np.abs(np.diff(r.setpoint)) > 0.02 * p["p_max"]))
         metrics[f"{name}_contact_lost_mm"] = float(np.sum(~r.contact) * p["speed"] * p["dt"] * 1e3)
     metrics["duration_s"] = float(runs["cluster"].time[-1])
+    if prober is not None:
+        metrics["probes_unreachable"] = len(prober.failures)
     metrics["path_length_m"] = p["length"]
 
     plt = _plt()
