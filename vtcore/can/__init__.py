@@ -13,7 +13,7 @@ Main entry points:
 """
 
 from .codecs import (ICUB_NOLOAD, ICUB_SHIFT, Codec, Cyskin16Codec, IcubCodec, get_codec, icub_counts_to_wire,
-                     icub_taxel_id, icub_wire_to_counts, icub_wire_to_response)
+                     icub_taxel_id, icub_wire_to_counts, icub_board_ids, describe_icub_ids, icub_wire_to_response)
 from .decode import Block, DecodeResult, StreamDecoder, collect, decode_batches, estimate_period, iter_decode
 from .encode import encode
 from .frames import REASONS, FrameBatch, Summary
@@ -24,7 +24,7 @@ from .replay import replay
 
 __all__ = [
     "Codec", "IcubCodec", "Cyskin16Codec", "get_codec", "ICUB_NOLOAD", "ICUB_SHIFT", "icub_taxel_id",
-    "icub_counts_to_wire", "icub_wire_to_counts", "icub_wire_to_response", "FrameBatch", "Summary", "REASONS",
+    "icub_counts_to_wire", "icub_board_ids", "describe_icub_ids", "icub_wire_to_counts", "icub_wire_to_response", "FrameBatch", "Summary", "REASONS",
     "Block", "DecodeResult", "StreamDecoder", "iter_decode", "collect", "decode_batches", "estimate_period",
     "encode", "FORMATS", "iter_batches", "read_log", "write_log", "decode_log", "encode_to_log",
     "layout_taxel_ids", "save_frames_npz", "load_frames_npz", "read_cyskin_txt", "replay",

@@ -8,35 +8,67 @@ import numpy as np
 
 from .._io import save_npz
 from ..errors import FormatError, InputError
-from .codecs import Codec, get_codec
+from .codecs import Codec, get_codec, icub_board_ids
 from .decode import DecodeResult, collect, iter_decode
 from .encode import encode
 from .frames import Summary
 from .logs import iter_batches, write_log
 
 
-def layout_taxel_ids(layout) -> np.ndarray:
-    """The UIDs a decoder matches frames against: ``layout.taxel_ids``.
+def layout_taxel_ids(layout, codec: str | Codec | None = None, boards=None) -> np.ndarray:
+    """The wire taxel ids a decoder matches frames against, one per layout taxel (layout order).
 
-    CySkin: ``module_uid << 4 | sensor``. iCub: ``192 * board_address + 12 * triangle + slot``
-    (the row of the board's positions file, offset by 192 per board address).
+    CySkin (cyskin16): ``layout.taxel_ids`` (``module_uid << 4 | sensor``) as they are.
+    iCub: ``192 * board_address + 12 * triangle + slot``. A layout read from an iCub
+    positions file has ``taxel_ids`` = row of the file, which is that only for board 0;
+    which boards the rows belong to comes from, in this order:
+
+    1. ``boards`` (CLI ``--boards``): board addresses, one per 192-row block of the file
+       (``[3]``: the file is board 3; ``[14, 13]``: rows 0..191 board 14, 192..383 board 13);
+    2. ``layout.meta["icub_boards"]``, the same list stored with the layout (a JSON layout
+       can carry it);
+    3. ``layout.can_ids`` (``board << 4 | triangle`` per taxel, -1 unknown): the slot is
+       ``taxel_id % 12``;
+    4. otherwise the ids are used as they are (rows 0..191 = board 0, 192..383 = board 1...).
     """
-    return np.asarray(layout.taxel_ids, np.int64)
+    name = codec if isinstance(codec, str) or codec is None else codec.name
+    ids = np.asarray(layout.taxel_ids, np.int64)
+    if name not in (None, "icub"):
+        if boards is not None and len(boards):
+            raise InputError("board addresses (--boards) apply to the icub codec only", key="boards")
+        return ids
+    if boards is None or not len(boards):
+        boards = (layout.meta or {}).get("icub_boards")
+    if boards is not None and len(boards):
+        return icub_board_ids(ids, boards)
+    can = getattr(layout, "can_ids", None)
+    if name == "icub" and can is not None and np.any(can >= 0):
+        if np.any(can > 0xFF):
+            raise InputError(f"can_ids holds {int(can.max())}; iCub addresses are board << 4 | triangle "
+                             "(0..255)", key="can_ids")
+        return np.where(can >= 0, 192 * (can >> 4) + 12 * (can & 0xF) + ids % 12, ids)
+    return ids
 
 
 def decode_log(path, codec: str | Codec = "icub", layout=None, taxel_ids=None, period: float | None = None,
-               window: int = 8, chunk: int = 65536) -> DecodeResult:
+               window: int = 8, chunk: int = 65536, boards=None) -> DecodeResult:
     """Decode a log file (any of :data:`~vtcore.can.logs.FORMATS`) to taxel time series.
 
     codec : "icub", "cyskin16" or a :class:`Codec`. layout : a Layout whose taxel order the
     columns follow (taxels the log lacks stay masked; decoded taxels the layout lacks are
-    counted in ``summary.unmapped_*``). Without a layout or ``taxel_ids``, one column per
-    decoded taxel, sorted by UID. period : s, estimated from the log when None.
+    counted in ``summary.unmapped_*`` and reported). boards : iCub board addresses of the
+    layout's 192-row blocks (see :func:`layout_taxel_ids`). Without a layout or ``taxel_ids``,
+    one column per decoded taxel, sorted by UID. period : s, estimated from the log when None.
     The log is read in chunks of ``chunk`` frames.
+
+    With a layout, ``taxel_ids`` of the result are the wire ids (what ``encode`` needs) and,
+    when they differ from the layout's own ids, ``extra["layout_taxel_ids"]`` holds those.
     """
     codec = get_codec(codec) if isinstance(codec, str) else codec
     if layout is not None:
-        taxel_ids = layout_taxel_ids(layout)
+        taxel_ids = layout_taxel_ids(layout, codec, boards)
+    elif boards is not None and len(boards):
+        raise InputError("board addresses (--boards) need a layout (--layout) to apply to", key="boards")
     summary = Summary()
     batches = iter_batches(path, chunk=chunk, summary=summary)
     blocks = iter_decode(batches, codec, taxel_ids, period, window, summary)
@@ -45,6 +77,16 @@ def decode_log(path, codec: str | Codec = "icub", layout=None, taxel_ids=None, p
         summary.notes.append("the log holds no frames")
     if layout is not None:
         res.extra.update({"positions": layout.positions, "normals": layout.normals})
+        if not np.array_equal(taxel_ids, layout.taxel_ids):
+            res.extra["layout_taxel_ids"] = np.asarray(layout.taxel_ids, np.int64)
+        if codec.name == "icub" and summary.unmapped_taxel_ids:
+            seen = sorted({int(i) // 192 for i in summary.unmapped_taxel_ids})
+            mapped = sorted({int(i) // 192 for i in np.asarray(taxel_ids)})
+            other = [b for b in seen if b not in mapped]
+            if other:
+                summary.notes.append(f"the log has iCub board(s) {other} that the layout does not cover (it maps "
+                                     f"board(s) {mapped}); for a positions file of another board pass its "
+                                     "address (--boards, or meta icub_boards)")
     return res
 
 

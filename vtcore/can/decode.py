@@ -112,6 +112,7 @@ class StreamDecoder:
             raise ValueError("period must be > 0 s")
         self.window = int(max(window, 1))
         self.summary = summary if summary is not None else Summary()
+        self.summary.id_scheme = codec.name
         c = codec.n_channels
         self._keys = np.zeros(0, np.int64)       # sorted known stream keys
         self._klast_t = np.zeros(0)               # last timestamp per key
@@ -416,6 +417,7 @@ class StreamDecoder:
         miss_c = pres_c & (self._kch[kc] >= 0) & (self._kcols[kc] < 0)
         if miss_c.any():
             s.unmapped_samples += int((miss_c.sum(axis=1) * counts[nz]).sum())
+            s.unmapped_frames += int(counts[nz][miss_c.any(axis=1)].sum())
             s.unmapped_taxel_ids.update(int(x) for x in np.unique(self._kch[kc][miss_c]))
         lut = np.zeros(len(counts), np.int64)
         lut[nz] = np.arange(len(nz))

@@ -136,6 +136,8 @@ class Summary:
     triangle_errors: dict = field(default_factory=dict)  # iCub error code -> frames reporting it
     unmapped_taxel_ids: set = field(default_factory=set)  # decoded taxels the layout lacks
     unmapped_samples: int = 0
+    unmapped_frames: int = 0                              # frames carrying any of them
+    id_scheme: str = ""                                   # "icub": reports name boards/triangles
     rows: int = 0
     masked_samples: int = 0
     period_s: float = float("nan")
@@ -164,7 +166,7 @@ class Summary:
             "examples": {k: list(v) for k, v in self.examples.items()},
             "triangle_errors": {str(k): v for k, v in sorted(self.triangle_errors.items())},
             "unmapped_taxel_ids": sorted(int(x) for x in self.unmapped_taxel_ids),
-            "unmapped_samples": self.unmapped_samples,
+            "unmapped_samples": self.unmapped_samples, "unmapped_frames": self.unmapped_frames,
             "rows": self.rows, "masked_samples": self.masked_samples,
             "period_s": self.period_s, "notes": list(self.notes),
         }
@@ -174,7 +176,7 @@ class Summary:
         out = {"frames_read": self.frames_read, "frames_used": self.frames_used,
                "frames_rejected": self.rejected_total, "meta_lines": self.meta_lines,
                "rows": self.rows, "masked_samples": self.masked_samples,
-               "unmapped_taxels": len(self.unmapped_taxel_ids),
+               "unmapped_taxels": len(self.unmapped_taxel_ids), "unmapped_frames": self.unmapped_frames,
                "period_s": self.period_s}
         out.update({f"rejected_{k}": v for k, v in self.rejected.items()})
         out.update({f"triangle_error_{k}_frames": v for k, v in sorted(self.triangle_errors.items())})
@@ -193,8 +195,14 @@ class Summary:
             lines.append(f"  triangle error code {k}: {v} frames (samples masked)")
         if self.unmapped_taxel_ids:
             ids = sorted(self.unmapped_taxel_ids)
-            lines.append(f"  {len(ids)} decoded taxel ids not in the layout ({self.unmapped_samples} samples), "
-                         f"e.g. {ids[:8]}")
+            if self.id_scheme == "icub":
+                from .codecs import describe_icub_ids
+
+                what = describe_icub_ids(ids)
+            else:
+                what = f"e.g. {ids[:8]}"
+            lines.append(f"  {len(ids)} decoded taxel ids not in the layout ({self.unmapped_frames} frames, "
+                         f"{self.unmapped_samples} samples): {what}")
         if self.meta_lines:
             lines.append(f"  {self.meta_lines} header/comment/event lines (not frames)")
         lines += [f"  note: {n}" for n in self.notes]

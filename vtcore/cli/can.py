@@ -1,6 +1,6 @@
 """``vtcore can decode|encode|replay`` and ``vtcore recording import``.
 
-    vtcore can decode LOG --codec icub|cyskin16 [--layout LAYOUT] --out FRAMES.npz
+    vtcore can decode LOG --codec icub|cyskin16 [--layout LAYOUT [--boards B,...]] --out FRAMES.npz
     vtcore can encode FRAMES.npz --codec icub|cyskin16 --out LOG
     vtcore can replay LOG [--channel NAME] [--speed 1.0]
     vtcore recording import FILE --format cyskin-txt --layout LAYOUT --out FRAMES.npz
@@ -21,11 +21,24 @@ def _load_layout(path):
     return lay.load(path)
 
 
+def _boards(text: str) -> list[int]:
+    import argparse
+
+    try:
+        out = [int(x, 0) for x in text.replace(" ", "").split(",") if x]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected board addresses like 3 or 14,13, got {text!r}") from None
+    if not out:
+        raise argparse.ArgumentTypeError("no board address given")
+    return out
+
+
 def cmd_decode(args) -> int:
     from ..can import decode_log, save_frames_npz
 
     layout = _load_layout(args.layout) if args.layout else None
-    res = decode_log(args.log, args.codec, layout=layout, period=args.period, window=args.window)
+    res = decode_log(args.log, args.codec, layout=layout, period=args.period, window=args.window,
+                     boards=args.boards)
     save_frames_npz(args.out, res)
     print(f"{args.log}: {res.summary.text()}")
     print(f"-> {args.out}: frames {res.frames.shape} ({args.codec} wire values), mask, taxel_ids")
@@ -86,6 +99,9 @@ def register(sub) -> None:
     d.add_argument("log", metavar="LOG")
     d.add_argument("--codec", required=True, choices=("icub", "cyskin16"))
     d.add_argument("--layout", metavar="LAYOUT", help="layout file: columns follow its taxel order")
+    d.add_argument("--boards", type=_boards, default=None, metavar="B[,B...]",
+                   help="iCub: board address of each 192-row block of the layout's positions file, in file "
+                        "order (a file for board 3: --boards 3; boards 14 then 13: --boards 14,13)")
     d.add_argument("--out", required=True, metavar="FRAMES.npz")
     d.add_argument("--period", type=float, default=None, help="sampling period in s (default: from the log)")
     d.add_argument("--window", type=int, default=8, help="periods a row waits for late frames")

@@ -32,6 +32,8 @@ PARAMS = Section({
     "codec": Field("str", default="cyskin16", choices=("icub", "cyskin16"), doc="how the frames are coded"),
     "period": Field("float", default=0.0, ge=0, unit="s", doc="sampling period; 0: estimated from the log"),
     "window": Field("int", default=8, ge=1, doc="periods a row waits for late frames"),
+    "boards": Field("list", default=[], item=Field("int", ge=0, le=15),
+                    doc="iCub: board address of each 192-row block of the layout (empty: as the layout says)"),
     "baseline_rows": Field("int", default=5, ge=1, doc="first rows whose median is each taxel's baseline"),
     "edge_fraction": Field("float", default=0.3, gt=0, le=1,
                            doc="edge threshold as a fraction of each frame's strongest filter response"),
@@ -70,7 +72,8 @@ def run(scene, ctx) -> TaskResult:
 
     p = scene["task"]
     layout = build_layout(scene)
-    res = decode_log(p["log"], p["codec"], layout=layout, period=p["period"] or None, window=p["window"])
+    res = decode_log(p["log"], p["codec"], layout=layout, period=p["period"] or None, window=p["window"],
+                     boards=p["boards"] or None)
     s = res.summary
     wire, mask = res.frames, res.mask
     counts = icub_wire_to_counts(wire) if p["codec"] == "icub" else wire.astype(np.float64)
