@@ -202,3 +202,18 @@ def test_bad_input_errors(cloud):
         ClusterPropagation().fit(c, v).predict(np.ones((3, 2)))
     with pytest.raises(InputError, match="not finite"):
         SmoothPropagation().fit(c, v).predict(np.full((2, 3), np.nan))
+
+
+def test_incremental_cloud_writes_ply(cloud, tmp_path):
+    from vtcore.augment import read_ply_vertices
+
+    x, c, v = cloud
+    aug = AugmentedPointCloud(x, "smooth", channels=2, normals=x / np.linalg.norm(x, axis=1, keepdims=True))
+    aug.add_touches(c, np.c_[v, 0.5 * np.ones_like(v)])
+    back = read_ply_vertices(aug.write_ply(tmp_path / "a.ply", 0.0, 1e7, channel_names=["c", "friction"]))
+    np.testing.assert_allclose(back["tactile_color"], aug.values[:, 0], rtol=1e-6)
+    np.testing.assert_allclose(back["friction"], 0.5, rtol=1e-6)
+    with pytest.raises(InputError, match="dtype"):
+        SmoothPropagation(dtype=np.int32).fit(c, v)
+    np.testing.assert_allclose(SmoothPropagation(dtype="float32").fit(c, v).predict(x),
+                               SmoothPropagation().fit(c, v).predict(x), rtol=1e-4)

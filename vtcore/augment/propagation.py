@@ -271,8 +271,12 @@ class SmoothPropagation:
 
     def _prepare(self):
         self.origin_ = self.contact_points_.mean(axis=0)
-        self._c = ((self.contact_points_ - self.origin_) * self.scale).astype(self.dtype)
-        self._v2 = self.values_.reshape(len(self.values_), -1).astype(self.dtype)
+        dt = np.dtype(self.dtype)
+        if dt not in (np.float32, np.float64):
+            raise InputError(f"must be float32 or float64, got {self.dtype!r}", key="dtype")
+        self._dt = dt.type
+        self._c = ((self.contact_points_ - self.origin_) * self.scale).astype(dt)
+        self._v2 = self.values_.reshape(len(self.values_), -1).astype(dt)
         self._tree = None
 
     def predict(self, points) -> np.ndarray:
@@ -299,7 +303,7 @@ class SmoothPropagation:
         # Contacts along the first axis: the reductions over contacts (min, sum) then run
         # as n elementwise passes over contiguous rows of points, several times faster in
         # numpy than reducing a short trailing axis.
-        dt = self.dtype
+        dt = self._dt
         b = dt(beta)
         c = self._c
         c2 = np.einsum("ij,ij->i", c, c)[:, None]
@@ -533,6 +537,18 @@ class AugmentedPointCloud:
         for i in range(len(p)):        # loop over touches (few), each vectorised over the cloud
             self.add_touch(p[i], vals[i])
         return self
+
+    def write_ply(self, path, c_min: float, c_max: float, cmap: str = "viridis_r", channel_names=None):
+        """Write the cloud with its colours: RGB on the shared scale (first channel) and every channel
+        as a scalar property (``tactile_color``, then ``channel_names[1:]`` or ``channel_1``...)."""
+        from .cloud import colour_map, write_ply
+
+        vals = self.values.reshape(len(self.points), -1)
+        names = list(channel_names or ["tactile_color"] + [f"channel_{j}" for j in range(1, vals.shape[1])])
+        names[0] = "tactile_color"
+        return write_ply(path, self.points, normals=self.normals, rgb=colour_map(vals[:, 0], c_min, c_max, cmap),
+                         scalars={names[j]: vals[:, j] for j in range(vals.shape[1])},
+                         comment=f"vtcore augmented point cloud, {self.method}, {self.n_touches} touches")
 
     @property
     def values(self) -> np.ndarray:
