@@ -122,3 +122,21 @@ def test_one_object_is_a_scene_error(tmp_path, scenes_dir):
 def test_sweep_rejects_repeated_thicknesses(tmp_path, scenes_dir):
     with pytest.raises(SceneError, match="task.thicknesses"):
         run_scene(scenes_dir / "category_sweep.toml", tmp_path, overrides=["task.thicknesses=[0.003, 0.003]"])
+
+
+def test_identical_objects_give_a_degenerate_outcome_not_nan(tmp_path, scenes_dir):
+    """Four identical spheres and no noise: identical tactile images, so no categories and no NaN."""
+    scene = load_scene(scenes_dir / "category_10mm.toml", ["task.resolution_runs=2", "task.resolution_sizes=[1, 6]",
+                                                           "task.trials=1", "task.readings=2"])
+    for o in scene.data["objects"]:
+        o.update(kind="sphere", radius=0.03, length=None, side=None)
+    for name in ("noise", "quantisation"):
+        scene.effects.pop(name)
+    res = run_scene(scene, tmp_path)
+    m = res["metrics"]
+    assert m["formation_ok"] is False
+    assert all(m[f"accuracy_task{k}"] is None for k in range(1, 8))  # undefined, reported as such
+    assert m["resolution_s1_failed_runs"] == 2 and m["resolution_s6_failed_runs"] == 2
+    assert "degenerate" in (tmp_path / "report.md").read_text()
+    with np.load(tmp_path / "arrays.npz") as z:
+        assert np.isfinite(z["projection"]).all() and (z["labels"] == -1).all()

@@ -157,6 +157,10 @@ def _fig8_table(rows, tasks, paper=True) -> str:
     return "\n".join(lines)
 
 
+def _num(v) -> str:
+    return f"{v:.2f}" if np.isfinite(v) else "n/a (no categories formed)"
+
+
 def _metric_task_names(tasks):
     return [f"accuracy_task{t.number}" for t in tasks]
 
@@ -199,8 +203,9 @@ def run(scene, ctx) -> TaskResult:
     # What the seeded run above drew from: every split K-Means reaches from a random start,
     # its probability, and the accuracy expected from the procedure (runs must agree).
     splits = kmeans_splits(est.projection_, n_runs=t["kmeans_runs"]) if est.n_components_ else []
-    expected = (sum(r["p_accepted"] * task_accuracies(r["labels"], tasks) for r in splits if r["valid"])
-                if splits else np.full(len(tasks), np.nan))
+    valid = [r for r in splits if r["valid"]]
+    expected = (np.sum([r["p_accepted"] * task_accuracies(r["labels"], tasks) for r in valid], axis=0)
+                if valid else np.full(len(tasks), np.nan))  # undefined when no split exists
     for task, a in zip(tasks, expected):
         metrics[f"expected_accuracy_task{task.number}"] = a
 
@@ -239,8 +244,8 @@ def run(scene, ctx) -> TaskResult:
               _fig8_table([(label + " expected", expected, None)], tasks, paper=False)]
     for k, note in PAPER_TASK_NOTES.items():
         if len(tasks) == 7:
-            lines.append(f"\nTask {k} ({note}): accuracy {acc[k - 1]:.2f} in this run, "
-                         f"{expected[k - 1]:.2f} expected, through {label}.")
+            lines.append(f"\nTask {k} ({note}): accuracy {_num(acc[k - 1])} in this run, "
+                         f"{_num(expected[k - 1])} expected, through {label}.")
 
     figures = {
         "tactile_images": cplots.tactile_images_figure(
