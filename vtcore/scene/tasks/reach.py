@@ -18,6 +18,7 @@ from ...control.reach import Obstacle, influence_radii, reach
 from ..registry import TaskSpec, register_task
 from ..runner import TaskResult
 from ..schema import Field, Section
+from .augment import _contact_prober
 
 PARAMS = Section({
     "start": Field("vec", default=[0.0, 0.0], length=2, unit="m", doc="A, in the task plane"),
@@ -31,6 +32,12 @@ PARAMS = Section({
     "prism_stiffness": Field("float", default=300.0, gt=0, unit="N/m", doc="sponge"),
     "height": Field("float", default=0.3, gt=0, unit="m", doc="height of both obstacles"),
     "touches": Field("int", default=8, ge=1, doc="probes per obstacle"),
+    "probe": Field("str", default="contact", choices=("contact", "series"),
+                   doc="contact: the contact simulator's probe ([layer], object_compliance, gain); "
+                       "series: the closed-form spring model"),
+    "target_response": Field("float", default=4000.0, gt=0, doc="p̄* of the probes, counts"),
+    "counts_per_pa": Field("float", default=2.0, gt=0, doc="sensor gain when [effects.gain] is not listed"),
+    "readings": Field("int", default=10, ge=1),
     "propagation": Field("str", default="cluster", choices=("cluster", "smooth"),
                          doc="the paper notes both give the same uniform colours here"),
     "r_max": Field("float", default=0.07, gt=0, unit="m", doc="Eq. 6 (paper: 0.07 m)"),
@@ -41,7 +48,7 @@ PARAMS = Section({
     "robot_stiffness": Field("float", default=800.0, gt=0, unit="N/m", doc="Cartesian impedance"),
     "slow_force": Field("float", default=2.0, gt=0, unit="N", doc="speed halves at this contact force"),
     "dt": Field("float", default=0.01, gt=0, unit="s"),
-    "c_max": Field("float", default=1.0e7, gt=0, doc="shared colour scale of the picture"),
+    "c_max": Field("float", default=2.0e7, gt=0, doc="shared colour scale of the picture"),
 })
 
 
@@ -67,7 +74,7 @@ def run(scene, ctx) -> TaskResult:
     hs = p["prism_half_size"]
     prism_mesh = trimesh.creation.box(extents=[2 * hs[0], 2 * hs[1], hgt])
     prism_mesh.apply_translation([*p["prism_centre"], hgt / 2])
-    probe = ProbeModel()
+    probe = ProbeModel(target=p["target_response"])
     colours, clouds = {}, {}
     for name, mesh, k in (("pole", pole_mesh, p["pole_stiffness"]), ("prism", prism_mesh, p["prism_stiffness"])):
         obj = _obstacle_object(name, mesh, k)
@@ -78,7 +85,9 @@ def run(scene, ctx) -> TaskResult:
         # cameras looking at the scene from the robot's side (-x), like the paper's two D415s
         cams = [DepthCamera(eye=tuple(centre + [-0.45, s * 0.2, 0.1]), target=tuple(centre), width=424, height=240)
                 for s in (-1, 1)]
-        probed = probe_object(obj, p["touches"], probe, cameras=cams, n_points=6000, rng=ctx.child_rng(name))
+        prober = _contact_prober(scene, ctx, obj) if p["probe"] == "contact" else None
+        probed = probe_object(obj, p["touches"], probe, cameras=cams, n_points=6000, rng=ctx.child_rng(name),
+                              probe_fn=prober)
         est = (ClusterPropagation() if p["propagation"] == "cluster" else SmoothPropagation()).fit(
             probed.tactile.points, probed.tactile.values)
         pred = est.predict(probed.points)
