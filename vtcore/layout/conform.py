@@ -309,12 +309,15 @@ class LogMap:
     mesh : trimesh.Trimesh (cleaned). at : (3,) metres. direction : (3,) or None.
     radius : float, metres, or None: crop the mesh to the connected part within
         this Euclidean distance of ``at`` before solving (faster for small patches).
+    max_faces : int or None: solve on a copy decimated to this many faces (quadric
+        decimation, open3d) when the cropped mesh has more, then snap the mapped
+        taxels to the full-resolution surface (the accuracy knob of the benchmark).
     After construction, ``uv`` (V, 2) holds the log coordinates of the (cropped)
     mesh's vertices in a frame whose x axis points along ``direction``
     (projected onto the tangent plane) and whose y axis is ``normal x x``.
     """
 
-    def __init__(self, mesh, at, direction=None, radius: float | None = None):
+    def __init__(self, mesh, at, direction=None, radius: float | None = None, max_faces: int | None = None):
         import potpourri3d as pp3d
         import trimesh
 
@@ -339,7 +342,10 @@ class LogMap:
         sub, nsplit = _split_nonmanifold(sub)
         if nsplit:
             self.notes.append(f"{nsplit} faces around non-manifold edges were split apart")
-        self.mesh = sub
+        self.surface = sub  # where the taxels land
+        if max_faces is not None and len(sub.faces) > max_faces:
+            sub = _decimate(sub, int(max_faces))
+        self.mesh = sub  # where the log map is solved
         cp, face, _ = _closest(sub, cp)
         self.at = cp[0]
         self.face = int(face[0])
@@ -428,10 +434,34 @@ class LogMap:
             bb = _barycentric(tri, cp)
             pos[lost], face[lost] = cp, fc
             nrm[lost] = _surface_normals(self.mesh, fc, bb)
+        if self.surface is not self.mesh:
+            # solved on a decimated copy: move to the full-resolution surface
+            pos, fc, _ = _closest(self.surface, pos)
+            tri = np.asarray(self.surface.vertices)[np.asarray(self.surface.faces)[fc]]
+            nrm = _surface_normals(self.surface, fc, _barycentric(tri, pos))
         return pos, nrm, face, found
 
 
 # --- placement --------------------------------------------------------------------------------------
+def _decimate(mesh, max_faces: int):
+    """Quadric decimation to about ``max_faces`` faces (open3d), cleaned and made edge-manifold."""
+    import open3d as o3d
+
+    m = o3d.geometry.TriangleMesh(o3d.utility.Vector3dVector(np.asarray(mesh.vertices, np.float64)),
+                                  o3d.utility.Vector3iVector(np.asarray(mesh.faces, np.int32)))
+    d = m.simplify_quadric_decimation(target_number_of_triangles=max_faces)
+    d.remove_degenerate_triangles()
+    d.remove_duplicated_triangles()
+    d.remove_duplicated_vertices()
+    d.remove_unreferenced_vertices()
+    import trimesh
+
+    out = trimesh.Trimesh(np.asarray(d.vertices), np.asarray(d.triangles), process=False, validate=False)
+    out, _ = clean_mesh(out)
+    out, _ = _split_nonmanifold(out)
+    return out
+
+
 def _as_patch(patch, module) -> Patch:
     if isinstance(patch, Patch):
         return patch
@@ -440,7 +470,7 @@ def _as_patch(patch, module) -> Patch:
 
 def place(mesh, patch="hexagon", at=(0.0, 0.0, 0.0), direction=None, *, module: str = "cyskin10",
           offset: float = 0.0, method: str = "logmap", region=None,
-          logmap: "LogMap | None" = None) -> tuple[Layout, PlacementReport]:
+          logmap: "LogMap | None" = None, max_faces: int | None = None) -> tuple[Layout, PlacementReport]:
     """Conform ``patch`` to ``mesh`` around the surface point nearest ``at``.
 
     mesh : trimesh.Trimesh, metres (open, non-manifold or with degenerate faces is fine;
@@ -451,6 +481,10 @@ def place(mesh, patch="hexagon", at=(0.0, 0.0, 0.0), direction=None, *, module: 
     method : ``"logmap"`` or ``"project"``. region : optional (F,) bool face mask of
         ``mesh`` for the coverage figure (default: faces within the patch's radius).
     logmap : a :class:`LogMap` of this mesh at this point to reuse (several patches, one solve).
+    max_faces : solve the log map on a decimated copy of at most this many faces (None: never);
+        the taxels are then snapped to the full mesh. Good on doubly curved surfaces (the
+        benchmark's sphere rows); on ruled surfaces quadric decimation leaves needle faces on
+        which the heat method is poor, so it is off by default.
 
     Returns ``(layout, report)``; ``layout.meta["placement"]`` holds ``report.as_dict()``.
     """
@@ -468,10 +502,11 @@ def place(mesh, patch="hexagon", at=(0.0, 0.0, 0.0), direction=None, *, module: 
     clean, notes = clean_mesh(mesh) if logmap is None else (mesh, [])
     extent = float(np.hypot(*p.flat.T).max()) + p.module.pitch
     if method == "logmap":
-        lm = logmap if logmap is not None else LogMap(clean, at, direction, radius=1.5 * extent + 2 * p.module.pitch)
+        lm = logmap if logmap is not None else LogMap(clean, at, direction, radius=1.5 * extent + 2 * p.module.pitch,
+                                                      max_faces=max_faces)
         notes += lm.notes
         pos, nrm, face, found = lm.exp(p.flat)
-        surf_mesh = lm.mesh
+        surf_mesh = lm.surface
         uvmap = lm
     else:
         cp, face0, _ = _closest(clean, at[None])
@@ -573,7 +608,8 @@ def points_in_outlines(points: np.ndarray, patch: Patch) -> np.ndarray:
 
 
 def fill(mesh, at, direction=None, *, module: str = "cyskin10", region=None, radius: float | None = None,
-         offset: float = 0.0, max_strain: float = 0.05) -> tuple[Layout, PlacementReport]:
+         offset: float = 0.0, max_strain: float = 0.05,
+         max_faces: int | None = None) -> tuple[Layout, PlacementReport]:
     """Tile a region of ``mesh`` with whole modules, without overlap, by the log map at ``at``.
 
     region : (F,) bool face mask of ``mesh`` (default: every face). radius :
@@ -593,7 +629,8 @@ def fill(mesh, at, direction=None, *, module: str = "cyskin10", region=None, rad
         creg = region[near]
     else:
         creg = np.ones(len(clean.faces), bool)
-    lm = LogMap(clean, at, direction, radius=None if radius is None else radius + 2 * mod.radius)
+    lm = LogMap(clean, at, direction, radius=None if radius is None else radius + 2 * mod.radius,
+                max_faces=max_faces)
     _, near = cKDTree(np.asarray(clean.triangles_center)).query(np.asarray(lm.mesh.triangles_center))
     lreg = creg[near]
     span = np.abs(lm.uv).max(axis=0)
