@@ -131,3 +131,66 @@ def test_cli_boards(tmp_path, capsys):
 def test_describe_icub_ids():
     ids = np.r_[192 * 3 + np.arange(12 * 3), 192 * 3 + 12 * 7 + 4, 5]
     assert describe_icub_ids(ids) == "board 0: triangle 0 (1 taxels); board 3: triangles 0-2, 7 (37 taxels)"
+
+
+def _with_repeats(layout, dup_of):
+    """``layout`` plus extra taxels that repeat the ids at ``dup_of`` (other positions)."""
+    idx = np.r_[np.arange(len(layout)), dup_of]
+    out = layout.subset(idx)
+    out.positions = out.positions + np.r_[np.zeros(len(layout)), np.ones(len(dup_of))][:, None] * [0, 0, 0.01]
+    return out
+
+
+@pytest.mark.parametrize("chunk", [5, 65536])
+def test_repeated_layout_uids_all_receive_the_data(tmp_path, chunk):
+    layout = hexagon_layout()
+    rep = _with_repeats(layout, [0, 0, 17, 59])                 # id 0 three times in all
+    wire = np.random.default_rng(2).integers(0, 65536, (8, 60))
+    batch = encode(np.arange(8) * 0.05, wire, layout.taxel_ids, Cyskin16Codec())
+    drop = np.flatnonzero(batch.ids == batch.ids[0])[3]         # one frame of module 1 lost (row 3)
+    path = tmp_path / "r.log"
+    write_log(path, batch.take(np.setdiff1d(np.arange(len(batch)), [drop])))
+    r = decode_log(path, "cyskin16", layout=rep, chunk=chunk)
+    assert r.frames.shape == (8, 64)
+    np.testing.assert_array_equal(r.taxel_ids, rep.taxel_ids)
+    expect = wire[:, [*range(60), 0, 0, 17, 59]]
+    np.testing.assert_array_equal(r.frames[r.mask], expect[r.mask])
+    lost = ~r.mask
+    assert lost[3, [0, 1, 2, 60, 61]].all() and lost.sum() == 5  # sensors 1..3 of module 1 and both copies
+    assert r.summary.shared_taxel_ids == sorted(layout.taxel_ids[[0, 17, 59]].tolist())
+    assert "receives that id's samples" in r.summary.text()
+    assert r.summary.masked_samples == 5 and not r.summary.unmapped_taxel_ids
+    # encode (first column of a repeated id) -> decode gives the same
+    from vtcore.can import encode_to_log
+
+    encode_to_log(r.arrays(), "cyskin16", tmp_path / "again.csv")
+    r2 = decode_log(tmp_path / "again.csv", "cyskin16", layout=rep)
+    np.testing.assert_array_equal(r2.frames, r.frames)
+    np.testing.assert_array_equal(r2.mask, r.mask)
+
+
+def test_repeated_icub_ids_and_triangle_errors():
+    ids = 192 + np.arange(24)
+    lay_ids = np.r_[ids, ids[:12]]                               # triangle 0 of board 1 twice
+    wire = np.full((4, 24), 100)
+    b = encode(np.arange(4) * 0.05, wire, ids, IcubCodec(), errors={(2, 16): 2})
+    r = decode_batches(b, IcubCodec(), taxel_ids=lay_ids)
+    assert r.frames.shape == (4, 36) and np.all(r.frames[r.mask] == 100)
+    assert not r.mask[2, :12].any() and not r.mask[2, 24:].any() and r.mask.sum() == 4 * 36 - 24
+
+
+def test_recording_repeated_layout_uids(tmp_path):
+    layout = hexagon_layout()
+    rep = _with_repeats(layout, [5, 5])
+    uids = layout.taxel_ids[::-1]
+    vals = np.arange(3 * 60).reshape(3, 60)
+    lines = [" ".join(map(str, uids)) + "\n"] + [f"{r} {r * 0.1} " + " ".join(map(str, vals[r])) + "\n"
+                                                  for r in range(3)]
+    (tmp_path / "r.txt").write_text("".join(lines))
+    rec = read_cyskin_txt(tmp_path / "r.txt", layout=rep)
+    assert rec.mask.all() and rec.frames.shape == (3, 62)
+    np.testing.assert_array_equal(rec.frames[:, 60], rec.frames[:, 5])
+    np.testing.assert_array_equal(rec.frames[:, 61], rec.frames[:, 5])
+    np.testing.assert_array_equal(rec.frames[:, :60], vals[:, ::-1])
+    assert rec.report["shared_layout_uids"] == [int(layout.taxel_ids[5])]
+    assert rec.report["matched_uids"] == 60 and rec.report["unmatched_uids"] == []

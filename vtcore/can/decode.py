@@ -106,12 +106,26 @@ class StreamDecoder:
         self.codec = codec
         self.dynamic = taxel_ids is None
         self.taxel_ids = np.zeros(0, np.int64) if taxel_ids is None else np.asarray(taxel_ids, np.int64).reshape(-1)
+        self.summary = summary if summary is not None else Summary()
+        # a layout may give several taxels the same id: decode into one column per distinct id
+        # and copy it to every taxel with that id when rows are emitted (``_expand``)
+        self.out_ids, self._expand = self.taxel_ids, None   # output columns when ids repeat
+        uniq, first, inv = np.unique(self.taxel_ids, return_index=True, return_inverse=True)
+        if len(uniq) < len(self.taxel_ids):
+            keep = np.sort(first)                      # first occurrences, in layout order
+            self.taxel_ids = self.taxel_ids[keep]
+            self._expand = np.argsort(np.argsort(first))[inv]
+            counts = np.bincount(inv)
+            rep = uniq[counts > 1]
+            self.summary.shared_taxel_ids = [int(x) for x in rep]
+            self.summary.notes.append(
+                f"the layout gives {int((counts[counts > 1]).sum())} taxels only {len(rep)} distinct id(s) "
+                f"(e.g. {rep[:8].tolist()}): every taxel with a repeated id receives that id's samples")
         self._index_columns()
         self.period = None if period is None else float(period)
         if self.period is not None and not self.period > 0:
             raise ValueError("period must be > 0 s")
         self.window = int(max(window, 1))
-        self.summary = summary if summary is not None else Summary()
         self.summary.id_scheme = codec.name
         c = codec.n_channels
         self._keys = np.zeros(0, np.int64)       # sorted known stream keys
@@ -475,7 +489,10 @@ class StreamDecoder:
             base_t = np.where(lastgood >= 0, tt[np.maximum(lastgood, 0)], ref_t)
             base_r = np.where(lastgood >= 0, lastgood + self._row0, ref_row)
             tt = np.where(empty, base_t + (idx + self._row0 - base_r) * self.period, tt)
-        block = Block(tt, v, msk, self.taxel_ids.copy(), self._row0, now)
+        ids = self.taxel_ids
+        if self._expand is not None:
+            v, msk, ids = v[:, self._expand], msk[:, self._expand], self.out_ids
+        block = Block(tt, v, msk, ids.copy(), self._row0, now)
         self.summary.rows += upto
         self.summary.masked_samples += int(msk.size - np.count_nonzero(msk))
         self._last_emit = (self._row0 + upto - 1, float(tt[-1]))
@@ -537,7 +554,10 @@ def collect(blocks, codec: Codec, summary: Summary, taxel_ids=None) -> DecodeRes
     order = np.argsort(ids)
     for b in blocks:
         t = len(b.timestamps)
-        pos = order[np.searchsorted(ids[order], b.taxel_ids)] if n else np.zeros(0, np.int64)
+        if np.array_equal(b.taxel_ids, ids):
+            pos = np.arange(n)  # the given columns (they may repeat an id)
+        else:  # dynamic columns: b's ids are a subset of ids, all distinct
+            pos = order[np.searchsorted(ids[order], b.taxel_ids)] if n else np.zeros(0, np.int64)
         if len(pos) == n and np.array_equal(pos, np.arange(n)):
             frames[i:i + t] = b.frames      # same columns: plain copy
             mask[i:i + t] = b.mask

@@ -138,6 +138,7 @@ class Summary:
     unmapped_samples: int = 0
     unmapped_frames: int = 0                              # frames carrying any of them
     id_scheme: str = ""                                   # "icub": reports name boards/triangles
+    shared_taxel_ids: list = field(default_factory=list)  # ids the layout gives to several taxels
     rows: int = 0
     masked_samples: int = 0
     period_s: float = float("nan")
@@ -167,6 +168,7 @@ class Summary:
             "triangle_errors": {str(k): v for k, v in sorted(self.triangle_errors.items())},
             "unmapped_taxel_ids": sorted(int(x) for x in self.unmapped_taxel_ids),
             "unmapped_samples": self.unmapped_samples, "unmapped_frames": self.unmapped_frames,
+            "shared_taxel_ids": list(self.shared_taxel_ids),
             "rows": self.rows, "masked_samples": self.masked_samples,
             "period_s": self.period_s, "notes": list(self.notes),
         }

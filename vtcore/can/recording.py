@@ -44,8 +44,9 @@ def read_cyskin_txt(path, layout=None, taxel_ids=None) -> Recording:
     values (the format says clipped at 0) are kept at 0 and counted.
     Report keys: ``unmatched_uids`` (recorded pressure taxels the layout lacks),
     ``temperature_uids`` (sensor-0 channels, not taxels), ``unrecorded_taxels`` (layout
-    taxels the file lacks, masked), ``duplicate_uids``, ``rejected_lines``, ``time_backwards``,
-    ``clipped_high``, ``clipped_low``.
+    taxels the file lacks, masked), ``duplicate_uids`` (UIDs the file repeats: the first column
+    is used), ``shared_layout_uids`` (UIDs the layout gives to several taxels: each of them
+    gets the column), ``rejected_lines``, ``time_backwards``, ``clipped_high``, ``clipped_low``.
     """
     path = Path(path)
     if not path.exists():
@@ -100,27 +101,28 @@ def read_cyskin_txt(path, layout=None, taxel_ids=None) -> Recording:
     clipped_low = int((vals < 0).sum())
     vals = np.clip(np.rint(vals), 0, 65535).astype(np.uint16)
 
-    # join by UID
-    _, first = np.unique(uids, return_index=True)
+    # join by UID, from the layout's side: every layout taxel takes the column of its UID
+    # (the first column when the file repeats a UID), so taxels sharing a UID all get data
+    uniq, first = np.unique(uids, return_index=True)           # first file column of each UID
     dup = np.setdiff1d(np.arange(n), first)
     is_temp = (uids & 0xF) == 0
-    order = np.argsort(ids, kind="stable")
-    pos = np.clip(np.searchsorted(ids[order], uids), 0, max(len(ids) - 1, 0))
-    hit = (ids[order][pos] == uids) if len(ids) else np.zeros(n, bool)
-    hit[dup] = False
-    col = np.where(hit, order[pos], -1)
+    pos = np.clip(np.searchsorted(uniq, ids), 0, len(uniq) - 1)
+    got = uniq[pos] == ids                                       # (N,) layout taxel recorded
+    src = first[pos[got]]
     frames = np.zeros((len(t), len(ids)), np.uint16)
     mask = np.zeros((len(t), len(ids)), bool)
-    src = np.flatnonzero(col >= 0)
-    frames[:, col[src]] = vals[:, src]
-    mask[:, col[src]] = True
+    frames[:, got] = vals[:, src]
+    mask[:, got] = True
+    used = np.isin(uids, ids) & np.isin(np.arange(n), first)     # file columns that reached the layout
+    lid, lcount = np.unique(ids, return_counts=True)
     report = {
         "recorded_uids": int(n),
-        "matched_uids": int(len(src)),
-        "unmatched_uids": sorted(int(u) for u in uids[(col < 0) & ~is_temp & np.isin(np.arange(n), first)]),
-        "temperature_uids": sorted(int(u) for u in uids[is_temp & (col < 0)]),
+        "matched_uids": int(used.sum()),
+        "unmatched_uids": sorted(int(u) for u in uids[~used & ~is_temp & np.isin(np.arange(n), first)]),
+        "temperature_uids": sorted(int(u) for u in uids[is_temp & ~np.isin(uids, ids)]),
         "unrecorded_taxels": sorted(int(u) for u in np.setdiff1d(ids, uids)),
         "duplicate_uids": sorted(int(u) for u in uids[dup]),
+        "shared_layout_uids": [int(u) for u in lid[lcount > 1]],
         "rejected_lines": [{"line": i, "reason": r} for i, r in rejected],
         "time_backwards": int((np.diff(t) < 0).sum()),
         "clipped_high": clipped_high,
@@ -134,8 +136,8 @@ def report_text(report: dict) -> str:
     """A few lines for the CLI."""
     out = [f"{report['rows']} rows, {report['matched_uids']} of {report['recorded_uids']} recorded UIDs "
            f"matched to the layout"]
-    for key in ("unmatched_uids", "temperature_uids", "unrecorded_taxels", "duplicate_uids"):
-        v = report[key]
+    for key in ("unmatched_uids", "temperature_uids", "unrecorded_taxels", "duplicate_uids", "shared_layout_uids"):
+        v = report.get(key, [])
         if v:
             out.append(f"  {key}: {len(v)} (e.g. {v[:8]})")
     if report["rejected_lines"]:
