@@ -308,3 +308,20 @@ def test_sensor_functions():
     assert np.allclose(clock, [0.0, 0.05]) and np.allclose(f[:, 0], [0, 5])
     with pytest.raises(InputError):
         sensor.sample_clock(np.zeros((3, 2)), [0.0, 0.2, 0.1])
+
+
+def test_thick_finite_layer_tends_to_the_halfspace_and_thin_to_its_limit():
+    """The real-space layer kernel (Love + tabulated correction) against its two limits."""
+    m = make_object("sphere")
+    pose = placement_pose(m, top=0.0, gap=1e-3)
+    thick = SoftLayer(thickness=0.3)
+    hs = press(FLAT, m, placement_pose(m, top=0.3, gap=1e-3), thick, force=1.0, model="halfspace", spread=False)
+    fl = press(FLAT, m, placement_pose(m, top=0.3, gap=1e-3), thick, force=1.0, model="finite_layer", spread=False)
+    assert fl.indentation == pytest.approx(hs.indentation, rel=0.03)
+    assert fl.field.pressure.max() == pytest.approx(hs.field.pressure.max(), rel=0.03)
+    # a thin sliding pad is a Winkler layer of stiffness E*/h: same pressure as the local model
+    thin = SoftLayer(thickness=2e-4, base="frictionless")
+    pose = placement_pose(m, top=2e-4, gap=1e-4)
+    a = press(FLAT, m, pose, thin, force=0.2, model="finite_layer", spread=False, grid=ContactGrid(spacing=1e-3))
+    b = press(FLAT, m, pose, thin, force=0.2, model="local", spread=False, grid=ContactGrid(spacing=1e-3))
+    assert a.indentation == pytest.approx(b.indentation, rel=0.01)
