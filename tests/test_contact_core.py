@@ -325,3 +325,22 @@ def test_thick_finite_layer_tends_to_the_halfspace_and_thin_to_its_limit():
     a = press(FLAT, m, pose, thin, force=0.2, model="finite_layer", spread=False, grid=ContactGrid(spacing=1e-3))
     b = press(FLAT, m, pose, thin, force=0.2, model="local", spread=False, grid=ContactGrid(spacing=1e-3))
     assert a.indentation == pytest.approx(b.indentation, rel=0.01)
+
+
+def test_circular_flat_punch_matches_boussinesq():
+    """Rigid flat circular punch on a half-space: d = F / (2 a E*), p(0) = F / (2 pi a^2),
+    and the pressure rises towards the rim as 1 / sqrt(a^2 - r^2) (Johnson 1985, eq. 3.36)."""
+    a, F = 0.01, 1.0
+    m = make_object("cylinder", radius=a, height=0.02, sections=256)
+    lay = SoftLayer(thickness=0.2)
+    r = press(FLAT, m, placement_pose(m, top=0.2, gap=1e-3), lay, force=F, model="halfspace", spread=False,
+              grid=ContactGrid(spacing=0.5e-3))
+    assert r.indentation == pytest.approx(F / (2 * a * lay.e_star), rel=0.03)
+    fld = r.field
+    X, Y = np.meshgrid(fld.x, fld.y, indexing="ij")
+    rr = np.hypot(X, Y)
+    centre = fld.pressure[rr < 0.2 * a].mean()
+    assert centre == pytest.approx(F / (2 * np.pi * a * a) / np.sqrt(1 - 0.01), rel=0.05)
+    ring = fld.pressure[(rr > 0.8 * a) & (rr < 0.9 * a)].mean()
+    expect = np.mean(F / (2 * np.pi * a * np.sqrt(a * a - rr[(rr > 0.8 * a) & (rr < 0.9 * a)] ** 2)))
+    assert ring == pytest.approx(expect, rel=0.08) and ring > 1.5 * centre
