@@ -368,7 +368,6 @@ def solve_pk(gap, conv, cell_area, *, force=None, approach=None, p0=None, tol=1e
     delta, g_old = 0.0, 1.0
     t = np.zeros_like(h)
     it, eps = 0, np.inf
-    scale = force / (cell_area * max(mask.sum(), 1)) if load else None
     for it in range(1, maxiter + 1):
         u = conv(p)
         g = h + u - (0.0 if load else approach)
@@ -410,5 +409,4 @@ def solve_pk(gap, conv, cell_area, *, force=None, approach=None, p0=None, tol=1e
     u = conv(p)
     ic = p > 0
     d = float((h + u)[ic].mean()) if (load and ic.any()) else float(approach if not load else 0.0)
-    del scale
     return ContactSolution(p, u, d, it, bool(eps < tol), float(eps))
