@@ -5,7 +5,6 @@ is fast and gives a dense ground truth; one slow test runs the bottle scenes as 
 with the contact simulator's probe.
 """
 
-import json
 from pathlib import Path
 
 import numpy as np
