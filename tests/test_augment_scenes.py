@@ -107,3 +107,18 @@ def test_bench_quick(tmp_path):
     methods = {r["method"] for r in rows}
     assert {"cluster", "smooth", "smooth truncated", "GP"} <= methods
     assert all(r["error_rel_pct"] is None or np.isfinite(r["error_rel_pct"]) for r in rows)
+
+
+def test_user_cloud_from_ply_and_empty_cloud(tmp_path):
+    from vtcore.augment import make_seed000_object, two_cameras, visual_cloud, write_ply
+
+    ball = make_seed000_object("sponge_ball")
+    pts, nrm = visual_cloud(ball.mesh, two_cameras(target=(0, 0, 0.035), width=240, height=180), rng=0)
+    write_ply(tmp_path / "scan.ply", pts, normals=nrm)
+    res = run_scene(SCENES / "augment_sponge_ball.toml", tmp_path / "run",
+                    overrides=FAST + [f'task.cloud="{tmp_path / "scan.ply"}"', "output.plots=false"])
+    assert res["metrics"]["points"] == len(pts)
+    write_ply(tmp_path / "empty.ply", np.empty((0, 3)))
+    with pytest.raises(SceneError, match="task.cloud.*empty"):
+        run_scene(SCENES / "augment_sponge_ball.toml", tmp_path / "run2",
+                  overrides=FAST + [f'task.cloud="{tmp_path / "empty.ply"}"'])
