@@ -122,3 +122,14 @@ def test_user_cloud_from_ply_and_empty_cloud(tmp_path):
     with pytest.raises(SceneError, match="task.cloud.*empty"):
         run_scene(SCENES / "augment_sponge_ball.toml", tmp_path / "run2",
                   overrides=FAST + [f'task.cloud="{tmp_path / "empty.ply"}"'])
+
+
+def test_recorded_probes_drive_the_cloud(tmp_path):
+    """Probes from a file (CSV) replace the simulated ones; the colours follow the file."""
+    pts = np.array([[0.0335, 0.0, 0.0335], [0.0, 0.0335, 0.0335], [0.0, 0.0, 0.067]])
+    rows = ["x,y,z,p_mean,x_ss,y_ss,z_ss"] + [f"{a},{b},{c},4000,{a},{b},{c - 0.002}" for a, b, c in pts]
+    (tmp_path / "probes.csv").write_text("\n".join(rows) + "\n")
+    res = run_scene(SCENES / "augment_tennis_ball.toml", tmp_path / "run",
+                    overrides=FAST + [f'task.probes="{tmp_path / "probes.csv"}"', "output.plots=false"])
+    assert res["metrics"]["touches"] == 3
+    assert res["metrics"]["c_mean"] == pytest.approx(2e6)

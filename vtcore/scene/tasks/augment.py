@@ -115,8 +115,10 @@ def run(scene, ctx) -> TaskResult:
         if nrm is None:
             raise scene.error("task.cloud", "the cloud has fewer than 3 points: cannot estimate normals")
     prober = _contact_prober(scene, ctx, obj) if p["probe"] == "contact" else None
-    probed = probe_object(obj, p["touches"], probe, cameras=cams, n_points=p["points"], rng=rng,
-                          channels=tuple(p["channels"]), probe_fn=prober,
+    # with recorded probes nothing is simulated but the cloud (one closed-form probe keeps the bookkeeping)
+    recorded = bool(p["probes"])
+    probed = probe_object(obj, 1 if recorded else p["touches"], probe, cameras=cams, n_points=p["points"], rng=rng,
+                          channels=tuple(p["channels"]), probe_fn=None if recorded else prober,
                           cloud=(pts, nrm) if p["cloud"] else None)
     tactile = load_probes(p["probes"]) if p["probes"] else probed.tactile
     x, v, c = probed.points, tactile.points, tactile.values
