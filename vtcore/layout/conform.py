@@ -156,6 +156,29 @@ def _split_nonmanifold(mesh):
     return out, int(len(idx))
 
 
+def _split_bowties(mesh):
+    """Give every face at a vertex with more than one boundary loop through it (a bowtie: two
+    fans meeting at a point) its own copy of that vertex; geometry-central needs manifold vertices."""
+    import trimesh
+
+    f = np.asarray(mesh.faces)
+    e = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
+    key, cnt = np.unique(e, axis=0, return_counts=True)
+    bnd = key[cnt == 1]
+    per_vertex = np.bincount(bnd.ravel(), minlength=len(mesh.vertices))
+    bad = per_vertex > 2
+    if not bad.any():
+        return mesh, 0
+    v = np.asarray(mesh.vertices)
+    corner = bad[f]
+    fi, ci = np.nonzero(corner)
+    f2 = f.copy()
+    f2[fi, ci] = len(v) + np.arange(len(fi))
+    out = trimesh.Trimesh(np.vstack([v, v[f[fi, ci]]]), f2, process=False, validate=False)
+    out.remove_unreferenced_vertices()
+    return out, int(bad.sum())
+
+
 # --- geometry helpers --------------------------------------------------------------------------------
 def _closest(mesh, points: np.ndarray):
     """Closest points on ``mesh``: ``(points (n,3), face (n,), distance (n,))``."""
@@ -309,8 +332,8 @@ class LogMap:
     mesh : trimesh.Trimesh (cleaned). at : (3,) metres. direction : (3,) or None.
     radius : float, metres, or None: crop the mesh to the connected part within
         this Euclidean distance of ``at`` before solving (faster for small patches).
-    max_faces : int or None: solve on a copy decimated to this many faces (quadric
-        decimation, open3d) when the cropped mesh has more, then snap the mapped
+    max_faces : int or None: solve on a copy simplified to about this many faces
+        (vertex clustering, open3d) when the cropped mesh has more, then snap the mapped
         taxels to the full-resolution surface (the accuracy knob of the benchmark).
     After construction, ``uv`` (V, 2) holds the log coordinates of the (cropped)
     mesh's vertices in a frame whose x axis points along ``direction``
@@ -342,9 +365,18 @@ class LogMap:
         sub, nsplit = _split_nonmanifold(sub)
         if nsplit:
             self.notes.append(f"{nsplit} faces around non-manifold edges were split apart")
+        sub, nbow = _split_bowties(sub)
+        if nbow:
+            self.notes.append(f"{nbow} non-manifold (bowtie) vertices were split")
         self.surface = sub  # where the taxels land
+        # the tangent frame at 'at' comes from the full-resolution surface
+        cpf, facef, _ = _closest(sub, cp)
+        trif = np.asarray(sub.vertices)[np.asarray(sub.faces)[facef]]
+        normal = _surface_normals(sub, facef, _barycentric(trif, cpf))[0]
         if max_faces is not None and len(sub.faces) > max_faces:
             sub = _decimate(sub, int(max_faces))
+            if sub is self.surface:
+                self.notes.append(f"no faithful simplified copy with ~{max_faces} faces; solved on the full mesh")
         self.mesh = sub  # where the log map is solved
         cp, face, _ = _closest(sub, cp)
         self.at = cp[0]
@@ -352,13 +384,27 @@ class LogMap:
         tri = np.asarray(sub.vertices)[np.asarray(sub.faces)[self.face]]
         bary = _barycentric(tri[None], cp)[0]
         src = int(np.asarray(sub.faces)[self.face][np.argmax(bary)])
-        solver = pp3d.MeshVectorHeatSolver(np.asarray(sub.vertices), np.asarray(sub.faces))
-        raw = np.asarray(solver.compute_log_map(src), dtype=np.float64)
+        try:
+            solver = pp3d.MeshVectorHeatSolver(np.asarray(sub.vertices), np.asarray(sub.faces))
+            raw = np.asarray(solver.compute_log_map(src), dtype=np.float64)
+        except RuntimeError as exc:
+            if sub is self.surface:
+                raise InputError(f"the log map cannot be solved on this mesh ({exc}); clean the mesh or "
+                                 "use method='project'", key="mesh") from None
+            # the simplified copy was not good enough for geometry-central: solve on the full mesh
+            self.notes.append("simplified mesh rejected by the solver; solved on the full mesh")
+            sub = self.mesh = self.surface
+            cp, face, _ = _closest(sub, cp)
+            self.at, self.face = cp[0], int(face[0])
+            tri = np.asarray(sub.vertices)[np.asarray(sub.faces)[self.face]]
+            bary = _barycentric(tri[None], cp)[0]
+            src = int(np.asarray(sub.faces)[self.face][np.argmax(bary)])
+            solver = pp3d.MeshVectorHeatSolver(np.asarray(sub.vertices), np.asarray(sub.faces))
+            raw = np.asarray(solver.compute_log_map(src), dtype=np.float64)
         # parts not connected to the source (split-off non-manifold fins) have no log coordinates
         self.reachable = np.isfinite(raw).all(axis=1)
         raw[~self.reachable] = 0.0
         bx, by, bn = (np.asarray(a) for a in solver.get_tangent_frames())
-        normal = _surface_normals(sub, face, bary[None])[0]
         t1, t2 = _tangent_basis(normal, direction)
         # the solver's log coordinates are in its own tangent basis (bx, by) at the source vertex;
         # express them in (t1, t2): a rotation, or a reflection if its basis is left-handed
@@ -444,22 +490,39 @@ class LogMap:
 
 # --- placement --------------------------------------------------------------------------------------
 def _decimate(mesh, max_faces: int):
-    """Quadric decimation to about ``max_faces`` faces (open3d), cleaned and made edge-manifold."""
-    import open3d as o3d
+    """A coarser copy with about ``max_faces`` faces, by vertex clustering on a voxel grid (open3d).
 
+    Clustering gives roughly isotropic triangles; quadric decimation was tried first and leaves
+    needle faces on ruled surfaces (cylinders), on which the heat method's log map breaks down.
+    """
+    import open3d as o3d
+    import trimesh
+
+    h = float(np.sqrt(2.0 * mesh.area / max(max_faces, 1)))
     m = o3d.geometry.TriangleMesh(o3d.utility.Vector3dVector(np.asarray(mesh.vertices, np.float64)),
                                   o3d.utility.Vector3iVector(np.asarray(mesh.faces, np.int32)))
-    d = m.simplify_quadric_decimation(target_number_of_triangles=max_faces)
+    d = m.simplify_vertex_clustering(voxel_size=h, contraction=o3d.geometry.SimplificationContraction.Average)
     d.remove_degenerate_triangles()
     d.remove_duplicated_triangles()
     d.remove_duplicated_vertices()
     d.remove_unreferenced_vertices()
-    import trimesh
-
     out = trimesh.Trimesh(np.asarray(d.vertices), np.asarray(d.triangles), process=False, validate=False)
+    if len(out.faces) < 100:  # too coarse to be useful: solve on the full mesh
+        return mesh
     out, _ = clean_mesh(out)
     out, _ = _split_nonmanifold(out)
+    out, _ = _split_bowties(out)
+    # clustering can tear holes or flip faces; only a copy with the same topology (Euler
+    # characteristic) and consistent winding is used, else the full mesh is solved
+    if _euler(out) != _euler(mesh) or not out.is_winding_consistent:
+        return mesh
     return out
+
+
+def _euler(mesh) -> int:
+    f = np.asarray(mesh.faces)
+    e = np.unique(np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1), axis=0)
+    return int(len(np.unique(f)) - len(e) + len(f))
 
 
 def _as_patch(patch, module) -> Patch:
@@ -470,7 +533,7 @@ def _as_patch(patch, module) -> Patch:
 
 def place(mesh, patch="hexagon", at=(0.0, 0.0, 0.0), direction=None, *, module: str = "cyskin10",
           offset: float = 0.0, method: str = "logmap", region=None,
-          logmap: "LogMap | None" = None, max_faces: int | None = None) -> tuple[Layout, PlacementReport]:
+          logmap: "LogMap | None" = None, max_faces: int | None = 20_000) -> tuple[Layout, PlacementReport]:
     """Conform ``patch`` to ``mesh`` around the surface point nearest ``at``.
 
     mesh : trimesh.Trimesh, metres (open, non-manifold or with degenerate faces is fine;
@@ -481,10 +544,9 @@ def place(mesh, patch="hexagon", at=(0.0, 0.0, 0.0), direction=None, *, module: 
     method : ``"logmap"`` or ``"project"``. region : optional (F,) bool face mask of
         ``mesh`` for the coverage figure (default: faces within the patch's radius).
     logmap : a :class:`LogMap` of this mesh at this point to reuse (several patches, one solve).
-    max_faces : solve the log map on a decimated copy of at most this many faces (None: never);
-        the taxels are then snapped to the full mesh. Good on doubly curved surfaces (the
-        benchmark's sphere rows); on ruled surfaces quadric decimation leaves needle faces on
-        which the heat method is poor, so it is off by default.
+    max_faces : when the (cropped) mesh has more faces, solve the log map on a copy simplified
+        to about this many faces by vertex clustering, then snap the taxels to the full mesh
+        (None: always the full mesh). The benchmark shows what it costs in accuracy.
 
     Returns ``(layout, report)``; ``layout.meta["placement"]`` holds ``report.as_dict()``.
     """
@@ -609,7 +671,7 @@ def points_in_outlines(points: np.ndarray, patch: Patch) -> np.ndarray:
 
 def fill(mesh, at, direction=None, *, module: str = "cyskin10", region=None, radius: float | None = None,
          offset: float = 0.0, max_strain: float = 0.05,
-         max_faces: int | None = None) -> tuple[Layout, PlacementReport]:
+         max_faces: int | None = 20_000) -> tuple[Layout, PlacementReport]:
     """Tile a region of ``mesh`` with whole modules, without overlap, by the log map at ``at``.
 
     region : (F,) bool face mask of ``mesh`` (default: every face). radius :
