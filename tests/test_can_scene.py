@@ -19,10 +19,9 @@ def test_example_logs_are_reproducible_and_small(tmp_path):
     make_cyskin16_slide(tmp_path / "a.log")
     make_icub_press(tmp_path / "b.asc")
     shipped = SCENES / "data"
+    # byte for byte (the ASC header dates are the first frame's UTC time, not the writing time)
     assert (tmp_path / "a.log").read_bytes() == (shipped / "replay_cyskin16_slide.log").read_bytes()
-    # ASC headers carry the writing date: compare the decoded content instead
-    a, b = decode_log(tmp_path / "b.asc", "icub"), decode_log(shipped / "replay_icub_press.asc", "icub")
-    np.testing.assert_array_equal(a.frames, b.frames)
+    assert (tmp_path / "b.asc").read_bytes() == (shipped / "replay_icub_press.asc").read_bytes()
     for f in shipped.glob("replay_*"):
         assert f.stat().st_size < 200_000
 

@@ -10,8 +10,8 @@
   (board 0, ``icub12`` modules) pressed by a 25 mm sphere rising to 4 N and released (3 s);
   triangle 5 reports error 2 (not connected) in rows 30..32.
 
-The contact model is ``vtcore.contact.press_sphere`` (Boussinesq spreading through a 3 mm
-Ecoflex layer): enough to give the replay scene a realistic moving blob.
+The contact model is ``vtcore.contact.press`` (finite-layer elastic model of a 3 mm Ecoflex
+00-20 layer, force-controlled, one solve per period, warm-started along the trajectory).
 """
 
 from __future__ import annotations
@@ -21,7 +21,6 @@ from pathlib import Path
 
 import numpy as np
 
-from ..contact import median_taxel_area, press_sphere
 from ..layout import make_patch
 from .codecs import Cyskin16Codec, IcubCodec, icub_counts_to_wire
 from .encode import encode
@@ -37,13 +36,17 @@ def plane_patch(kind: str, module: str):
 
 
 def _pressure(layout, centres, radius, forces):
-    area = median_taxel_area(layout.positions)
-    out = np.zeros((len(centres), len(layout)))
-    for i, (c, f) in enumerate(zip(centres, forces)):  # one contact solve per period (60)
-        if f > 0:
-            out[i], _ = press_sphere(layout.positions, layout.normals, c, radius, f, 0.003, 55e3, 0.49,
-                                     taxel_area=area)
-    return out
+    """Taxel pressure ``(T, N)`` Pa: a sphere of ``radius`` m over ``centres (T, 2)`` m pressed with
+    ``forces (T,)`` N through a 3 mm Ecoflex 00-20 layer (``vtcore.contact.press_sequence``; the
+    numpy proximity back-end, so the logs do not depend on open3d's threading)."""
+    from ..contact import SoftLayer, make_object, placement_pose, press_sequence
+
+    layer = SoftLayer(thickness=0.003, material="ecoflex_00_20")
+    sphere = make_object("sphere", radius=radius)
+    top = float(layout.positions[:, 2].max()) + layer.thickness
+    poses = np.stack([placement_pose(sphere, xy=c, top=top, gap=0.0005) for c in np.asarray(centres)])
+    res = press_sequence(layout, sphere, poses, layer, force=np.asarray(forces, float), backend="numpy")
+    return np.array([r.pressure for r in res])
 
 
 def make_cyskin16_slide(path: Path, seed: int = 1) -> dict:
@@ -84,7 +87,25 @@ def make_icub_press(path: Path, seed: int = 2) -> dict:
     ts = 1763700000.0 + np.arange(t) * 0.05
     errors = {(r, 5): 2 for r in (30, 31, 32)}
     write_log(path, encode(ts, wire, layout.taxel_ids, IcubCodec(), errors=errors))
+    _fix_asc_dates(path, ts[0])
     return {"rows": t, "error_rows": 3}
+
+
+def _fix_asc_dates(path: Path, t0: float) -> None:
+    """python-can's ASC writer stamps the file with the writing time (and the trigger block with
+    the first frame's local time): write both as the first frame's UTC time, so the example log
+    is byte-for-byte reproducible on any machine. Frame times are relative to it anyway."""
+    from datetime import datetime, timezone
+
+    stamp = datetime.fromtimestamp(t0, timezone.utc).strftime("%a %b %d %H:%M:%S.%f")[:-3] + \
+        datetime.fromtimestamp(t0, timezone.utc).strftime(" %Y")
+    lines = path.read_text().splitlines(keepends=True)
+    for i, ln in enumerate(lines[:6]):
+        if ln.startswith("date "):
+            lines[i] = f"date {stamp}\n"
+        elif ln.startswith("Begin Triggerblock"):
+            lines[i] = f"Begin Triggerblock {stamp}\n"
+    path.write_text("".join(lines))
 
 
 def main(out: str) -> None:
