@@ -141,3 +141,29 @@ def test_bench_quick(tmp_path):
     assert rows and {"model", "grid_mm", "samples", "error", "ms_per_frame"} <= set(rows[0])
     for name in ("table.md", "table.csv", "accuracy_vs_time.png"):
         assert (tmp_path / name).exists()
+
+
+@pytest.mark.parametrize("codec", ["icub", "cyskin16"])
+def test_can_transport_runs_after_the_sensor_stage(tmp_path, codec):
+    """[effects.can] in a press scene: listed in result.json, frames stay (T, N) and equal the
+    codec's quantisation of the counts the sensor stage produced (same seed, no noise)."""
+    sensor = "[effects.gain]\ncounts_per_pa = 0.3\n[effects.baseline]\noffset = -21.5\nspread = 0.0\n"
+    text = BASE.format(extra_obj="", task="force = 3.0\nreadings = 4") + sensor
+    ref = run_scene(_write(tmp_path, text), tmp_path / "ref")
+    can = f'[effects.can]\ncodec = "{codec}"\nperiod = 0.05\n'
+    res = run_scene(_write(tmp_path, text + can), tmp_path / "can")
+    assert [e["name"] for e in res["effects"]] == ["gain", "baseline", "can"]
+    assert [e["name"] for e in ref["effects"]] == ["gain", "baseline"]
+    with np.load(tmp_path / "ref" / "arrays.npz") as z:
+        counts = z["frames"]
+    with np.load(tmp_path / "can" / "arrays.npz") as z:
+        frames, pressure = z["frames"], z["pressure"]
+    assert frames.shape == counts.shape == pressure.shape == (4, 60)
+    assert counts.max() > 960 and counts.min() < 0  # both ends of the iCub wire range are exercised
+    if codec == "icub":  # 8-bit inverted: steps of 4 counts, -60..960 around the baseline
+        want = np.clip(np.floor(counts / 4.0) * 4.0, -60.0, 960.0)
+        assert np.all(frames % 4 == 0)
+    else:  # 16-bit counts, rounded and clipped at 0
+        want = np.clip(np.rint(counts), 0.0, 65535.0)
+    np.testing.assert_array_equal(frames, want)
+    assert res["metrics"]["response_max"] == pytest.approx(float(want.mean(axis=0).max()))

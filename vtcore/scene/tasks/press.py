@@ -7,8 +7,9 @@ at ``task.rate``. Trajectory mode (the object has ``keyframes``): the object
 follows its keyframed poses (no force control), simulated at ``task.rate``,
 each frame warm-started from the previous one.
 
-Contact-stage effects (``soft_layer``, ``object_compliance``) and sensor-stage
-effects run only when listed. Arrays: ``positions``, ``normals``, ``taxel_ids``,
+Contact-stage effects (``soft_layer``, ``object_compliance``), sensor-stage
+effects and transport-stage effects (``can``: the counts' CAN round trip, after the
+sensor stage) run only when listed. Arrays: ``positions``, ``normals``, ``taxel_ids``,
 ``timestamps (T,)``, ``frames (T, N)`` counts, ``pressure (T, N)`` Pa before
 the sensor effects, ``surface_pressure (T, N)``, ``force (T,)``,
 ``contact_area (T,)``, ``indentation (T,)`` and, with object compliance,
@@ -174,6 +175,13 @@ def run(scene, ctx) -> TaskResult:
         disp = state.get("displacement")
     sensed = ctx.pipeline.apply("sensor", {"frames": per.copy(), "timestamps": times}, ctx)
     frames, stamps = np.asarray(sensed["frames"], float), np.asarray(sensed["timestamps"], float)
+    # transport stage (e.g. [effects.can]): the counts go over the wire and come back as a host
+    # reads them; a transport effect maps frames (T, N) to frames (T, N)
+    if ctx.pipeline.stage("transport"):
+        sent = np.asarray(ctx.pipeline.apply("transport", frames, ctx), float)
+        if sent.shape != frames.shape:
+            raise ValueError(f"a transport effect changed the frames' shape {frames.shape} -> {sent.shape}")
+        frames = sent
     if "sample_index" in sensed:  # the sampling clock picked some simulation frames
         idx = sensed["sample_index"]
         per, surf, force, area, indent = per[idx], surf[idx], force[idx], area[idx], indent[idx]
