@@ -230,6 +230,7 @@ def test_cyskin_import_export_import_unchanged(tmp_path, curved):
     np.testing.assert_allclose(a.transform, b.transform)
     np.testing.assert_allclose(a.flat, b.flat)
     assert a.frame == b.frame == "wrist"
+    assert a.meta["faces"] == b.meta["faces"] == doc["skin"]["faces"]  # the maker's faces survive
 
 
 def test_millimetres_detected_or_declared(tmp_path):

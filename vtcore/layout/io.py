@@ -486,17 +486,29 @@ def read_cyskin(path, units: str | None = None) -> Layout:
     return _finish(layout, report, path, "cyskin")
 
 
+def _default_faces(layout: Layout) -> np.ndarray:
+    """The faces a file read from had (``meta["faces"]``, kept for a lossless round trip), else the
+    layout's skin mesh triangles."""
+    f = layout.meta.get("faces")
+    if f is not None:
+        f = np.asarray(f, dtype=np.int64).reshape(-1, 3)
+        if not len(f) or (f.min() >= 0 and f.max() < len(layout)):
+            return f
+    from .mesh import skin_mesh
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", LayoutWarning)
+        return skin_mesh(layout).triangles if len(layout) >= 3 else np.zeros((0, 3), np.int64)
+
+
 def write_cyskin(layout: Layout, path, faces: np.ndarray | None = None) -> None:
     """Write the CySkin calibration JSON (variant B: info, skin, tactile_maps).
 
-    faces : (F, 3) taxel indices; default: the layout's skin mesh triangles.
+    faces : (F, 3) taxel indices; default: the faces the layout was read with, else its skin
+    mesh triangles.
     """
     if faces is None:
-        from .mesh import skin_mesh
-
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", LayoutWarning)
-            faces = skin_mesh(layout).triangles if len(layout) >= 3 else np.zeros((0, 3), int)
+        faces = _default_faces(layout)
     faces = np.asarray(faces, dtype=np.int64).reshape(-1, 3).tolist()
     info = dict(layout.meta.get("info") or {})
     info = {"file_version": "2", "type": info.get("type", "rigid_body"),
@@ -638,13 +650,9 @@ _ROLE_CODE = {"pressure": 0, "thermal": 1}
 
 def write_ply(layout: Layout, path, faces: np.ndarray | None = None) -> None:
     """ASCII PLY: vertex ``x y z nx ny nz taxel_id module_id role [u v] [can_id]`` and the
-    skin mesh faces (``role`` 0 pressure, 1 thermal, 2 other)."""
+    faces the layout was read with, else its skin mesh (``role`` 0 pressure, 1 thermal, 2 other)."""
     if faces is None:
-        from .mesh import skin_mesh
-
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", LayoutWarning)
-            faces = skin_mesh(layout).triangles if len(layout) >= 3 else np.zeros((0, 3), int)
+        faces = _default_faces(layout)
     faces = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
     props = ["double x", "double y", "double z", "double nx", "double ny", "double nz",
              "int taxel_id", "int module_id", "uchar role"]
