@@ -458,16 +458,21 @@ class LogMap:
         if (~found).any():
             # the k nearest centroids can miss a big face: test every face whose disc holds the point
             miss = np.flatnonzero(~found)
-            for q in miss:
-                near = self._tree.query_ball_point(flat[q], self._rad.max())
-                near = np.asarray(near, dtype=np.int64)
-                if not len(near):
-                    continue
-                bb = _barycentric(tri2[near], np.repeat(flat[q][None], len(near), 0))
-                ok = (bb.min(axis=1) >= -1e-9) & self._good[near]
-                if ok.any():
-                    j = np.flatnonzero(ok)[np.argmin(self._geo[near[ok]])]
-                    cand[q, 0], b[q, 0], best[q], found[q] = near[j], bb[j], 0, True
+            near = self._tree.query_ball_point(flat[miss], self._rad.max())
+            counts = np.array([len(c) for c in near])
+            if counts.sum():
+                rows = np.repeat(np.arange(len(miss)), counts)
+                fcs = np.concatenate([np.asarray(c, dtype=np.int64) for c in near if len(c)])
+                bb = _barycentric(tri2[fcs], flat[miss][rows])
+                ok = (bb.min(axis=1) >= -1e-9) & self._good[fcs]
+                score = np.where(ok, self._geo[fcs], np.inf)
+                # per missing point, the containing face nearest the source
+                order = np.lexsort((score, rows))
+                first = np.ones(len(order), bool)
+                first[1:] = rows[order][1:] != rows[order][:-1]
+                pick = order[first & np.isfinite(score[order])]
+                q = miss[rows[pick]]
+                cand[q, 0], b[q, 0], best[q], found[q] = fcs[pick], bb[pick], 0, True
         face = cand[np.arange(n), best]
         bary = b[np.arange(n), best]
         pos = np.einsum("nk,nkj->nj", bary, V[F[face]])
