@@ -167,3 +167,37 @@ def test_can_transport_runs_after_the_sensor_stage(tmp_path, codec):
         want = np.clip(np.rint(counts), 0.0, 65535.0)
     np.testing.assert_array_equal(frames, want)
     assert res["metrics"]["response_max"] == pytest.approx(float(want.mean(axis=0).max()))
+
+
+@pytest.mark.parametrize("angle", [0.0, 30.0])
+def test_profile_cuts_through_the_contact_centre_and_matches_the_taxels(tmp_path, angle):
+    """The profile is a cut through the pressure's centre along the stated direction, and the taxels
+    drawn on it are their own readings of the field whose taxel-disc mean the plot draws (the old
+    plot cut along the row of largest total pressure, an edge row of the cube, and drew counts)."""
+    text = BASE.format(extra_obj="", task=f"force = 6.0\nreadings = 1\nprofile_angle = {angle}")
+    text = text.replace('kind = "sphere"\nradius = 0.03', 'kind = "cube"\nside = 0.02\nposition = [0.003, 0.0]')
+    text = text.replace("plots = false", "plots = true") + "[effects.soft_layer]\n"
+    run_scene(_write(tmp_path, text), tmp_path / "o")
+    assert (tmp_path / "o" / "profile.png").exists()
+    with np.load(tmp_path / "o" / "arrays.npz") as z:
+        gx, gy, gp = z["grid_x"], z["grid_y"], z["grid_pressure"]
+        X, Y = np.meshgrid(gx, gy, indexing="ij")
+        centre = np.array([(X * gp).sum(), (Y * gp).sum()]) / gp.sum()
+        c, d = z["profile_centre"], z["profile_direction"]
+        np.testing.assert_allclose(c[:2], centre, atol=1e-9)  # flat patch: grid axes = end-effector x, y
+        assert abs(c[0] - 0.003) < 3e-4 and abs(c[1]) < 3e-4
+        np.testing.assert_allclose(d, [np.cos(np.deg2rad(angle)), np.sin(np.deg2rad(angle)), 0.0], atol=1e-12)
+        s, line = z["profile_s"], z["profile_disc_mean"]
+        ts, off, val = z["profile_taxel_s"], z["profile_taxel_offset"], z["profile_taxel_pressure"]
+        idx = z["profile_taxel_index"]
+        np.testing.assert_array_equal(val, z["pressure"][-1][idx])
+        assert len(idx) and np.all(np.abs(off) < 2e-3) and np.all(np.diff(ts) >= 0)
+        # a taxel centred on the cut reads the disc-mean curve at its position
+        near = np.abs(off) < 3e-4
+        if angle == 0.0:
+            assert near.sum() >= 5  # the hexagon's middle row (y = 0) lies on the cut
+        scale = z["pressure"][-1].max()
+        np.testing.assert_allclose(val[near], np.interp(ts[near], s, line), atol=0.03 * scale)
+        # the cut crosses the middle of the contact, not an edge row
+        k = np.argmin(np.abs(s))
+        assert z["profile_surface_pressure"][k] > 0 and z["profile_stress"].max() > 0.5 * z["grid_stress"].max()

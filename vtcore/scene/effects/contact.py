@@ -39,9 +39,10 @@ class SoftLayerSpreading:
             return state
         layout, layer = state["layout"], state["layer"]
         rows = []
+        s = self.samples or state.get("samples_per_taxel", 7)
+        state["taxel_samples"] = s  # so plots read the grid fields exactly as the taxels were read
         for r in state["results"]:
             r.field.stress = spread_field(r.field, layer, self.kernel)
-            s = self.samples or state.get("samples_per_taxel", 7)
             rows.append(taxel_means(layout, r.field, r.field.stress, s))
         state["pressure"] = np.asarray(rows).reshape(np.shape(state["pressure"]))
         return state

@@ -14,7 +14,9 @@ sensor stage) run only when listed. Arrays: ``positions``, ``normals``, ``taxel_
 the sensor effects, ``surface_pressure (T, N)``, ``force (T,)``,
 ``contact_area (T,)``, ``indentation (T,)`` and, with object compliance,
 ``displacement (T,)``; the last frame's grid: ``grid_x``, ``grid_y``,
-``grid_pressure`` (and ``grid_stress`` with ``soft_layer``).
+``grid_pressure`` (and ``grid_stress`` with ``soft_layer``); the profile plot's cut through
+the contact centre (:func:`profile_cut`): ``profile_s``, ``profile_surface_pressure``,
+``profile_stress``, ``profile_disc_mean`` and the taxels it crosses, ``profile_taxel_*``.
 """
 
 from __future__ import annotations
@@ -38,6 +40,9 @@ PARAMS = Section({
     "readings": Field("int", default=10, ge=1, doc="sensor readings taken while holding the force"),
     "rate": Field("float", default=20.0, gt=0, unit="Hz", doc="simulation / sensor sampling rate"),
     "direction": Field("vec", default=None, length=3, doc="press direction (default: -mean taxel normal)"),
+    "profile_angle": Field("float", default=0.0, unit="deg",
+                           doc="direction of the profile plot's cut through the contact centre, from the "
+                               "contact grid's x axis (the end-effector's x on a flat patch) towards its y"),
 })
 
 
@@ -50,7 +55,7 @@ def _plt():
     return plt
 
 
-def _field_figure(fld, layout, title):
+def _field_figure(fld, layout, title, cut=None):
     """Surface pressure and, when spread, the stress at the taxels' depth, with the taxel discs."""
     plt = _plt()
     panels = [("surface pressure", fld.pressure)] + ([("stress at the taxels' depth", fld.stress)]
@@ -63,6 +68,12 @@ def _field_figure(fld, layout, title):
     for ax, (name, img) in zip(axes[0], panels):
         im = ax.imshow(img.T, origin="lower", extent=ext, cmap="magma", vmin=0, vmax=vmax)
         ax.scatter(txy[:, 0], txy[:, 1], s=16, facecolors="none", edgecolors="c", linewidths=0.6)
+        if cut is not None and len(cut["s"]):  # the profile plot's cut
+            rc = cut["centre"] - fld.origin
+            c2 = np.array([rc @ fld.e1, rc @ fld.e2])
+            d2 = np.array([cut["direction"] @ fld.e1, cut["direction"] @ fld.e2])
+            ends = (c2 + np.outer(cut["s"][[0, -1]], d2)) * 1e3
+            ax.plot(ends[:, 0], ends[:, 1], color="w", lw=0.7, ls="--")
         ax.set_title(name)
         ax.set_xlabel("x (mm)")
         ax.set_ylabel("y (mm)")
@@ -71,27 +82,79 @@ def _field_figure(fld, layout, title):
     return fig
 
 
-def _profile_figure(fld, layout, values, title, label):
-    """Cut through the contact centre along x: surface pressure, stress at depth, taxel readings."""
-    plt = _plt()
+def profile_cut(fld, layout, taxel_values, *, angle_deg=0.0, samples=7, radius=None):
+    """A straight cut through the contact centre of ``fld`` and the taxels whose discs it crosses.
+
+    The cut passes through the force-weighted centre of the surface pressure (the grid centre
+    without contact) along the grid direction ``cos(a) e1 + sin(a) e2`` (``a = angle_deg``; e1 is
+    the end-effector's x for a flat patch). Every curve is read from the same grid fields the
+    taxels are read from: ``surface`` and ``stress`` (when spread) at the cut's points, and
+    ``disc_mean``, the mean over a taxel disc centred on each cut point of the field the taxels
+    read (stress when spread, else surface pressure) with the taxels' own disc samples, so a
+    taxel centred on the cut reads exactly the ``disc_mean`` curve at its position.
+
+    taxel_values : (N,) Pa, the taxels' readings of that field (PressResult.pressure or the
+    soft_layer effect's output). Returns a dict of arrays: ``s (K,)`` m along the cut (0 at the
+    centre), ``surface (K,)``, ``stress (K,)`` or None, ``disc_mean (K,)`` Pa; ``taxel_index (M,)``,
+    ``taxel_s (M,)`` m, ``taxel_offset (M,)`` m (distance from the cut), ``taxel_value (M,)`` Pa;
+    ``centre (3,)`` m and ``direction (3,)`` unit, both in the end-effector frame.
+    """
+    from ...contact.press import TAXEL_RADIUS, _sample, disc_offsets
+
+    radius = TAXEL_RADIUS if radius is None else radius
     p = fld.pressure
-    j = int(np.argmax(p.sum(axis=0))) if p.any() else len(fld.y) // 2
-    fig, ax = plt.subplots(figsize=(6.4, 3.6))
-    ax.plot(fld.x * 1e3, p[:, j], label="surface pressure (Pa)")
-    if fld.stress is not None:
-        ax.plot(fld.x * 1e3, fld.stress[:, j], label="stress at taxel depth (Pa)")
-    rel = layout.positions - fld.origin
-    tx, ty = rel @ fld.e1, rel @ fld.e2
-    near = np.abs(ty - fld.y[j]) < 3.75e-3
-    if near.any():
-        ax2 = ax.twinx()
-        ax2.plot(tx[near] * 1e3, values[near], "o", color="C3", ms=4, label=f"taxels ({label})")
-        ax2.set_ylabel(label)
-        ax2.set_ylim(bottom=0)
-    ax.set_xlabel("x (mm)")
+    X, Y = np.meshgrid(fld.x, fld.y, indexing="ij")
+    if p.sum() > 0:
+        c = np.array([(X * p).sum(), (Y * p).sum()]) / p.sum()
+    else:
+        c = np.array([0.5 * (fld.x[0] + fld.x[-1]), 0.5 * (fld.y[0] + fld.y[-1])])
+    a = np.deg2rad(angle_deg)
+    t = np.array([np.cos(a), np.sin(a)])       # along the cut, grid coordinates
+    o = np.array([-t[1], t[0]])                # across the cut
+    ds = max(fld.spacing, 1e-6) / 4
+    half = 0.5 * np.hypot(fld.x[-1] - fld.x[0], fld.y[-1] - fld.y[0])
+    s = np.arange(-np.ceil(half / ds), np.ceil(half / ds) + 1) * ds
+    pts = c + s[:, None] * t
+    inside = ((pts[:, 0] >= fld.x[0]) & (pts[:, 0] <= fld.x[-1]) & (pts[:, 1] >= fld.y[0]) & (pts[:, 1] <= fld.y[-1]))
+    s, pts = s[inside], pts[inside]
+    read = fld.stress if fld.stress is not None else fld.pressure
+    off = disc_offsets(samples, radius)
+    disc = _sample(pts[:, None, :] + off[None, :, :], read, fld.x, fld.y).mean(axis=1)
+    # taxels as taxel_means places them: below the surface point along their normals
+    pos = np.asarray(layout.positions, float) + fld.thickness * np.asarray(layout.normals, float)
+    rel = pos - fld.origin
+    txy = np.column_stack([rel @ fld.e1, rel @ fld.e2]) - c
+    ts, to = txy @ t, txy @ o
+    idx = np.flatnonzero(np.abs(to) < radius)
+    idx = idx[np.argsort(ts[idx], kind="stable")]
+    centre = fld.origin + c[0] * fld.e1 + c[1] * fld.e2
+    return {"s": s, "surface": _sample(pts, fld.pressure, fld.x, fld.y),
+            "stress": _sample(pts, fld.stress, fld.x, fld.y) if fld.stress is not None else None,
+            "disc_mean": disc, "taxel_index": idx, "taxel_s": ts[idx], "taxel_offset": to[idx],
+            "taxel_value": np.asarray(taxel_values, float)[idx], "centre": centre,
+            "direction": t[0] * fld.e1 + t[1] * fld.e2}
+
+
+def _profile_figure(cut, title):
+    """The cut of :func:`profile_cut`: fields along it and the taxels whose discs it crosses."""
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(6.8, 3.8))
+    s = cut["s"] * 1e3
+    ax.plot(s, cut["surface"], color="C0", lw=1.2, label="surface pressure")
+    if cut["stress"] is not None:
+        ax.plot(s, cut["stress"], color="C1", lw=1.2, label="stress at the taxels' depth")
+    ax.plot(s, cut["disc_mean"], color="C2", lw=1.2, ls="--", label="taxel-disc mean (what a taxel here reads)")
+    if len(cut["taxel_index"]):
+        sc = ax.scatter(cut["taxel_s"] * 1e3, cut["taxel_value"], c=np.abs(cut["taxel_offset"]) * 1e3,
+                        cmap="Reds_r", vmin=0, vmax=2.5, s=26, edgecolors="k", linewidths=0.5, zorder=3,
+                        label="taxels crossed by the cut")
+        fig.colorbar(sc, ax=ax, label="taxel centre off the cut (mm)", shrink=0.85)
+    c, d = cut["centre"] * 1e3, cut["direction"]
+    ax.set_xlabel(f"along ({d[0]:.2f}, {d[1]:.2f}, {d[2]:.2f}) through the contact centre "
+                  f"({c[0]:.1f}, {c[1]:.1f}, {c[2]:.1f}) mm (mm)", fontsize=8)
     ax.set_ylabel("Pa")
-    ax.set_title(title)
-    ax.legend(loc="upper left", fontsize=8)
+    ax.set_title(title, fontsize=9)
+    ax.legend(loc="best", fontsize=7)
     return fig
 
 
@@ -173,6 +236,7 @@ def run(scene, ctx) -> TaskResult:
         disp = rep(state["displacement"]) if "displacement" in state else None
     else:
         disp = state.get("displacement")
+    per_last = per[-1].copy()  # the last simulated frame, which the grid fields belong to
     sensed = ctx.pipeline.apply("sensor", {"frames": per.copy(), "timestamps": times}, ctx)
     frames, stamps = np.asarray(sensed["frames"], float), np.asarray(sensed["timestamps"], float)
     # transport stage (e.g. [effects.can]): the counts go over the wire and come back as a host
@@ -213,12 +277,14 @@ def run(scene, ctx) -> TaskResult:
         metrics["displacement_mm"] = float(disp[-1]) * 1e3
         if metrics["displacement_mm"] > 0:
             metrics["compliance_attribute"] = float(mean.mean() / disp[-1])  # seed 000 Eq. 1
+    cut = profile_cut(fld, layout, per_last, angle_deg=task["profile_angle"],
+                      samples=state.get("taxel_samples", opts["samples_per_taxel"]))
     title = f"{scene.name}: {obj['name']} through {layer.thickness * 1e3:g} mm ({opts['model']})"
     flat = layout.flat if layout.flat is not None else layout.positions[:, :2]
     figures = {
         "response": taxel_map(flat, mean, title=f"{scene.name}: mean response, {obj['name']}", label=unit),
-        "pressure_field": _field_figure(fld, layout, title),
-        "profile": _profile_figure(fld, layout, mean, title, unit),
+        "pressure_field": _field_figure(fld, layout, title, cut),
+        "profile": _profile_figure(cut, title),
     }
     arrays = {
         "positions": layout.positions, "normals": layout.normals, "taxel_ids": layout.taxel_ids,
@@ -228,6 +294,13 @@ def run(scene, ctx) -> TaskResult:
     }
     if fld.stress is not None:
         arrays["grid_stress"] = fld.stress
+    arrays.update({"profile_s": cut["s"], "profile_surface_pressure": cut["surface"],
+                   "profile_disc_mean": cut["disc_mean"], "profile_taxel_index": cut["taxel_index"],
+                   "profile_taxel_s": cut["taxel_s"], "profile_taxel_offset": cut["taxel_offset"],
+                   "profile_taxel_pressure": cut["taxel_value"], "profile_centre": cut["centre"],
+                   "profile_direction": cut["direction"]})
+    if cut["stress"] is not None:
+        arrays["profile_stress"] = cut["stress"]
     if disp is not None:
         arrays["displacement"] = np.asarray(disp, float)
     notes = [f"Contact model `{opts['model']}`, layer {layer.thickness * 1e3:g} mm of {layer.material} "
