@@ -141,7 +141,7 @@ class SubtaxelEdgeDetector:
     name = "subtaxel"
 
     def __init__(self, mesh, levels: int = 2, fraction: float = 0.1, normal=(0.0, 0.0, 1.0),
-                 min_pressure: float = 0.0, centroid: str = "components", interpolate: str = "log",
+                 min_pressure: float = 0.0, centroid: str = "curve", interpolate: str = "log",
                  log_floor: float = 1e-3):
         from ..layout import mesh_from_triangles
 

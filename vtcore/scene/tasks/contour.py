@@ -40,10 +40,10 @@ PARAMS = Section({
                           doc="skin (vtcore.layout end-effector)"),
     "contact": Field("str", default="press", choices=("press", "analytic"),
                      doc="press: vtcore.contact.press; analytic: AnalyticContact (testing)"),
-    "material": Field("str", default="dragon_skin_30",
-                      doc="soft layer material (vtcore.contact.MATERIALS); Ecoflex 00-20 and Dragon "
-                          "Skin 10 bottom out at 15 N on a 1 mm edge across the curved patch"),
-    "thickness": Field("float", default=4e-3, gt=0, unit="m", doc="soft layer thickness"),
+    "material": Field("str", default="ecoflex_00_50",
+                      doc="soft layer material (vtcore.contact.MATERIALS); seed 002 does not give "
+                          "CySkin's cover; 3 mm of Ecoflex 00-20 bottoms out at 15 N on a 1 mm edge"),
+    "thickness": Field("float", default=6e-3, gt=0, unit="m", doc="soft layer thickness"),
     "active_depth": Field("float", default=0.012, gt=0, unit="m",
                           doc="press only taxels within this depth of the tangent plane at x_R "
                               "(the rest cannot touch a flat-topped object; <1% change, 3-5x faster)"),
@@ -72,8 +72,9 @@ PARAMS = Section({
     "subtaxel_interpolate": Field("str", default="log", choices=("log", "linear"),
                                   doc="subdivide log-pressure (Gaussian-like profiles) or pressure"),
     "subtaxel_fraction": Field("float", default=0.1, ge=0, le=1),
-    "subtaxel_centroid": Field("str", default="components", choices=("components", "points"),
-                               doc="mean of major components' centroids, or of all edge points"),
+    "subtaxel_centroid": Field("str", default="curve", choices=("curve", "components", "points"),
+                               doc="edge at x_R from a local quadratic fit, mean of the major "
+                                   "components' centroids, or centroid of all edge points"),
     "image_resolution": Field("float", default=1e-3, gt=0, unit="m", doc="seed 002: 1 mm"),
     "image_sigma": Field("float", default=1.5, gt=0, doc="Canny smoothing, pixels"),
     "image_low": Field("float", default=0.1, gt=0, le=1, doc="Canny low threshold / max gradient"),
