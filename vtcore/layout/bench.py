@@ -96,7 +96,7 @@ def _place_rows(quick):
                      "setting": f"{len(mesh.faces)} faces{solved}", "n": patch.n_modules, "seconds": sec,
                      "accuracy": rep.strain_max, "accuracy_name": "strain_max",
                      "extra": f"strain_mean={rep.strain_mean:.2e}, overlaps={len(rep.overlaps)}, "
-                              f"off_boundary={len(rep.off_boundary)}"})
+                              f"off_boundary={len(rep.off_boundary)}" + "".join(f"; {n}" for n in rep.notes)})
     return rows
 
 
@@ -122,9 +122,9 @@ def _sphere_rows(quick):
                     sec, (lay, rep) = _timeit(lambda: place(mesh, p, (0, 0, R), (1, 0, 0), max_faces=mf))
                 err = np.linalg.norm(lay.positions - exact, axis=1).max() * 1e3
                 rows.append({"case": "exp_sphere", "method": "logmap", "n": len(p), "seconds": sec,
-                             "setting": f"icosphere {s} ({len(mesh.faces)} faces) solved on {mf}",
+                             "setting": f"icosphere {s} ({len(mesh.faces)} faces) max_faces={mf}",
                              "accuracy": err, "accuracy_name": "max_error_mm",
-                             "extra": f"strain_max={rep.strain_max:.3f}"})
+                             "extra": f"strain_max={rep.strain_max:.3f}" + "".join(f"; {n}" for n in rep.notes)})
         for method in ("logmap", "project"):
             if method == "project" and s != subs[-1]:
                 continue
@@ -153,8 +153,8 @@ def _skin_rows(quick):
         p = patch_from_poses(mod, tile_poses(mod, [-side / 2] * 2, [side / 2] * 2))
         keep = np.all(np.abs(p.flat) <= side / 2, axis=1)
         f = p.flat[keep][:n]
-        r = 0.05
-        th = f[:, 0] / r  # wrap round a cylinder (more than once for big n: the flat method still works)
+        r = 0.1
+        th = f[:, 0] / r  # wrap the lattice round a cylinder
         pos = np.column_stack([r * np.sin(th), f[:, 1], r * np.cos(th)])
         nrm = np.column_stack([np.sin(th), 0 * th, np.cos(th)])
         lay = Layout(pos, nrm, np.arange(len(f)), np.zeros(len(f)), flat=f)
