@@ -183,8 +183,23 @@ def build_layout(scene) -> Layout:
         else:
             pos = np.column_stack([p.flat, np.zeros(len(p))])
             nrm = np.tile([0.0, 0.0, 1.0], (len(p), 1))
-        pos = pos + lay["offset"] * nrm
+        from ...layout.conform import OVERLAP_FRACTION, find_overlaps, layout_strain
+
         out = p.to_layout(pos, nrm, {"placement_method": "analytic", "end_effector": shape})
+        strain = layout_strain(out, p.flat, p.module_edges)
+        overlaps = find_overlaps(pos, p.module_ids, OVERLAP_FRACTION * p.module.pitch * lay["pitch"] / PITCH)
+        out.positions = pos + lay["offset"] * nrm
+        out.meta["placement"] = {"method": "analytic", "strain_max": float(np.abs(strain).max()) if len(strain) else 0.0,
+                                 "strain_mean": float(np.abs(strain).mean()) if len(strain) else 0.0,
+                                 "overlaps": len(overlaps), "overlap_pairs": [list(o) for o in overlaps],
+                                 "off_boundary": [], "coverage": None}
+        if overlaps:
+            import warnings
+
+            from ...layout import LayoutWarning
+
+            warnings.warn(f"layout: the {kind} patch overlaps itself on the {shape} ({len(overlaps)} module pairs)",
+                          LayoutWarning, stacklevel=2)
         return out
     mesh = build_end_effector(scene)
     at = lay["at"] if lay["at"] is not None else [0.0, 0.0, 0.0]
