@@ -63,6 +63,13 @@ def test_hexagon_seed001():
     np.testing.assert_allclose(flat, p.flat)
 
 
+def test_cyskin11_hexagon_has_61_taxels():  # real planar hexagons: 61 taxels in 6 modules
+    p = make_patch("hexagon", "cyskin11")
+    assert len(p) == 61 and np.bincount(p.module_ids).tolist() == [11, 10, 10, 10, 10, 10]
+    assert nn(p.flat).min() == pytest.approx(PITCH)
+    assert p.meta["shared_sites_dropped"] == 5
+
+
 @pytest.mark.parametrize("kind,n", [("triangle", 10), ("strip:1", 10), ("strip:2", 20), ("strip:7", 70)])
 def test_triangle_and_strips(kind, n):
     p = make_patch(kind)

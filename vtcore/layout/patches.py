@@ -105,8 +105,20 @@ def patch_from_poses(module: str | ModuleType, poses, kind: str = "", extra: dic
     else:
         flat = np.zeros((0, 2))
     m = len(poses)
-    return Patch(mod, poses, flat, np.repeat(np.arange(m), k), np.tile(mod.sensors, m),
-                 np.tile(mod.roles, m), kind, dict(extra or {}))
+    mids, sensors, roles = np.repeat(np.arange(m), k), np.tile(mod.sensors, m), np.tile(mod.roles, m)
+    meta = dict(extra or {})
+    if len(flat) > 1:
+        # sites shared by two modules (the hub-side taxel of cyskin11 is another module's corner
+        # or the hexagon centre) are taxels of the first module only
+        from scipy.spatial import cKDTree
+
+        pairs = cKDTree(flat).query_pairs(1e-9, output_type="ndarray")
+        if len(pairs):
+            drop = np.zeros(len(flat), bool)
+            drop[pairs.max(axis=1)] = True
+            flat, mids, sensors, roles = flat[~drop], mids[~drop], sensors[~drop], roles[~drop]
+            meta["shared_sites_dropped"] = int(drop.sum())
+    return Patch(mod, poses, flat, mids, sensors, roles, kind, meta)
 
 
 def strip_poses(module: ModuleType, n: int) -> np.ndarray:
