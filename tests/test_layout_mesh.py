@@ -5,6 +5,8 @@ import warnings
 import numpy as np
 import pytest
 import scipy.sparse as sp
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from vtcore.errors import InputError
 from vtcore.layout import Layout, LayoutWarning, make_patch, mesh_from_triangles, skin_mesh
@@ -188,3 +190,27 @@ def test_4000_taxels_builds():
         warnings.simplefilter("error")
         m = skin_mesh(lay)
     assert np.diff(m.adjacency.indptr).max() <= 12
+
+
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 10_000), keep=st.floats(0.3, 1.0), jitter=st.floats(0.0, 0.3),
+       scale=st.sampled_from([1e-3, 1.0, 1e3]), flat=st.booleans())
+def test_skin_mesh_properties(seed, keep, jitter, scale, flat):
+    """Random subsets of a jittered lattice, at any scale, with or without flat coordinates:
+    E and D stay symmetric and finite, triangles index valid taxels, no boundary edge spans a gap."""
+    rng = np.random.default_rng(seed)
+    base = make_patch("strip:4").flat_layout()
+    sel = rng.random(len(base)) < keep
+    f = (base.flat[sel] + rng.normal(0, jitter * PITCH, (sel.sum(), 2))) * scale
+    n = len(f)
+    pos = np.column_stack([f, np.zeros(n)])
+    lay = Layout(pos, np.tile([0, 0, 1.0], (n, 1)), np.arange(n), np.zeros(n), flat=f if flat else None)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", LayoutWarning)
+        m = skin_mesh(lay)
+    assert np.isfinite(m.distances.data).all()
+    assert (m.adjacency != m.adjacency.T).nnz == 0
+    if len(m.triangles):
+        assert m.triangles.min() >= 0 and m.triangles.max() < n
+    if n >= 2 and len(m.edges):
+        assert m.distances.data.min() > 0
