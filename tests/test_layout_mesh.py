@@ -157,12 +157,20 @@ def test_thin_part_faces_are_not_bridged():
     assert len(e) == 2 * 153
 
 
-def test_maker_triangulation_agreement_synthetic():
+def test_maker_triangulation_agreement_synthetic(tmp_path):
     """On a (synthetic, see vtcore.layout.synthetic) CySkin half-cylinder read from positions
-    alone, the skin mesh agrees with the maker's triangulation on >= 80% of its edges."""
+    alone (a CSV of x, y, z without normals or faces), the skin mesh agrees with the maker's
+    triangulation on >= 80% of its edges."""
+    from vtcore.layout import load
+
     lay, faces, _ = cyskin_half_cylinder(seed=3)
     assert 500 <= len(lay) <= 650 and lay.flat is None
-    m = skin_mesh(lay)
+    rows = ["x,y,z"] + [",".join(f"{v:.6f}" for v in p) for p in lay.positions]
+    (tmp_path / "patch.csv").write_text("\n".join(rows) + "\n")
+    with pytest.warns(LayoutWarning, match="no normal"):
+        read = load(tmp_path / "patch.csv")
+    m = skin_mesh(read)
+    assert m.meta["method"] == "surface"
     assert edge_agreement(m.edges, faces_to_edges(faces)) >= 0.8
 
 
