@@ -83,3 +83,17 @@ def test_decode_encode_decode_is_identity_with_errors(tmp_path):
     np.testing.assert_array_equal(a.mask, b.mask)
     np.testing.assert_array_equal(a.errors, b.errors)
     assert b.summary.triangle_errors == {2: 3}
+
+
+def test_replay_scene_board_addresses(tmp_path):
+    """``[task] boards``: the shipped iCub log is board 0; saying the layout is board 2 leaves every
+    frame unmapped, counted and explained in the report instead of silently empty."""
+    text = (SCENES / "replay_icub_press.toml").read_text()
+    text = text.replace('log = "data/replay_icub_press.asc"',
+                        f'log = "{(SCENES / "data" / "replay_icub_press.asc").as_posix()}"\nboards = [2]')
+    scene = tmp_path / "board2.toml"
+    scene.write_text(text)
+    m = run_scene(scene, tmp_path / "out")["metrics"]
+    assert m["unmapped_taxels"] == 72 and m["unmapped_frames"] == 720 and m["masked_fraction"] == 1.0
+    report = (tmp_path / "out" / "report.md").read_text()
+    assert "board 0: triangles 0-5 (72 taxels)" in report and "--boards" in report
