@@ -131,3 +131,19 @@ def test_subtaxel_places_a_line_between_taxel_rows_better_than_the_mesh_filter()
             err.append(abs(f.centroid @ n - off))
     assert np.mean(err_sub) < np.mean(err_mesh)
     assert np.mean(err_sub) < 0.6e-3
+
+
+def test_curve_fit_finds_an_arc_where_it_crosses_x_ref():
+    """A 3 mm rim of radius 39 mm whose centreline passes 1 mm beside the origin: the centroid
+    of its edges lies inside the arc by the sagitta; the local quadratic fit does not."""
+    flat, mesh = lattice(rings=4)
+    pos = mesh.positions
+    centre = np.array([0.0, 0.040])  # the rim's centre: the rim crosses x = 0 at y = +1 mm
+    d = np.abs(np.hypot(pos[:, 0] - centre[0], pos[:, 1] - centre[1]) - 0.039)
+    p = 1e4 * np.exp(-0.5 * (np.maximum(d - 1.5e-3, 0) / 2e-3) ** 2)
+    curve = SubtaxelEdgeDetector(mesh, levels=2, centroid="curve").detect(p)
+    comps = SubtaxelEdgeDetector(mesh, levels=2, centroid="components").detect(p)
+    assert curve.extra.get("located") == "curve" and curve.centroid[0] == 0.0
+    assert abs(curve.centroid[1] - 1e-3) < 0.5e-3
+    assert comps.centroid[1] - 1e-3 > 1e-3  # pulled towards the rim's centre (+y)
+    assert abs(curve.theta) < np.radians(3)

@@ -12,6 +12,8 @@ Rows:
   grid (0.5/1/2 mm), the Loop subdivision levels (0/1/2).
 - ``image_backproject_all`` the image pipeline when every pixel is back-projected
   (seed 002's worst case, 7.2 ms).
+- ``contour_<method>`` one seeded run of each seed 002 contour scene per method:
+  detection time per tap next to the closed-loop contour error d-bar (``pos_err_mm``).
 
 Like ``vtcore.scene``, this benchmark composes packages (it uses the control
 frame and the analytic contact of ``vtcore.control``); the filters themselves
@@ -175,7 +177,36 @@ def run(out: Path, quick: bool = False) -> list[dict]:
                      "knob": f"{int(img.tactile.inside.sum())} px", "ms_per_frame": t * 1e3,
                      "taxel_frames_per_s": len(lay) / t, "pos_err_mm": "", "ang_err_deg": "", "misses": ""})
 
+    # 4. closed loop: each method driving the seed 002 contour scenes (one seeded run each)
+    rows += _contour_rows(out, quick)
     _write(out, rows)
+    return rows
+
+
+def _contour_rows(out: Path, quick: bool) -> list[dict]:
+    """Contour error d-bar (mm) of each method next to its per-frame time, from the scenes."""
+    import tempfile
+
+    from ..scene import run_scene
+
+    scenes = Path(__file__).resolve().parents[2] / "scenes"
+    names = ["contour_ruler_planar"] if quick else [
+        "contour_ruler_planar", "contour_mug_planar", "contour_ruler_curved", "contour_mug_curved"]
+    rows = []
+    for name in names:
+        path = scenes / f"{name}.toml"
+        if not path.exists():
+            continue
+        over = ["task.runs=1", "output.plots=false", "output.arrays=false"] + (["task.max_taps=10"] if quick else [])
+        with tempfile.TemporaryDirectory() as tmp:
+            m = run_scene(path, Path(tmp), over)["metrics"]
+        for method in ("mesh", "image", "subtaxel"):
+            if f"{method}_d_mean_mm" not in m:
+                continue
+            rows.append({"row": f"contour_{method}", "skin": name.replace("contour_", ""), "taxels": m["taxels"],
+                         "frames": m[f"{method}_taps"], "knob": "1 run, closed loop",
+                         "ms_per_frame": m[f"{method}_detect_ms"], "taxel_frames_per_s": "",
+                         "pos_err_mm": m[f"{method}_d_mean_mm"], "ang_err_deg": "", "misses": ""})
     return rows
 
 
@@ -216,22 +247,34 @@ def _write(out: Path, rows: list[dict]) -> None:
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(6.5, 4.5))
-    colours = {"detect_mesh": "C0", "detect_image": "C1", "detect_subtaxel": "C2"}
+    colours = {"mesh": "C0", "image": "C1", "subtaxel": "C2"}
     markers = {"seed002_planar": "o", "seed002_curved": "s"}
+    fig.clf()
+    axes = fig.subplots(1, 2)
+    fig.set_size_inches(12, 4.5)
     for r in rows:
-        if r["row"] in colours and r["pos_err_mm"] != "":
-            ax.scatter(r["ms_per_frame"], r["pos_err_mm"], c=colours[r["row"]], marker=markers[r["skin"]])
-            ax.annotate(r["knob"], (r["ms_per_frame"], r["pos_err_mm"]), fontsize=6, xytext=(3, 3),
-                        textcoords="offset points")
+        method = r["row"].split("_", 1)[1] if "_" in r["row"] else ""
+        if r["pos_err_mm"] == "" or method not in colours:
+            continue
+        if r["row"].startswith("detect_"):
+            ax, mk, label = axes[0], markers.get(r["skin"], "o"), r["knob"]
+        else:
+            ax, mk, label = axes[1], "s" if "curved" in r["skin"] else "o", r["skin"]
+        ax.scatter(r["ms_per_frame"], r["pos_err_mm"], c=colours[method], marker=mk)
+        ax.annotate(label, (r["ms_per_frame"], r["pos_err_mm"]), fontsize=6, xytext=(3, 3),
+                    textcoords="offset points")
     for name, c in colours.items():
-        ax.scatter([], [], c=c, label=name.replace("detect_", ""))
+        axes[0].scatter([], [], c=c, label=name)
     for name, mk in markers.items():
-        ax.scatter([], [], c="k", marker=mk, label=name)
-    ax.set_xscale("log")
-    ax.set_xlabel("time per frame (ms)")
-    ax.set_ylabel("edge position error (mm)")
-    ax.legend(fontsize=7)
-    ax.set_title("Edge detection: accuracy vs time per frame")
+        axes[0].scatter([], [], c="k", marker=mk, label=name)
+    axes[0].legend(fontsize=7)
+    for ax in axes:
+        ax.set_xscale("log")
+        ax.set_xlabel("time per frame (ms)")
+    axes[0].set_ylabel("edge position error, straight edges (mm)")
+    axes[1].set_ylabel("contour error d-bar, closed loop (mm)")
+    axes[0].set_title("single frames: accuracy vs time")
+    axes[1].set_title("contour following (one run per scene)")
     with atomic_write(out / "accuracy_vs_time.png", "wb") as fh:
         fig.savefig(fh, format="png", dpi=120, bbox_inches="tight")
     plt.close(fig)
