@@ -130,3 +130,24 @@ def test_read_log_of_written_frames_identical(tmp_path):
         np.testing.assert_array_equal(r.data, b.data)
         np.testing.assert_array_equal(r.ids, b.ids)
         np.testing.assert_array_equal(r.dlc, b.dlc)
+
+
+def test_frame_batch_from_messages_mixed_lengths_and_fd():
+    """Short, empty, full and over-long (CAN FD) payloads land in the right rows; FD cut at 8."""
+    import can
+
+    msgs = [can.Message(timestamp=0.1 * i, arbitration_id=0x400 + i, is_extended_id=False, data=bytes(d))
+            for i, d in enumerate([[1, 2, 3], [], list(range(10, 18)), [9] * 6])]
+    msgs.append(can.Message(timestamp=0.5, arbitration_id=0x18000011, is_extended_id=True, is_fd=True,
+                            data=bytes(range(40, 52))))
+    b = FrameBatch.from_messages(msgs)
+    np.testing.assert_array_equal(b.dlc, [3, 0, 8, 6, 8])
+    np.testing.assert_array_equal(b.extended, [False] * 4 + [True])
+    np.testing.assert_array_equal(b.ids, [0x400, 0x401, 0x402, 0x403, 0x18000011])
+    np.testing.assert_allclose(b.timestamps, [0.0, 0.1, 0.2, 0.3, 0.5])
+    expect = np.zeros((5, 8), np.uint8)
+    expect[0, :3] = [1, 2, 3]
+    expect[2] = range(10, 18)
+    expect[3, :6] = 9
+    expect[4] = range(40, 48)
+    np.testing.assert_array_equal(b.data, expect)
