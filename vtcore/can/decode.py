@@ -270,12 +270,16 @@ class StreamDecoder:
         ext = np.r_[before, t, after]                    # t[i] is ext[k + i]
         jump = np.zeros(m, bool)
         limit = self.window * self.period
-        prev = ext[k - 1:k - 1 + m]
-        fwd = np.flatnonzero(np.isnan(prev) | (ext[k:k + m] - prev > limit))   # nan: first frame of the log
+        # forward steps, over the context frames too: a step just before this chunk still
+        # makes the next k frames candidates (results must not depend on the chunking)
+        prev, cur = ext[:k + m - 1], ext[1:k + m]
+        with np.errstate(invalid="ignore"):
+            step = (np.isnan(prev) & ~np.isnan(cur)) | (cur - prev > limit)   # nan: the log's first frame
+        fwd = np.flatnonzero(step) + 1 - k                                      # index into t of the step
         if len(fwd) == 0:
             return jump
         cand = np.unique((fwd[:, None] + np.arange(k)[None, :]).reshape(-1))
-        cand = cand[cand < m]
+        cand = cand[(cand >= 0) & (cand < m)]
         med = np.nanmedian(ext[cand[:, None] + np.arange(2 * k + 1)[None, :]], axis=1)
         jump[cand] = t[cand] - med > limit
         return jump
