@@ -495,33 +495,49 @@ class LogMap:
 
 # --- placement --------------------------------------------------------------------------------------
 def _decimate(mesh, max_faces: int):
-    """A coarser copy with about ``max_faces`` faces, by vertex clustering on a voxel grid (open3d).
+    """A coarser copy with about ``max_faces`` faces for the log-map solve, or ``mesh`` itself.
 
-    Clustering gives roughly isotropic triangles; quadric decimation was tried first and leaves
-    needle faces on ruled surfaces (cylinders), on which the heat method's log map breaks down.
+    Two simplifiers are tried (open3d): vertex clustering on a voxel grid (roughly isotropic
+    triangles, but it can tear or flip a closed surface) and quadric decimation (faithful on
+    curved surfaces, but it leaves needle faces along the straight lines of ruled surfaces such
+    as cylinders, where the heat method's log map breaks down). The first copy that keeps the
+    Euler characteristic, has consistent winding and well-shaped faces (95% with aspect ratio
+    below 4) is used; otherwise the full mesh is solved.
     """
     import open3d as o3d
     import trimesh
 
+    def to_o3d(m):
+        return o3d.geometry.TriangleMesh(o3d.utility.Vector3dVector(np.asarray(m.vertices, np.float64)),
+                                         o3d.utility.Vector3iVector(np.asarray(m.faces, np.int32)))
+
     h = float(np.sqrt(2.0 * mesh.area / max(max_faces, 1)))
-    m = o3d.geometry.TriangleMesh(o3d.utility.Vector3dVector(np.asarray(mesh.vertices, np.float64)),
-                                  o3d.utility.Vector3iVector(np.asarray(mesh.faces, np.int32)))
-    d = m.simplify_vertex_clustering(voxel_size=h, contraction=o3d.geometry.SimplificationContraction.Average)
-    d.remove_degenerate_triangles()
-    d.remove_duplicated_triangles()
-    d.remove_duplicated_vertices()
-    d.remove_unreferenced_vertices()
-    out = trimesh.Trimesh(np.asarray(d.vertices), np.asarray(d.triangles), process=False, validate=False)
-    if len(out.faces) < 100:  # too coarse to be useful: solve on the full mesh
-        return mesh
-    out, _ = clean_mesh(out)
-    out, _ = _split_nonmanifold(out)
-    out, _ = _split_bowties(out)
-    # clustering can tear holes or flip faces; only a copy with the same topology (Euler
-    # characteristic) and consistent winding is used, else the full mesh is solved
-    if _euler(out) != _euler(mesh) or not out.is_winding_consistent:
-        return mesh
-    return out
+    makers = (lambda: to_o3d(mesh).simplify_vertex_clustering(
+                  voxel_size=h, contraction=o3d.geometry.SimplificationContraction.Average),
+              lambda: to_o3d(mesh).simplify_quadric_decimation(target_number_of_triangles=int(max_faces)))
+    chi = _euler(mesh)
+    for make in makers:
+        d = make()
+        d.remove_degenerate_triangles()
+        d.remove_duplicated_triangles()
+        d.remove_duplicated_vertices()
+        d.remove_unreferenced_vertices()
+        out = trimesh.Trimesh(np.asarray(d.vertices), np.asarray(d.triangles), process=False, validate=False)
+        if len(out.faces) < 100:
+            continue
+        out, _ = clean_mesh(out)
+        out, _ = _split_nonmanifold(out)
+        out, _ = _split_bowties(out)
+        if _euler(out) == chi and out.is_winding_consistent and np.percentile(_aspect(out), 95) < 4.0:
+            return out
+    return mesh
+
+
+def _aspect(mesh) -> np.ndarray:
+    """Longest edge squared over the area of an equilateral triangle's (1 for equilateral)."""
+    t = np.asarray(mesh.triangles)
+    longest = np.linalg.norm(t - np.roll(t, 1, axis=1), axis=2).max(axis=1)
+    return longest ** 2 * np.sqrt(3) / 4 / np.maximum(mesh.area_faces, 1e-300)
 
 
 def _euler(mesh) -> int:
