@@ -499,7 +499,13 @@ class StreamDecoder:
         block = Block(tt, v, msk, ids.copy(), self._row0, now)
         self.summary.rows += upto
         self.summary.masked_samples += int(msk.size - np.count_nonzero(msk))
-        self._last_emit = (self._row0 + upto - 1, float(tt[-1]))
+        # reference for later empty rows and new streams: the last row that had a frame, so an
+        # empty row's time is always (real time + n periods), whatever block it falls in
+        real = np.flatnonzero(~empty)
+        if len(real):
+            self._last_emit = (self._row0 + int(real[-1]), float(tt[real[-1]]))
+        elif self._last_emit is None:
+            self._last_emit = (self._row0 + upto - 1, float(tt[-1]))
         # the emitted rows are handed out as views: keep copies of the open rows only
         self._pv, self._pm, self._pt = self._pv[upto:].copy(), self._pm[upto:].copy(), self._pt[upto:].copy()
         self._pfill = self._pfill[upto:].copy()
