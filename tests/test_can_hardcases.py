@@ -484,3 +484,20 @@ def test_clock_jumps_and_gaps_independent_of_chunking(tmp_path):
         np.testing.assert_array_equal(r.mask, ref.mask)
         np.testing.assert_array_equal(r.timestamps, ref.timestamps)
         assert r.summary.as_dict() == s.as_dict()
+
+
+def test_absurd_gap_is_a_clear_error_not_a_memory_error(tmp_path, capsys):
+    """Every frame from line 201 on is 10^6 s later (2*10^7 periods): masking that gap would need
+    20 M rows; the decoder says so, naming the file and line, instead of exhausting memory."""
+    from vtcore.cli import main
+    from vtcore.errors import InputError
+
+    path, wire = _icub_log(tmp_path)
+    lines = _lines(path)
+    p = _write(tmp_path / "far.log", lines[:200] + [_shift_line(ln, 1e6) for ln in lines[200:]])
+    with pytest.raises(InputError, match="decode its parts separately") as err:
+        decode_log(p, "icub")
+    assert err.value.line == 201 and err.value.file == str(p)
+    assert main(["can", "decode", str(p), "--codec", "icub", "--out", str(tmp_path / "x.npz")]) == 2
+    assert "far.log:201" in capsys.readouterr().err
+    assert not (tmp_path / "x.npz").exists()

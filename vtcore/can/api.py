@@ -72,7 +72,12 @@ def decode_log(path, codec: str | Codec = "icub", layout=None, taxel_ids=None, p
     summary = Summary()
     batches = iter_batches(path, chunk=chunk, summary=summary)
     blocks = iter_decode(batches, codec, taxel_ids, period, window, summary)
-    res = collect(blocks, codec, summary, taxel_ids)
+    try:
+        res = collect(blocks, codec, summary, taxel_ids)
+    except InputError as exc:
+        if exc.file is not None:
+            raise
+        raise InputError(exc.reason, file=path, key=exc.key, line=exc.line) from None
     if summary.frames_read == 0:
         summary.notes.append("the log holds no frames")
     if layout is not None:

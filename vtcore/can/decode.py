@@ -38,6 +38,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..errors import InputError
 from .codecs import Codec
 from .frames import REASONS, FrameBatch, Summary
 
@@ -213,6 +214,7 @@ class StreamDecoder:
     #: frames the period is estimated from (the first ones of the log, whatever the chunking)
     ESTIMATE_FRAMES = 4096
     JUMP_CONTEXT = 3   # frames on each side that vote on a clock jump (runs of up to 3 outliers)
+    MAX_GAP_ROWS = 1 << 20   # a gap needing more empty rows than this is an error, not a MemoryError
 
     def feed(self, batch: FrameBatch) -> Block | None:
         """Decode one chunk of frames; return the rows it closed, or None."""
@@ -384,7 +386,18 @@ class StreamDecoder:
         runmax = np.maximum.accumulate(np.r_[self._maxrow, rows_f])[:-1]
         late_f = (rows_f < runmax - self.window + 1) | (rows_f < self._row0)
         late = late_f[o]
-        self._maxrow = max(self._maxrow, int(rows.max()))
+        newest = int(rows.max())
+        if newest - max(self._maxrow, self._row0 - 1) > self.MAX_GAP_ROWS:
+            # the first frame, in file order, that opens the gap
+            gap_f = rows_f - np.maximum(runmax, self._row0 - 1)
+            i = int(np.flatnonzero(gap_f > self.MAX_GAP_ROWS)[0])
+            line = int(batch.lines[acc[i]])
+            gap = int(gap_f[i])
+            raise InputError(f"a frame lies {gap} periods ({gap * self.period:.6g} s) after the newest row before "
+                             f"it; masking a gap that long needs {gap} rows in memory (limit "
+                             f"{self.MAX_GAP_ROWS}). If the log really pauses that long (a second session "
+                             "appended?), decode its parts separately", line=line or None)
+        self._maxrow = max(self._maxrow, newest)
         if late.any():
             s.reject("late", int(late.sum()), batch.lines[acc[o[late]]])
             ok = ~late
