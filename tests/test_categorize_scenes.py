@@ -56,14 +56,18 @@ def test_layer_scene_is_reproducible(run3, tmp_path, scenes_dir):
 
 
 def test_noise_goes_through_the_pipeline(tmp_path, scenes_dir):
-    """Without [effects.noise] the images are exactly gain x stress; with it they are not."""
+    """Without [effects.noise] the images are exactly the gain's transfer of the stress; with it they are not."""
     base = ["task.resolution_runs=0", "task.trials=1", "task.readings=2"]
     quiet = load_scene(scenes_dir / "category_10mm.toml", base)
     for name in ("noise", "quantisation"):
         quiet.effects.pop(name)  # the same table as quiet.data["effects"]
     res = run_scene(quiet, tmp_path / "quiet")
+    g = quiet.effects["gain"]
     with np.load(tmp_path / "quiet" / "arrays.npz") as z:
-        np.testing.assert_allclose(z["tactile_images"], 0.1 * z["object_pressure"], rtol=1e-12)
+        # the saturating transfer by hand; tension (p < 0) reads negative and the converter clips it to 0
+        p = np.clip(z["object_pressure"], 0.0, None)
+        expect = g["counts_per_pa"] * g["p_half"] * p / (p + g["p_half"])
+        np.testing.assert_allclose(z["tactile_images"], expect, rtol=1e-12)
         assert (z["readings"][:, :, 0] == z["readings"][:, :, 1]).all()
     assert [e["name"] for e in res["effects"]] == ["soft_layer", "gain", "saturation"]
     noisy = run_scene(scenes_dir / "category_10mm.toml", tmp_path / "noisy", overrides=base)
@@ -85,8 +89,10 @@ def test_sweep_presses_each_object_once_per_thickness_and_writes_the_plot(tmp_pa
     monkeypatch.setattr(contact, "press", counting)
     res = run_scene(scenes_dir / "category_sweep.toml", tmp_path,
                     overrides=["task.thicknesses=[0.003, 0.010]", "task.repeats=3", "task.readings=3",
-                               "task.trials=1"])
-    assert sorted(calls) == [0.003] * 4 + [0.010] * 4
+                               "task.trials=1", "task.variant_thicknesses=[0.010]",
+                               "task.variant_p_halfs=[0, 5000]"])
+    # the scene's own base (frictionless) at both thicknesses, plus the bonded variant at 10 mm
+    assert sorted(calls) == [0.003] * 4 + [0.010] * 8
     assert "accuracy_vs_thickness.png" in res["figures"]
     assert (tmp_path / "accuracy_vs_thickness.png").stat().st_size > 10_000
     m = res["metrics"]
@@ -96,6 +102,13 @@ def test_sweep_presses_each_object_once_per_thickness_and_writes_the_plot(tmp_pa
     report = (tmp_path / "report.md").read_text()
     assert "| 5 (edged vs round) |" in report and "solved by" in report
     assert "paper_task6_reproduced" in m and isinstance(m["paper_task6_reproduced"], bool)
+    assert "### Model variants" in report and "| sliding / saturating, p_half 5 kPa | 10 mm |" in report
+    assert "| bonded / linear | 10 mm |" in report and m["variants"] == 4
+    with np.load(tmp_path / "arrays.npz") as z:
+        assert z["variant_expected_accuracy"].shape == z["variant_solve_probability"].shape == (4, 1, 7)
+        assert z["variant_frictionless"].tolist() == [False, False, True, True]
+        assert z["variant_p_half"].tolist() == [0.0, 5000.0, 0.0, 5000.0]
+        np.testing.assert_allclose(z["variant_solve_probability"].sum(axis=-1), 1.0, atol=1e-9)
     result = json.loads((tmp_path / "result.json").read_text())
     assert result["metrics"] == m
 

@@ -102,7 +102,7 @@ def design_sweep(thicknesses, images_at: Callable[[float, int], np.ndarray], tas
     tasks : from :func:`make_tasks`. repeats : int >= 1.
     solve_probability : in (0, 1], the chance of forming exactly a task's split that counts as solving it.
     random_state : seed or Generator for the seeded K-Means runs.
-    formation : keyword arguments of :class:`CategoryFormation` (``n_runs``, ``max_retries``).
+    formation : keyword arguments of :class:`CategoryFormation` (``n_runs``, ``max_retries``, ``n_init``).
     """
     h = np.asarray(thicknesses, dtype=np.float64).reshape(-1)
     if h.size == 0 or not np.isfinite(h).all() or (h < 0).any():
@@ -120,6 +120,7 @@ def design_sweep(thicknesses, images_at: Callable[[float, int], np.ndarray], tas
     ok = np.zeros((h.size, repeats), dtype=bool)
     retries = np.zeros((h.size, repeats), dtype=np.int64)
     n_runs = formation.get("n_runs", 3)
+    n_init = formation.get("n_init", 1)
     cells = [(i, r) for i in range(h.size) for r in range(repeats)]
     it = progress(cells, desc="thickness sweep", total=len(cells)) if progress else cells
     for i, r in it:
@@ -129,7 +130,7 @@ def design_sweep(thicknesses, images_at: Callable[[float, int], np.ndarray], tas
         if est.ok:
             ok[i, r] = True
             acc[i, r] = task_accuracies(est.labels_, tasks)
-        for split in kmeans_splits(est.projection_, n_runs=n_runs) if est.n_components_ else []:
+        for split in kmeans_splits(est.projection_, n_runs=n_runs, n_init=n_init) if est.n_components_ else []:
             if not split["valid"]:
                 continue
             lab = split["labels"]

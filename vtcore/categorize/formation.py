@@ -88,6 +88,9 @@ class CategoryFormation:
     n_runs : int, K-Means runs per attempt that must agree (3 in seed 001).
     max_retries : int, discarded attempts allowed before giving up (``"unstable"``).
     max_iter : int, K-Means iterations per run.
+    n_init : int, random initialisations per K-Means run, the lowest-inertia result kept
+        (1: each run is one random start; scikit-learn's ``KMeans(init="random")`` defaults to
+        10). Seed 001 says only "random centroid initialization"; see :func:`kmeans_splits`.
     random_state : None, int or numpy Generator; seeds every random initialisation.
 
     Attributes (after ``fit``)
@@ -108,7 +111,8 @@ class CategoryFormation:
     """
 
     def __init__(self, n_components: int = 2, n_runs: int = 3, max_retries: int = 10, max_iter: int = 300,
-                 random_state=None):
+                 random_state=None, n_init: int = 1):
+        self.n_init = n_init
         self.n_components = n_components
         self.n_runs = n_runs
         self.max_retries = max_retries
@@ -129,7 +133,7 @@ class CategoryFormation:
         if not np.isfinite(X).all():
             row = int(np.flatnonzero(~np.isfinite(X).all(axis=1))[0])
             raise InputError(f"tactile image of object {row} is not finite", key="X")
-        for name, lo in (("n_components", 1), ("n_runs", 1), ("max_retries", 0), ("max_iter", 1)):
+        for name, lo in (("n_components", 1), ("n_runs", 1), ("max_retries", 0), ("max_iter", 1), ("n_init", 1)):
             val = getattr(self, name)
             if isinstance(val, bool) or not isinstance(val, (int, np.integer)) or val < lo:
                 raise InputError(f"must be an integer >= {lo}, got {val!r}", key=name)
@@ -193,7 +197,7 @@ class CategoryFormation:
             self.n_attempts_ += 1
             guesses = []
             for _ in range(self.n_runs):
-                km = KMeans(n_clusters=2, init="random", n_init=1, max_iter=self.max_iter,
+                km = KMeans(n_clusters=2, init="random", n_init=self.n_init, max_iter=self.max_iter,
                             random_state=int(rng.integers(2**31 - 1)))
                 with warnings.catch_warnings():
                     # Coincident objects may make K-Means report fewer distinct clusters than
@@ -242,19 +246,23 @@ def decision_boundary(centroids) -> tuple[np.ndarray, np.ndarray]:
     return mid, np.array([-diff[1], diff[0]]) / norm
 
 
-def kmeans_splits(projection, n_runs: int = 3, max_iter: int = 300) -> list[dict]:
+def kmeans_splits(projection, n_runs: int = 3, max_iter: int = 300, n_init: int = 1) -> list[dict]:
     """Every split K-Means can return from a random initialisation, with its exact probability.
 
     scikit-learn's ``init="random"`` starts from two distinct objects drawn
     uniformly; Lloyd's iterations are deterministic from there. Enumerating all
     ``N (N - 1) / 2`` starting pairs therefore gives the exact distribution of
-    one run's outcome, ``p``. An attempt of :class:`CategoryFormation` is
+    one random start's outcome, ``q``. A run of ``n_init`` starts keeps the lowest-inertia
+    result, so it returns split ``s`` when no start reaches a split of lower inertia and at
+    least one reaches ``s``: ``p_s = Q(>= I_s)**n_init - Q(> I_s)**n_init``, with ``Q(> I)``
+    the total ``q`` of the splits of inertia above ``I`` (``p = q`` for ``n_init = 1``).
+    An attempt of :class:`CategoryFormation` is
     accepted when its ``n_runs`` independent runs agree, so the split finally
     reported is split ``i`` with probability ``p_i**n_runs / sum_j p_j**n_runs``.
 
     projection : (N, d) float, the encodings (``CategoryFormation.projection_``).
-    Returns a list of ``{"labels" (N,) int canonical, "p_run", "p_accepted",
-    "inertia"}`` sorted by decreasing ``p_accepted``; empty when fewer than two
+    Returns a list of ``{"labels" (N,) int canonical, "p_start" (one start), "p_run",
+    "p_accepted", "inertia"}`` sorted by decreasing ``p_accepted``; empty when fewer than two
     distinct points exist.
     """
     from sklearn.cluster import KMeans
@@ -278,7 +286,20 @@ def kmeans_splits(projection, n_runs: int = 3, max_iter: int = 300) -> list[dict
         lab = np.asarray(key, dtype=np.int64)
         both = (lab == 0).any() and (lab == 1).any()
         inertia = sum(float(((w[lab == k] - w[lab == k].mean(axis=0)) ** 2).sum()) for k in (0, 1) if (lab == k).any())
-        rows.append({"labels": lab, "p_run": c / total, "valid": bool(both), "inertia": inertia})
+        rows.append({"labels": lab, "p_start": c / total, "valid": bool(both), "inertia": inertia})
+    if isinstance(n_init, bool) or not isinstance(n_init, (int, np.integer)) or n_init < 1:
+        raise InputError(f"must be an integer >= 1, got {n_init!r}", key="n_init")
+    # Inertias equal to rounding are one level (sklearn keeps the first of equal inertias; which
+    # of two such splits that is does not matter to the distribution of their union).
+    tol = 1e-9 * max(max(r["inertia"] for r in rows), np.finfo(float).tiny)
+    for r in rows:
+        above = sum(o["p_start"] for o in rows if o["inertia"] > r["inertia"] + tol)
+        level = [o for o in rows if abs(o["inertia"] - r["inertia"]) <= tol]
+        at = sum(o["p_start"] for o in level)
+        # the level's share goes to its splits in proportion to their single-start probability
+        r["p_run"] = ((above + at) ** n_init - above ** n_init) * (r["p_start"] / at) if at > 0 else 0.0
+        if n_init == 1:
+            r["p_run"] = r["p_start"]  # exact, without the rounding of the sums above
     weights = np.array([r["p_run"] ** n_runs if r["valid"] else 0.0 for r in rows])
     for r, wgt in zip(rows, weights):
         r["p_accepted"] = float(wgt / weights.sum()) if weights.sum() > 0 else 0.0

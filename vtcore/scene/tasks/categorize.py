@@ -9,7 +9,11 @@ runs the spatial-resolution study (Fig. 10).
 
 ``categorize_sweep`` is the soft-layer designer: the same at every thickness of
 ``task.thicknesses``, ``task.repeats`` noise draws each, and reports which
-thicknesses solve each task, with a plot of accuracy against thickness.
+thicknesses solve each task, with a plot of accuracy against thickness. It also
+reports the *model variants* (``vtcore.categorize.variants``): the same
+category formation at ``task.variant_thicknesses`` for every layer base in
+``task.variant_bases`` and sensor transfer in ``task.variant_p_halfs`` (0:
+linear), so a reader sees how much the result rests on those assumptions.
 
 The noise-free pressure of each (object, thickness) is computed once per run
 and cached; the sensor effects run through ``ctx.pipeline.apply("sensor", ...)``
@@ -24,6 +28,7 @@ from ...categorize import (PAPER_FIG8, PAPER_TASK_NOTES, CategoryFormation, conf
                            format_ranges_mm, kmeans_splits, make_tasks, resolution_study, tactile_images,
                            task_accuracies)
 from ...categorize import plots as cplots
+from ...categorize.variants import variant_grid, variant_sweep, variants_table
 from ...errors import UnreachableTargetError
 from ..registry import TaskSpec, register_task
 from ..runner import TaskResult
@@ -34,6 +39,9 @@ _COMMON = {
     "readings": Field("int", default=10, ge=1, doc="readings averaged while the force is held (seed 001: 10)"),
     "trials": Field("int", default=3, ge=1, doc="trials averaged per object (seed 001: 3)"),
     "kmeans_runs": Field("int", default=3, ge=1, doc="K-Means runs that must agree (seed 001: 3)"),
+    "kmeans_init": Field("int", default=1, ge=1,
+                         doc="random starts per K-Means run, lowest inertia kept (1: one start per run; "
+                             "scikit-learn's default for init='random' is 10; seed 001 does not say)"),
     "max_retries": Field("int", default=10, ge=0, doc="discarded attempts allowed before giving up"),
     "rate": Field("float", default=20.0, gt=0, unit="Hz", doc="sensor reading rate (seed 001: 20 Hz)"),
 }
@@ -53,6 +61,13 @@ SWEEP_PARAMS = Section({
     "repeats": Field("int", default=5, ge=1, doc="noise draws per thickness"),
     "solve_probability": Field("float", default=0.5, gt=0, le=1,
                                doc="chance of forming exactly a task's split that counts as solving it"),
+    "variant_thicknesses": Field("vec", default=[0.003, 0.006, 0.010], length=(0, 50), unit="m",
+                                 doc="thicknesses of the model-variants table (empty: no table)"),
+    "variant_bases": Field("list", default=["bonded", "frictionless"],
+                           item=Field("str", choices=("bonded", "frictionless")),
+                           doc="layer bases of the model-variants table"),
+    "variant_p_halfs": Field("list", default=[0.0, 1000.0, 2000.0, 3000.0, 5000.0, 7000.0, 10000.0, 20000.0], item=Field("float", ge=0),
+                             unit="Pa", doc="sensor transfers of the model-variants table: p_half, 0 = linear"),
 })
 
 
@@ -82,17 +97,19 @@ class _Pressures:
         self.layer = build_layer(scene)
         self.options = layer_options(scene)
         self.force = scene["task"]["force"]
-        self._cache: dict[tuple[str, float], dict] = {}
+        self._cache: dict[tuple[str, float, str], dict] = {}
 
-    def _press(self, i, thickness):
+    def _press(self, i, thickness, base=None):
         from dataclasses import replace
 
         from ...contact import press
 
         name, mesh, pose = self.objects[i]
-        key = (name, round(float(thickness), 12))
+        base = base or self.layer.base
+        key = (name, round(float(thickness), 12), base)
         if key not in self._cache:
-            layer = self.layer if thickness == self.layer.thickness else replace(self.layer, thickness=float(thickness))
+            layer = (self.layer if thickness == self.layer.thickness and base == self.layer.base
+                     else replace(self.layer, thickness=float(thickness), base=base))
             # The object starts the same gap above the layer whatever its thickness.
             pose = pose.copy()
             pose[2, 3] += float(thickness) - self.layer.thickness
@@ -107,12 +124,15 @@ class _Pressures:
                                 "bottomed_out": bool(res.bottomed_out)}
         return self._cache[key]
 
-    def at(self, thickness) -> tuple[np.ndarray, list[dict]]:
-        """(M, N) pascals and per-object press info; raises UnreachableTargetError naming the object."""
+    def at(self, thickness, base=None) -> tuple[np.ndarray, list[dict]]:
+        """(M, N) pascals and per-object press info; raises UnreachableTargetError naming the object.
+
+        base : the layer's base ("bonded" / "frictionless"); None: the scene's ``[layer] base``.
+        """
         rows = []
         for i, name in enumerate(self.names):
             try:
-                rows.append(self._press(i, thickness))
+                rows.append(self._press(i, thickness, base))
             except UnreachableTargetError as exc:
                 raise UnreachableTargetError(f"object {name!r} through {thickness * 1e3:g} mm: {exc}") from None
         return np.stack([r["pressure"] for r in rows]), rows
@@ -128,9 +148,30 @@ def _sensor(ctx, rate):
     return apply
 
 
+def _variant_sensor(ctx, rate, p_half):
+    """Like :func:`_sensor` but with the listed ``gain`` replaced by one of transfer ``p_half`` (Pa, None:
+    linear) and the same slope; every other listed sensor effect (noise, clipping, ...) runs as listed."""
+    from ...contact.sensor import gain
+
+    listed = ctx.pipeline.get("gain")
+    cpp = listed.counts_per_pa if listed is not None else 1.0
+
+    def apply(block):
+        # gain runs first in a read-out (effect order 10); when the scene lists none, the
+        # variants still differ by their transfer, so it is applied here all the same.
+        state = {"frames": gain(block, cpp, p_half), "timestamps": np.arange(len(block)) / rate}
+        for name in ctx.pipeline.stage("sensor"):
+            if name != "gain":
+                state = ctx.pipeline.get(name).apply(state, ctx)
+        return np.asarray(state["frames"], dtype=np.float64)
+
+    return apply
+
+
 def _formation(scene, rng):
     t = scene["task"]
-    return CategoryFormation(n_runs=t["kmeans_runs"], max_retries=t["max_retries"], random_state=rng)
+    return CategoryFormation(n_runs=t["kmeans_runs"], max_retries=t["max_retries"], n_init=t["kmeans_init"],
+                             random_state=rng)
 
 
 def _task_numbers(scene, key, tasks):
@@ -202,7 +243,8 @@ def run(scene, ctx) -> TaskResult:
     metrics["solved_tasks"] = len(solved)
     # What the seeded run above drew from: every split K-Means reaches from a random start,
     # its probability, and the accuracy expected from the procedure (runs must agree).
-    splits = kmeans_splits(est.projection_, n_runs=t["kmeans_runs"]) if est.n_components_ else []
+    splits = (kmeans_splits(est.projection_, n_runs=t["kmeans_runs"], n_init=t["kmeans_init"])
+              if est.n_components_ else [])
     valid = [r for r in splits if r["valid"]]
     expected = (np.sum([r["p_accepted"] * task_accuracies(r["labels"], tasks) for r in valid], axis=0)
                 if valid else np.full(len(tasks), np.nan))  # undefined when no split exists
@@ -215,6 +257,7 @@ def run(scene, ctx) -> TaskResult:
               "centroids": est.centroids_, "task_targets": np.stack([task.target for task in tasks]),
               "task_accuracy": acc, "confusion": conf, "expected_accuracy": np.asarray(expected, float),
               "split_labels": np.array([r["labels"] for r in splits], dtype=np.int64).reshape(-1, len(src.names)),
+              "split_p_start": np.array([r["p_start"] for r in splits]),
               "split_p_run": np.array([r["p_run"] for r in splits]),
               "split_p_accepted": np.array([r["p_accepted"] for r in splits])}
 
@@ -231,14 +274,16 @@ def run(scene, ctx) -> TaskResult:
              "### Accuracy per task (Fig. 8)", "", _fig8_table([(label, acc, h)], tasks), "",
              f"### Where K-Means can land (exact over all {len(src.names) * (len(src.names) - 1) // 2} random "
              f"starts)", "",
-             f"A run starts from two objects drawn at random; an attempt is kept when its "
+             f"A K-Means start is two objects drawn at random; a run keeps the lowest-inertia result of "
+             f"{t['kmeans_init']} start(s) (`task.kmeans_init`); an attempt is kept when its "
              f"{t['kmeans_runs']} runs agree. The reported split is one draw from this distribution:", "",
-             "| split | p (one run) | p (kept attempt) | inertia | solves task |", "|---|---|---|---|---|"]
+             "| split | p (one start) | p (one run) | p (kept attempt) | inertia | solves task |",
+             "|---|---|---|---|---|---|"]
     for r in splits:
         grp = " vs ".join("{" + ", ".join(n for n, l in zip(src.names, r["labels"]) if l == c) + "}" for c in (0, 1))
         hit = [task.number for task, a in zip(tasks, task_accuracies(r["labels"], tasks)) if a >= 1.0] \
             if r["valid"] else []
-        lines.append(f"| {grp} | {r['p_run']:.3f} | {r['p_accepted']:.3f} | {r['inertia']:.4g} | "
+        lines.append(f"| {grp} | {r['p_start']:.3f} | {r['p_run']:.3f} | {r['p_accepted']:.3f} | {r['inertia']:.4g} | "
                      f"{', '.join(map(str, hit)) or '-'} |")
     lines += ["", "Expected accuracy of the procedure (weighted by p (kept attempt)):", "",
               _fig8_table([(label + " expected", expected, None)], tasks, paper=False)]
@@ -260,7 +305,8 @@ def run(scene, ctx) -> TaskResult:
     if t["resolution_runs"] > 0 and sizes:
         study = resolution_study(images, tasks, sizes=sizes, runs=t["resolution_runs"],
                                  random_state=ctx.child_rng("resolution"), progress=ctx.progress,
-                                 n_runs=t["kmeans_runs"], max_retries=t["max_retries"])
+                                 n_runs=t["kmeans_runs"], max_retries=t["max_retries"],
+                                 n_init=t["kmeans_init"])
         mean, std = study.mean(), study.std()
         for i, s in enumerate(study.sizes):
             metrics[f"resolution_s{s}_failed_runs"] = int(t["resolution_runs"] - study.n_ok[i])
@@ -311,7 +357,8 @@ def run_sweep(scene, ctx) -> TaskResult:
 
     sweep = design_sweep(hs_ok, images_at, tasks, repeats=t["repeats"], solve_probability=t["solve_probability"],
                          random_state=ctx.child_rng("kmeans"), progress=ctx.progress,
-                         n_runs=t["kmeans_runs"], max_retries=t["max_retries"])
+                         n_runs=t["kmeans_runs"], max_retries=t["max_retries"],
+                                 n_init=t["kmeans_init"])
     acc = sweep.mean_accuracy()
     solved = sweep.solved()
     rate = sweep.solve_rate()
@@ -363,8 +410,49 @@ def run_sweep(scene, ctx) -> TaskResult:
                              f"(reproduced = highest of the three and solved).")
                 metrics[f"paper_task{k}_reproduced"] = bool(best)
 
+    # Model variants: the same procedure under every listed (layer base, sensor transfer).
+    vt = np.asarray(t["variant_thicknesses"], dtype=np.float64)
+    var_arrays = {}
+    if vt.size:
+        variants = variant_grid(t["variant_bases"], t["variant_p_halfs"])
+        if not variants:
+            raise scene.error("task.variant_bases", "the model-variants table needs a base and a p_half "
+                              "(or an empty task.variant_thicknesses)")
+        try:
+            for v in variants:
+                for h in vt:
+                    src.at(h, v.base)
+        except UnreachableTargetError as exc:
+            raise scene.error("task.variant_thicknesses", str(exc)) from None
+        sensors = {v.p_half: _variant_sensor(ctx, t["rate"], v.p_half) for v in variants}
+
+        def variant_images(v, h, r):
+            return tactile_images(src.at(h, v.base)[0], sensors[v.p_half], readings=t["readings"],
+                                  trials=t["trials"])[0]
+
+        vs = variant_sweep(variants, vt, variant_images, tasks, repeats=t["repeats"],
+                           random_state=ctx.child_rng("variants"), n_runs=t["kmeans_runs"],
+                           max_retries=t["max_retries"], n_init=t["kmeans_init"])
+        v_exp, v_ps = vs.expected(), vs.p_solve()
+        gain_fx = ctx.pipeline.get("gain")
+        mine = (src.layer.base, gain_fx.p_half if gain_fx is not None else None)
+        metrics["variants"] = len(variants)
+        var_arrays = {"variant_thicknesses": vt, "variant_expected_accuracy": v_exp,
+                      "variant_solve_probability": v_ps, "variant_seeded_accuracy": vs.seeded(),
+                      "variant_frictionless": np.array([v.base == "frictionless" for v in variants]),
+                      "variant_p_half": np.array([0.0 if v.p_half is None else v.p_half for v in variants])}
+        lines += ["", "### Model variants", "",
+                  "Seed 001 states neither how the filters meet the sensor (glued or a sliding pad) nor the "
+                  "taxels' transfer curve. The same procedure, at the same seed, under every combination "
+                  f"listed in the scene ({t['repeats']} noise draws each; *expected acc.*: exact over the "
+                  "random K-Means starts; *P(solve)*: probability of forming exactly the task's split; "
+                  "*most likely task split*: the task whose split the procedure returns most often). "
+                  f"This scene's own set-up is `base = {mine[0]}`, "
+                  f"`p_half = {'none (linear)' if mine[1] is None else f'{mine[1]:g} Pa'}`.", "",
+                  variants_table(vs, tasks)]
+
     figures = {"accuracy_vs_thickness": cplots.sweep_figure(sweep, tasks)}
-    arrays = {"thicknesses": hs_ok, "sweep_accuracy": sweep.accuracy, "sweep_ok": sweep.ok,
+    arrays = {**var_arrays, "thicknesses": hs_ok, "sweep_accuracy": sweep.accuracy, "sweep_ok": sweep.ok,
               "sweep_expected_accuracy": sweep.expected, "sweep_solve_probability": sweep.p_solve,
               "solve_rate": rate, "solved": solved,
               "task_targets": np.stack([task.target for task in tasks]),
