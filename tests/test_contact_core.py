@@ -344,3 +344,34 @@ def test_circular_flat_punch_matches_boussinesq():
     ring = fld.pressure[(rr > 0.8 * a) & (rr < 0.9 * a)].mean()
     expect = np.mean(F / (2 * np.pi * a * np.sqrt(a * a - rr[(rr > 0.8 * a) & (rr < 0.9 * a)] ** 2)))
     assert ring == pytest.approx(expect, rel=0.08) and ring > 1.5 * centre
+
+
+# --- precomputed taxel sampling (performance, issue 4) -----------------------------------------
+
+def test_sparse_taxel_sampler_equals_bilinear_sampling_and_is_reused():
+    """taxel_means reads the grid through a cached sparse matrix; it must equal the per-frame
+    bilinear interpolation (map_coordinates, zero outside the grid) it replaced, including discs
+    that hang over the grid's border and taxels facing away, and be built once per layout."""
+    from scipy.ndimage import map_coordinates
+
+    from vtcore.contact.press import ContactField, _SAMPLER_CACHE, disc_offsets, taxel_means, taxel_sampler
+
+    lay = _layout(radius=0.02)  # curved: some taxels face away from the grid normal
+    rng = np.random.default_rng(4)
+    x = np.arange(-12, 12) * 1.1e-3 + 0.3e-3   # the grid ends inside the patch: discs cross its border
+    y = np.arange(-15, 15) * 1.1e-3
+    fld = ContactField(x, y, np.array([0.0, 0.0, 0.001]), np.array([1.0, 0, 0]), np.array([0, 1.0, 0]),
+                       np.array([0, 0, 1.0]), np.zeros((24, 30)), np.zeros((24, 30)), np.zeros((24, 30)),
+                       thickness=2e-3)
+    vals = rng.random((24, 30))
+    for samples in (1, 7):
+        pos = lay.positions + 2e-3 * lay.normals - fld.origin
+        pts = pos[:, None, :2] + disc_offsets(samples)[None]
+        ref = map_coordinates(vals, [((pts[..., 0] - x[0]) / 1.1e-3).ravel(), ((pts[..., 1] - y[0]) / 1.1e-3).ravel()],
+                              order=1, mode="constant", cval=0.0).reshape(pts.shape[:2]).mean(axis=1)
+        ref = np.where(lay.normals[:, 2] > 0.1, ref, 0.0)
+        assert (lay.normals[:, 2] <= 0.1).any() and (ref == 0).any() and (ref > 0).any()
+        np.testing.assert_allclose(taxel_means(lay, fld, vals, samples), ref, rtol=0, atol=1e-13)
+    a = taxel_sampler(lay, fld, 7)
+    assert taxel_sampler(lay, fld, 7) is a and a.shape == (len(lay), vals.size)
+    assert any(v is a for v in _SAMPLER_CACHE.values())

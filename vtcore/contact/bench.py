@@ -13,6 +13,7 @@ Plus one row of the local model on a 4,000-taxel flat patch.
 from __future__ import annotations
 
 import csv
+import os
 import time
 from pathlib import Path
 
@@ -37,15 +38,17 @@ def _trajectory(layout, mesh, layer, frames):
 
 
 def _time_run(layout, mesh, poses, layer, repeat=3, **kw):
-    """Readings (T, N) and seconds per frame: the best of ``repeat`` runs of the whole
-    trajectory (the machine is shared; the minimum is the least disturbed estimate)."""
+    """Readings (T, N), wall and CPU seconds per frame: the best of ``repeat`` runs of the whole
+    trajectory (the machine is shared; the minimum is the least disturbed estimate). CPU time is
+    the process's (all its threads), so it shows the work done whatever the machine's load."""
     press_sequence(layout, mesh, poses[:1], layer, **kw)  # builds and caches kernels, not timed
-    best = np.inf
+    best, best_cpu = np.inf, np.inf
     for _ in range(repeat):
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         res = press_sequence(layout, mesh, poses, layer, **kw)
         best = min(best, (time.perf_counter() - t0) / len(poses))
-    return np.array([r.pressure for r in res]), best
+        best_cpu = min(best_cpu, (time.process_time() - c0) / len(poses))
+    return np.array([r.pressure for r in res]), best, best_cpu
 
 
 def run(out: Path, quick: bool = False) -> list[dict]:
@@ -54,6 +57,7 @@ def run(out: Path, quick: bool = False) -> list[dict]:
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
+    load0 = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     _, layout = seed002_curved()
     layer = SoftLayer(thickness=3e-3)
     mesh = make_object("sphere", subdivisions=3 if quick else 5)
@@ -61,7 +65,7 @@ def run(out: Path, quick: bool = False) -> list[dict]:
     poses = _trajectory(layout, mesh, layer, frames)
     ref_grid, ref_samples = (1e-3, 7) if quick else (0.25e-3, 19)
     rep = 1 if quick else 3
-    ref, ref_dt = _time_run(layout, mesh, poses, layer, repeat=1, model="finite_layer",
+    ref, ref_dt, ref_cpu = _time_run(layout, mesh, poses, layer, repeat=1, model="finite_layer",
                             grid=ContactGrid(spacing=ref_grid), samples_per_taxel=ref_samples)
     norm = np.linalg.norm(ref, axis=1)
     models = ("local", "finite_layer") if quick else ("local", "halfspace", "finite_layer")
@@ -71,15 +75,15 @@ def run(out: Path, quick: bool = False) -> list[dict]:
     for model in models:
         for g in grids:
             for s in samples:
-                p, dt = _time_run(layout, mesh, poses, layer, repeat=rep, model=model, grid=ContactGrid(spacing=g),
+                p, dt, cpu = _time_run(layout, mesh, poses, layer, repeat=rep, model=model, grid=ContactGrid(spacing=g),
                                   samples_per_taxel=s)
                 err = float(np.mean(np.linalg.norm(p - ref, axis=1) / np.maximum(norm, 1e-12)))
                 rows.append({"model": model, "taxels": len(layout), "triangles": len(mesh.faces),
                              "grid_mm": g * 1e3, "samples": s, "error": err, "ms_per_frame": dt * 1e3,
-                             "frames_per_s": 1.0 / dt})
+                             "cpu_ms_per_frame": cpu * 1e3, "frames_per_s": 1.0 / dt})
     rows.append({"model": "finite_layer (reference)", "taxels": len(layout), "triangles": len(mesh.faces),
                  "grid_mm": ref_grid * 1e3, "samples": ref_samples, "error": 0.0, "ms_per_frame": ref_dt * 1e3,
-                 "frames_per_s": 1.0 / ref_dt})
+                 "cpu_ms_per_frame": ref_cpu * 1e3, "frames_per_s": 1.0 / ref_dt})
     if not quick:  # the local model on a large skin: 4,096 taxels on a flat 64 x 64 lattice
         from ..layout import Layout
 
@@ -87,11 +91,13 @@ def run(out: Path, quick: bool = False) -> list[dict]:
         pos = np.column_stack([(i.ravel() - 31.5) * 4e-3, (j.ravel() - 31.5) * 4e-3, np.zeros(i.size)])
         big = Layout(pos, np.tile([0, 0, 1.0], (len(pos), 1)), np.arange(len(pos)), np.zeros(len(pos), int))
         bp = _trajectory(big, mesh, layer, frames)
-        _, dt = _time_run(big, mesh, bp, layer, repeat=rep, model="local", grid=ContactGrid(spacing=2e-3),
-                          samples_per_taxel=1)
+        _, dt, cpu = _time_run(big, mesh, bp, layer, repeat=rep, model="local", grid=ContactGrid(spacing=2e-3),
+                               samples_per_taxel=1)
         rows.append({"model": "local", "taxels": len(big), "triangles": len(mesh.faces), "grid_mm": 2.0,
-                     "samples": 1, "error": float("nan"), "ms_per_frame": dt * 1e3, "frames_per_s": 1.0 / dt})
+                     "samples": 1, "error": float("nan"), "ms_per_frame": dt * 1e3, "cpu_ms_per_frame": cpu * 1e3,
+                     "frames_per_s": 1.0 / dt})
 
+    load = (load0, os.getloadavg()[0]) if hasattr(os, "getloadavg") else (float("nan"),) * 2
     keys = list(rows[0])
     with atomic_write(out / "table.csv", "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=keys)
@@ -104,7 +110,8 @@ def run(out: Path, quick: bool = False) -> list[dict]:
         fh.write(f"# Contact benchmark ({'quick' if quick else 'full'})\n\nSphere r 30 mm sliding over "
                  f"{len(layout)} taxels through 3 mm Ecoflex 00-20, {frames} warm-started frames; error = mean "
                  f"relative L2 error of the taxel readings vs finite layer at {ref_grid * 1e3:g} mm, "
-                 f"{ref_samples} samples.\n\n" + "\n".join(lines) + "\n")
+                 f"{ref_samples} samples. Times: best of {rep} runs, wall and process CPU per frame; "
+                 f"load average {load[0]:.1f} / {load[1]:.1f} before / after.\n\n" + "\n".join(lines) + "\n")
     import matplotlib
 
     matplotlib.use("Agg")
