@@ -87,7 +87,7 @@ def test_patch_larger_than_the_surface_is_reported():
     plate = trimesh.creation.box(extents=[0.04, 0.04, 0.002])
     top = plate.submesh([np.flatnonzero(plate.face_normals[:, 2] > 0.9)], append=True)  # open: a square
     top = top.subdivide_to_size(0.003)
-    with pytest.warns(LayoutWarning, match="off an open boundary"):
+    with pytest.warns(LayoutWarning, match="outside the mapped surface"):
         lay, rep = place(top, "strip:4", at=(0, 0, 0.001), direction=(1, 0, 0))
     assert len(lay) == 40  # never silently dropped
     assert 0 < len(rep.off_boundary) < 40

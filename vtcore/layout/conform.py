@@ -53,7 +53,8 @@ class PlacementReport:
     strain_max : float, max |strain|. strain_mean : float, mean |strain|.
     module_strain : (M,) float, per module max |strain|.
     overlaps : list of (module_a, module_b) pairs that overlap.
-    off_boundary : (K,) int, taxel indices that fell off an open boundary.
+    off_boundary : (K,) int, taxel indices that fell outside the mapped surface (off an open boundary,
+        or past the cut locus of a closed surface where the log map is unreliable).
     coverage : float in [0, 1] or nan, fraction of the region under module outlines.
     surface_distance_max : float, metres, max distance of a taxel (before offset) from the mesh.
     method : "logmap" or "project"; notes : list of str.
@@ -346,7 +347,8 @@ class LogMap:
 
         at = np.asarray(at, dtype=np.float64).reshape(3)
         cp, face, _ = _closest(mesh, at[None])
-        self.notes = []
+        self.notes = []  # worth a warning (the mesh was changed to be solvable)
+        self.info = []  # how it was solved (no warning)
         sub = mesh
         if radius is not None and np.isfinite(radius):
             keep_v = np.linalg.norm(np.asarray(mesh.vertices) - cp[0], axis=1) <= radius
@@ -376,7 +378,9 @@ class LogMap:
         if max_faces is not None and len(sub.faces) > max_faces:
             sub = _decimate(sub, int(max_faces))
             if sub is self.surface:
-                self.notes.append(f"no faithful simplified copy with ~{max_faces} faces; solved on the full mesh")
+                self.info.append(f"no faithful simplified copy with ~{max_faces} faces; solved on the full mesh")
+            else:
+                self.info.append(f"log map solved on a simplified copy with {len(sub.faces)} faces")
         self.mesh = sub  # where the log map is solved
         cp, face, _ = _closest(sub, cp)
         self.at = cp[0]
@@ -392,7 +396,7 @@ class LogMap:
                 raise InputError(f"the log map cannot be solved on this mesh ({exc}); clean the mesh or "
                                  "use method='project'", key="mesh") from None
             # the simplified copy was not good enough for geometry-central: solve on the full mesh
-            self.notes.append("simplified mesh rejected by the solver; solved on the full mesh")
+            self.info.append("simplified mesh rejected by the solver; solved on the full mesh")
             sub = self.mesh = self.surface
             cp, face, _ = _closest(sub, cp)
             self.at, self.face = cp[0], int(face[0])
@@ -619,10 +623,12 @@ def place(mesh, patch="hexagon", at=(0.0, 0.0, 0.0), direction=None, *, module: 
     overlaps = find_overlaps(layout.positions, layout.module_ids, OVERLAP_FRACTION * p.module.pitch)
     off = np.flatnonzero(~found)
     if len(off):
-        notes.append(f"{len(off)} taxels fall off an open boundary of the mesh")
+        notes.append(f"{len(off)} taxels fall outside the mapped surface (off an open boundary, or past "
+                     "the cut locus of a closed one where the log map is unreliable)")
     cov = _coverage(clean, p, uvmap, region, extent)
+    info = list(uvmap.info) if uvmap is not None else []
     report = PlacementReport(strain, mstrain, overlaps, off, cov, float(dist.max()), method,
-                             time.perf_counter() - t0, notes)
+                             time.perf_counter() - t0, notes + info)
     layout.meta["placement"] = report.as_dict()
     for msg in notes:
         warnings.warn(f"place: {msg}", LayoutWarning, stacklevel=2)
