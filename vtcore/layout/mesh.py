@@ -366,6 +366,7 @@ def skin_mesh(layout: Layout, *, method: str = "auto", duplicates: str = "merge"
     if method == "flat" and layout.flat is None:
         raise InputError("method='flat' needs flat coordinates; use method='surface'", key="flat")
     chain = np.zeros((0, 2), np.int64)
+    n_lonely = 0
     if use_flat:
         uv = layout.flat[uniq]
         # flat duplicates (distinct 3-D positions, same flat point) cannot both be Delaunay vertices
@@ -398,6 +399,18 @@ def skin_mesh(layout: Layout, *, method: str = "auto", duplicates: str = "merge"
                 chain = _chain(p)
         spacing = _nn_spacing_oriented(p, nrm)
         tri, peeled = peel(tri, p, spacing, max_edge)
+        # safety net: a taxel that no chart gave a triangle is joined to its close, like-facing
+        # neighbours by plain edges rather than left out of the graph
+        lonely = np.setdiff1d(np.arange(len(p)), np.concatenate([tri.ravel(), chain.ravel()]))
+        if len(lonely) and len(p) > 1:
+            k = int(min(7, len(p)))
+            d, idx = cKDTree(p).query(p[lonely], k)
+            d, idx = d.reshape(len(lonely), k), idx.reshape(len(lonely), k)
+            ok = (d > 0) & (d <= max_edge * spacing[lonely, None]) & \
+                (np.einsum("nkj,nj->nk", nrm[idx], nrm[lonely]) > 0.5)
+            r, c = np.nonzero(ok)
+            chain = np.concatenate([chain, np.column_stack([lonely[r], idx[r, c]])]).astype(np.int64)
+            n_lonely = int(len(lonely))
     tri = uniq[tri] if len(tri) else np.zeros((0, 3), np.int64)
     chain = uniq[chain] if len(chain) else chain
     extra = [chain]
@@ -407,7 +420,7 @@ def skin_mesh(layout: Layout, *, method: str = "auto", duplicates: str = "merge"
         rows = base.adjacency[rep[dup]].tocoo()
         # (not to the representative itself: a zero distance would break D-weighted filters)
         extra.append(np.column_stack([dup[rows.row], rows.col]))
-    meta = {"method": "flat" if use_flat else "surface", "peeled": int(peeled),
+    meta = {"method": "flat" if use_flat else "surface", "peeled": int(peeled), "lonely_linked": n_lonely,
             "duplicates": [[int(d), int(rep[d])] for d in dup]}
     return mesh_from_triangles(pos, layout.normals, tri, np.concatenate(extra) if extra else None, meta)
 
