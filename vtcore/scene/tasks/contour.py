@@ -165,7 +165,7 @@ def run(scene, ctx) -> TaskResult:
         raise scene.error("task.mug_inner_diameter", "must be smaller than mug_outer_diameter")
     if not p["methods"]:
         raise scene.error("task.methods", "list at least one of mesh, image, subtaxel")
-    ee_mesh, layout, frame = control_skin(p["end_effector"])
+    _, layout, frame = control_skin(p["end_effector"])
     belief = layout
     if p["position_error"] > 0:
         # the robot's model of its skin: seed 002 estimated its curved patch's taxels to ~1 mm
@@ -206,6 +206,7 @@ def run(scene, ctx) -> TaskResult:
                 if not np.any(res.pressure > 0):
                     return None
                 sensed.saturated += 1
+            sensed.force.append(float(res.force))
             full = np.zeros(len(layout))
             full[active] = res.pressure
             return full
@@ -213,9 +214,13 @@ def run(scene, ctx) -> TaskResult:
         analytic = AnalyticContact(layout.positions, contour, force=p["force"], depth=p["thickness"])
 
         def sense(world_pose):
-            return analytic(world_pose)
+            q = analytic(world_pose)
+            if q is not None:
+                sensed.force.append(float(p["force"]))  # scaled to the target exactly
+            return q
 
     def sensed(world_pose):
+        """The taxel pressure after the listed sensor effects (what the detectors see)."""
         q = sense(world_pose)
         if q is None:
             return None
@@ -236,10 +241,11 @@ def run(scene, ctx) -> TaskResult:
         runs, dists = [], []
         t0 = time.perf_counter()
         sensed.saturated = 0
-        for k, start in enumerate(ctx.progress(starts, desc=f"contour {m}", total=len(starts))):
-            sensed.raw = []
+        for start in ctx.progress(starts, desc=f"contour {m}", total=len(starts)):
+            sensed.raw, sensed.force = [], []
             r = follower.run(sensed, start, stop)
             r.extra["raw"] = np.array(sensed.raw).reshape(-1, len(layout))[: len(r)]
+            r.extra["force"] = np.array(sensed.force, dtype=np.float64)[: len(r)]
             runs.append(r)
             dists.append(contour.distances(r.x_ref))
         s = summarize(dists)
@@ -257,16 +263,18 @@ def run(scene, ctx) -> TaskResult:
         arrays[f"{m}_run"] = np.concatenate([np.full(len(r), i) for i, r in enumerate(runs)])
         arrays[f"{m}_theta"] = np.concatenate([r.theta for r in runs])
         arrays[f"{m}_distance_mm"] = np.concatenate([np.r_[np.nan, d] * 1e3 for d in dists])
-    first = next(iter(runs_by_method))
+    # the standard arrays hold the taps of the mesh filter's runs (the method whose edges are taxels)
+    first = "mesh" if "mesh" in runs_by_method else next(iter(runs_by_method))
     fr = runs_by_method[first][0]
     arrays["pressure"] = np.concatenate([r.extra["raw"] for r in fr])
     arrays["frames"] = np.concatenate([r.pressure for r in fr])
     arrays["edge"] = np.concatenate([r.edge for r in fr])
-    arrays["force"] = np.full(len(arrays["pressure"]), float(p["force"]))
-    arrays["timestamps"] = np.arange(len(arrays["pressure"]), dtype=np.float64)  # one tap per index
+    arrays["force"] = np.concatenate([r.extra["force"] for r in fr])
+    arrays["tap_run"] = np.concatenate([np.full(len(r), i) for i, r in enumerate(fr)])
 
-    figures = {"path": _path_figure(scene.name, p, contour, runs_by_method),
-               "edges": _edges_figure(layout, detectors, runs_by_method)}
+    # drawn only when the runner writes plots (output.plots), never built and discarded
+    figures = {"path": _saver(_path_figure, scene.name, p, contour, runs_by_method),
+               "edges": _saver(_edges_figure, belief, detectors, runs_by_method)}
     sections = [_table(p, metrics, runs_by_method)]
     extra = {"contour_table": [{
         "object": p["object"], "end_effector": p["end_effector"], "method": m,
@@ -275,6 +283,18 @@ def run(scene, ctx) -> TaskResult:
         "paper": list(PAPER[(p["end_effector"], p["object"], m)]) if (p["end_effector"], p["object"], m) in PAPER else None,
     } for m in runs_by_method]}
     return TaskResult(metrics=metrics, arrays=arrays, figures=figures, sections=sections, extra=extra)
+
+
+def _saver(make, *args):
+    """A ``(file) -> None`` writer for the runner: builds the figure, saves it, closes it."""
+    def write(fh):
+        import matplotlib.pyplot as plt
+
+        fig = make(*args)
+        fig.savefig(fh, format="png", dpi=120, bbox_inches="tight")
+        plt.close(fig)
+
+    return write
 
 
 def _table(p, metrics, runs_by_method) -> str:

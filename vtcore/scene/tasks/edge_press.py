@@ -69,7 +69,9 @@ def run(scene, ctx) -> TaskResult:
         "fingers": len(p["fingers"]),
         "edge_on_pressed_fraction": float((edges[0] & pressed).sum() / max(edges[0].sum(), 1)),
     }
-    figures = {"fig1": _figure(layout, frames[0], response[0], edges[0], scene.name)}
+    from .contour import _saver
+
+    figures = {"fig1": _saver(_figure, layout, frames[0], response[0], edges[0], scene.name)}
     note = (f"Seed 002 Fig. 1: {len(p['fingers'])} finger(s) at {p['force']:.0f} N on "
             f"{p['end_effector']}; the Eq. 6/7 edges form {feats.n_components} connected component(s) "
             f"over {int(edges[0].sum())} taxels around {int(pressed.sum())} pressed taxels. Eq. 6 marks "
