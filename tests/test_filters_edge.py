@@ -5,6 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import scipy.sparse as sp
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from vtcore.errors import InputError
 from vtcore.filters import (EdgeFilter, MeshEdgeDetector, apply_local, component_orientation,
@@ -196,3 +198,23 @@ def test_bad_input_is_rejected_with_a_named_key():
         local_operator(mesh, "median")
     p = np.zeros(len(mesh.positions), dtype=np.float32)
     assert edge_filter(mesh, p).shape == p.shape
+
+
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), c=st.floats(1e-3, 1e3), scale=st.sampled_from([1e-6, 1e-3, 1.0, 1e3]))
+def test_eq6_is_quadratic_permutation_equivariant_and_scales_with_one_over_distance(seed, c, scale):
+    rng = np.random.default_rng(seed)
+    mesh = grid_mesh(4, 4, z=lambda x, y: 0.2 * y**2)
+    p = rng.random(len(mesh.positions))
+    r = edge_filter(mesh, p)
+    np.testing.assert_allclose(edge_filter(mesh, c * p), c**2 * r, rtol=1e-9, atol=1e-12 * c**2)
+    # relabelling the taxels relabels the response
+    perm = rng.permutation(len(p))
+    inv = np.argsort(perm)
+    m2 = mesh_from_triangles(mesh.positions[perm], mesh.normals[perm], inv[mesh.triangles])
+    np.testing.assert_allclose(edge_filter(m2, p[perm]), r[perm], rtol=1e-12, atol=1e-12)
+    # a skin `scale` times larger has 1/scale the response, finite at micrometres and kilometres
+    m3 = mesh_from_triangles(mesh.positions * scale, mesh.normals, mesh.triangles)
+    r3 = edge_filter(m3, p)
+    assert np.all(np.isfinite(r3))
+    np.testing.assert_allclose(r3 * scale, r, rtol=1e-9, atol=1e-12)
