@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from vtcore.categorize import (PAPER_OBJECTS, CategoryFormation, Variant, kmeans_splits, make_tasks, variant_grid,
-                               variant_sweep, variants_table)
+                               variant_sweep, variants_summary, variants_table)
 from vtcore.errors import InputError
 
 EDGES = (0, 1, 0, 1)   # Task 5: {sphere, half-cylinder} vs {cube, cuboid}
@@ -111,6 +111,9 @@ def test_variant_sweep_table_and_shapes(presses):
     assert "| sliding / saturating, p_half 5 kPa | 3 mm | 0.75 / 0.44 | 0.75 / 0.44 | Task 5 = Task 6 (0.44 each) |" \
         in table
     assert "| bonded / linear | 10 mm |" in table
+    summary = variants_summary(res, tasks)
+    assert summary.splitlines()[0] == "| variant (base / sensor) | 3 mm | 10 mm |"
+    assert "| sliding / saturating, p_half 5 kPa | T5=T6 0.44 | T6 0.97 |" in summary
 
 
 @pytest.mark.parametrize("base, p_half", [("glued", None), ("bonded", -1.0), ("bonded", float("nan"))])

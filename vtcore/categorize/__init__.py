@@ -16,7 +16,7 @@ from .designer import LayerSweep, design_sweep, format_ranges_mm
 from .formation import CategoryFormation, canonical, decision_boundary, kmeans_splits, single_threaded
 from .images import tactile_images
 from .resolution import ResolutionStudy, resolution_study
-from .variants import Variant, VariantSweep, variant_grid, variant_sweep, variants_table
+from .variants import Variant, VariantSweep, variant_grid, variant_sweep, variants_summary, variants_table
 from .tasks import (PAPER_FIG8, PAPER_OBJECTS, PAPER_TASK_NOTES, PAPER_TASKS, Task, accuracy, cluster_match, confusion,
                     make_tasks, task_accuracies)
 
@@ -25,4 +25,5 @@ __all__ = [
     "cluster_match", "accuracy", "confusion", "task_accuracies", "PAPER_OBJECTS", "PAPER_TASKS",
     "PAPER_TASK_NOTES", "PAPER_FIG8", "resolution_study", "ResolutionStudy", "design_sweep", "LayerSweep",
     "format_ranges_mm", "Variant", "VariantSweep", "variant_grid", "variant_sweep", "variants_table",
+    "variants_summary",
 ]

@@ -103,8 +103,8 @@ def variants_table(result: VariantSweep, tasks: list[Task], show: Sequence[int] 
     numbers = [t.number for t in tasks]
     idx = [numbers.index(k) for k in show if k in numbers]
     exp, ps = result.expected(), result.p_solve()
-    head = ("| variant (base / sensor) | layer | " + " | ".join(f"Task {tasks[k].number} expected acc. / P(solve)" for k in idx)
-            + " | most likely task split (P) |")
+    cols = " | ".join(f"Task {tasks[k].number} expected acc. / P(solve)" for k in idx)
+    head = f"| variant (base / sensor) | layer | {cols} | most likely task split (P) |"
     lines = [head, "|---|---|" + "---|" * len(idx) + "---|"]
     for v, var in enumerate(result.variants):
         for i, h in enumerate(result.thicknesses):
@@ -116,4 +116,20 @@ def variants_table(result: VariantSweep, tasks: list[Task], show: Sequence[int] 
             top = top if ps[v, i].max() > 0 else "none"
             lines.append(f"| {var.label} | {h * 1e3:g} mm | "
                          + " | ".join(f"{exp[v, i, k]:.2f} / {ps[v, i, k]:.2f}" for k in idx) + f" | {top} |")
+    return "\n".join(lines)
+
+
+def variants_summary(result: VariantSweep, tasks: list[Task]) -> str:
+    """Markdown, one row per variant and one column per thickness: the task(s) whose split the
+    procedure forms most often, with that probability (ties joined by "=")."""
+    ps = result.p_solve()
+    head = "| variant (base / sensor) | " + " | ".join(f"{h * 1e3:g} mm" for h in result.thicknesses) + " |"
+    lines = [head, "|---|" + "---|" * len(result.thicknesses)]
+    for v, var in enumerate(result.variants):
+        cells = []
+        for i in range(len(result.thicknesses)):
+            best = np.flatnonzero(ps[v, i] >= ps[v, i].max() - 1e-9)
+            cells.append("=".join(f"T{tasks[b].number}" for b in best) + f" {ps[v, i].max():.2f}"
+                         if ps[v, i].max() > 0 else "none")
+        lines.append(f"| {var.label} | " + " | ".join(cells) + " |")
     return "\n".join(lines)

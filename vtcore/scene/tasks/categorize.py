@@ -28,7 +28,7 @@ from ...categorize import (PAPER_FIG8, PAPER_TASK_NOTES, CategoryFormation, conf
                            format_ranges_mm, kmeans_splits, make_tasks, resolution_study, tactile_images,
                            task_accuracies)
 from ...categorize import plots as cplots
-from ...categorize.variants import variant_grid, variant_sweep, variants_table
+from ...categorize.variants import variant_grid, variant_sweep, variants_summary, variants_table
 from ...errors import UnreachableTargetError
 from ..registry import TaskSpec, register_task
 from ..runner import TaskResult
@@ -66,7 +66,8 @@ SWEEP_PARAMS = Section({
     "variant_bases": Field("list", default=["bonded", "frictionless"],
                            item=Field("str", choices=("bonded", "frictionless")),
                            doc="layer bases of the model-variants table"),
-    "variant_p_halfs": Field("list", default=[0.0, 1000.0, 2000.0, 3000.0, 5000.0, 7000.0, 10000.0, 20000.0], item=Field("float", ge=0),
+    "variant_p_halfs": Field("list", default=[0.0, 1000.0, 2000.0, 3000.0, 5000.0, 7000.0, 10000.0, 20000.0],
+                             item=Field("float", ge=0),
                              unit="Pa", doc="sensor transfers of the model-variants table: p_half, 0 = linear"),
 })
 
@@ -448,8 +449,11 @@ def run_sweep(scene, ctx) -> TaskResult:
                   "random K-Means starts; *P(solve)*: probability of forming exactly the task's split; "
                   "*most likely task split*: the task whose split the procedure returns most often). "
                   f"This scene's own set-up is `base = {mine[0]}`, "
-                  f"`p_half = {'none (linear)' if mine[1] is None else f'{mine[1]:g} Pa'}`.", "",
-                  variants_table(vs, tasks)]
+                  f"`p_half = {'none (linear)' if mine[1] is None else f'{mine[1]:g} Pa'}`; K-Means keeps the best "
+                  f"of {t['kmeans_init']} start(s) per run (`task.kmeans_init`).", "",
+                  "Most likely split per variant and layer (Tn: task n's split; P: probability the procedure "
+                  "returns it):", "", variants_summary(vs, tasks), "",
+                  "In detail:", "", variants_table(vs, tasks)]
 
     figures = {"accuracy_vs_thickness": cplots.sweep_figure(sweep, tasks)}
     arrays = {**var_arrays, "thicknesses": hs_ok, "sweep_accuracy": sweep.accuracy, "sweep_ok": sweep.ok,
