@@ -162,3 +162,15 @@ def test_logmap_reuse_for_several_patches(cyl20):
     a, _ = place(lm.mesh, "triangle", lm.at, (0, 0, 1), logmap=lm)
     b, _ = place(lm.mesh, make_patch("triangle"), lm.at, (0, 0, 1), logmap=lm)
     np.testing.assert_allclose(a.positions, b.positions)
+
+
+@pytest.mark.parametrize("which,at", [("disc", (0.0, 0.0, 0.0)), ("curved", (-0.03, 0.0, 0.0)),
+                                      ("curved", (0.02, 0.0, -0.005))])
+def test_coarse_cad_meshes_are_refined_before_solving(which, at):
+    """Fan caps and full-width needle faces (CAD-style meshes) would starve the heat method."""
+    from vtcore.layout import seed001_disc, seed002_curved
+
+    mesh, _ = seed001_disc() if which == "disc" else seed002_curved()
+    assert len(mesh.faces) < 1000
+    lay, rep = place(mesh, "hexagon", at, (1, 0, 0))
+    assert rep.strain_max < 1e-3 and rep.overlaps == [] and len(rep.off_boundary) == 0

@@ -336,12 +336,16 @@ class LogMap:
     max_faces : int or None: solve on a copy simplified to about this many faces
         (vertex clustering, open3d) when the cropped mesh has more, then snap the mapped
         taxels to the full-resolution surface (the accuracy knob of the benchmark).
+    resolution : metres or None: first split faces until no edge is longer than this (CAD
+        meshes with long needle or fan faces give the heat method too few vertices; the split
+        faces lie exactly on the old ones). ``place`` uses half the module pitch.
     After construction, ``uv`` (V, 2) holds the log coordinates of the (cropped)
     mesh's vertices in a frame whose x axis points along ``direction``
     (projected onto the tangent plane) and whose y axis is ``normal x x``.
     """
 
-    def __init__(self, mesh, at, direction=None, radius: float | None = None, max_faces: int | None = None):
+    def __init__(self, mesh, at, direction=None, radius: float | None = None, max_faces: int | None = None,
+                 resolution: float | None = None):
         import potpourri3d as pp3d
         import trimesh
 
@@ -364,6 +368,8 @@ class LogMap:
                         part = part.submesh([np.asarray(c)], append=True, repair=False)
                         break
                 sub = part
+        if resolution is not None:
+            sub = _refine(sub, float(resolution))
         sub, nsplit = _split_nonmanifold(sub)
         if nsplit:
             self.notes.append(f"{nsplit} faces around non-manifold edges were split apart")
@@ -498,6 +504,23 @@ class LogMap:
 
 
 # --- placement --------------------------------------------------------------------------------------
+def _refine(mesh, resolution: float, max_faces: int = 300_000):
+    """Midpoint-subdivide until no edge is longer than ``resolution`` (coarsened if that would
+    exceed ``max_faces``); the new faces lie on the old ones, so the surface does not move."""
+    e = mesh.edges_unique_length
+    if not len(e) or e.max() <= resolution:
+        return mesh
+    t = np.asarray(mesh.triangles)
+    longest = np.linalg.norm(t - np.roll(t, 1, axis=1), axis=2).max(axis=1)
+    res = resolution
+    while True:
+        levels = np.ceil(np.log2(np.maximum(longest / res, 1.0)))
+        if (4.0 ** levels).sum() <= max_faces:
+            break
+        res *= 1.5
+    return mesh.subdivide_to_size(res, max_iter=int(levels.max()) + 2)
+
+
 def _decimate(mesh, max_faces: int):
     """A coarser copy with about ``max_faces`` faces for the log-map solve, or ``mesh`` itself.
 
@@ -590,7 +613,7 @@ def place(mesh, patch="hexagon", at=(0.0, 0.0, 0.0), direction=None, *, module: 
     extent = float(np.hypot(*p.flat.T).max()) + p.module.pitch
     if method == "logmap":
         lm = logmap if logmap is not None else LogMap(clean, at, direction, radius=1.5 * extent + 2 * p.module.pitch,
-                                                      max_faces=max_faces)
+                                                      max_faces=max_faces, resolution=p.module.pitch / 2)
         notes += lm.notes
         pos, nrm, face, found = lm.exp(p.flat)
         surf_mesh = lm.surface
@@ -719,7 +742,7 @@ def fill(mesh, at, direction=None, *, module: str = "cyskin10", region=None, rad
     else:
         creg = np.ones(len(clean.faces), bool)
     lm = LogMap(clean, at, direction, radius=None if radius is None else radius + 2 * mod.radius,
-                max_faces=max_faces)
+                max_faces=max_faces, resolution=mod.pitch / 2)
     _, near = cKDTree(np.asarray(clean.triangles_center)).query(np.asarray(lm.mesh.triangles_center))
     lreg = creg[near]
     span = np.abs(lm.uv).max(axis=0)
