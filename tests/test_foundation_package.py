@@ -71,3 +71,13 @@ def test_save_npz_is_byte_reproducible_and_loadable(tmp_path):
         np.testing.assert_array_equal(z["b"], arrays["b"])
     with zipfile.ZipFile(tmp_path / "1.npz") as zf:
         assert all(i.date_time == (1980, 1, 1, 0, 0, 0) for i in zf.infolist())
+
+
+def test_atomic_write_gives_ordinary_file_mode(tmp_path):
+    import os
+
+    with atomic_write(tmp_path / "y.txt") as fh:
+        fh.write("x")
+    mask = os.umask(0)
+    os.umask(mask)
+    assert (tmp_path / "y.txt").stat().st_mode & 0o777 == 0o666 & ~mask
