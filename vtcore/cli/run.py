@@ -28,8 +28,9 @@ def cmd_scenes(args) -> int:
     folder = Path(args.dir) if args.dir else _scenes_dir()
     rows = list_scenes(folder)
     width = max((len(p.stem) for p, _, _ in rows), default=0)
+    twidth = max((len(t) for _, t, _ in rows), default=0)
     for path, task, desc in rows:
-        print(f"{path.stem:<{width}}  {task:<11} {desc.splitlines()[0] if desc else ''}")
+        print(f"{path.stem:<{width}}  {task:<{twidth}}  {desc.splitlines()[0] if desc else ''}")
     return 0
 
 
