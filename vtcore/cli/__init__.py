@@ -42,6 +42,10 @@ def main(argv: list[str] | None = None) -> int:
     except VtError as exc:
         print(f"vtcore: error: {exc}", file=sys.stderr)
         return 2
+    except BrokenPipeError:
+        # `vtcore scenes | head`: the reader left; stop quietly like other Unix tools.
+        sys.stderr.close()
+        return 0
     except KeyboardInterrupt:
         print("vtcore: interrupted", file=sys.stderr)
         return 130
