@@ -201,3 +201,39 @@ def test_profile_cuts_through_the_contact_centre_and_matches_the_taxels(tmp_path
         # the cut crosses the middle of the contact, not an edge row
         k = np.argmin(np.abs(s))
         assert z["profile_surface_pressure"][k] > 0 and z["profile_stress"].max() > 0.5 * z["grid_stress"].max()
+
+
+def test_layer_geometry_unrolled_on_the_curved_end_effector(tmp_path):
+    """[layer] geometry = "unrolled" reaches press: the grid is the layout's flat domain (profile in
+    flat coordinates), force on target, taxels on the curved patch read the pressure."""
+    text = """
+[scene]
+name = "curved"
+task = "press"
+seed = 1
+[end_effector]
+shape = "seed002_curved"
+[layer]
+thickness = 0.003
+grid_spacing = 0.001
+samples_per_taxel = 3
+geometry = "unrolled"
+[[objects]]
+name = "cube"
+kind = "cube"
+side = 0.02
+position = [-0.03, 0.0]
+[task]
+force = 4.0
+readings = 1
+[effects.soft_layer]
+[output]
+plots = false
+"""
+    res = run_scene(_write(tmp_path, text), tmp_path / "o")
+    assert res["metrics"]["force_n"] == pytest.approx(4.0, rel=1e-6) and res["metrics"]["solver_converged"]
+    with np.load(tmp_path / "o" / "arrays.npz") as z:
+        assert z["profile_centre"][2] == 0.0 and z["profile_centre"][0] == pytest.approx(-0.03, abs=1e-3)
+        assert len(z["profile_taxel_index"]) >= 2 and z["pressure"][0].max() > 0
+        # the flat grid spans the unrolled patch (136 mm long), not its 110 mm projection
+        assert np.ptp(z["grid_x"]) > 0.13

@@ -17,6 +17,9 @@ the gap is measured along ``-u`` between that surface and the posed object
 function is applied on this plane: fine for patches whose radius of curvature is
 large against the contact (the demo's 60 mm), approximate on strongly curved
 ones, where taxels facing away from the object (normal . -u < 0.1) read zero.
+For those, ``geometry="unrolled"`` solves on the layout's flat coordinates with the
+layer compressed along its own normals (:mod:`vtcore.contact.curved`, errors measured
+there and in docs/contact.md).
 """
 
 from __future__ import annotations
@@ -32,6 +35,7 @@ from .materials import SoftLayer
 from .proximity import lower_envelope, prepare_mesh
 
 TAXEL_RADIUS = 2e-3  # m, CySkin taxels are 4 mm discs (seed 000, 001)
+GEOMETRIES = ("plane", "unrolled")
 
 
 @dataclass
@@ -81,6 +85,11 @@ class ContactField:
     pressure: np.ndarray
     stress: np.ndarray | None = None
     thickness: float = 0.0
+    #: "plane": x, y are coordinates on the plane normal to the press direction (e1, e2, origin);
+    #: "flat": x, y are the layout's flat (unrolled) coordinates, see vtcore.contact.curved
+    domain: str = "plane"
+    #: (mx, my, 3) m, the outer-surface points (flat domain; None: derived from the plane)
+    points_3d: np.ndarray | None = None
 
     @property
     def spacing(self) -> float:
@@ -88,9 +97,19 @@ class ContactField:
 
     def points(self) -> np.ndarray:
         """(mx, my, 3) m, the grid's points on the layer's outer surface."""
+        if self.points_3d is not None:
+            return self.points_3d
         X, Y = np.meshgrid(self.x, self.y, indexing="ij")
         return (self.origin + X[..., None] * self.e1 + Y[..., None] * self.e2
                 + self.surface[..., None] * self.n)
+
+    def taxel_xy(self, layout) -> np.ndarray:
+        """(N, 2) m, where each taxel's disc centre lies in the grid's (x, y) coordinates: its flat
+        coordinates in the flat domain, else the projection of the point above it on the outer surface."""
+        if self.domain == "flat":
+            return np.asarray(layout.flat, float)
+        rel = np.asarray(layout.positions, float) + self.thickness * np.asarray(layout.normals, float) - self.origin
+        return np.column_stack([rel @ self.e1, rel @ self.e2])
 
 
 @dataclass
@@ -240,15 +259,17 @@ def taxel_sampler(layout, fld: ContactField, samples_per_taxel=7, radius=TAXEL_R
     taxels facing away), cached per layout, grid and sampling: built once along a trajectory."""
     pos = np.asarray(layout.positions, float)
     nrm = np.asarray(layout.normals, float)
-    key = (_digest(pos, nrm, fld.origin, fld.e1, fld.e2, fld.n), float(fld.x[0]), float(fld.y[0]), len(fld.x),
-           len(fld.y), fld.spacing, float(fld.thickness), int(samples_per_taxel), float(radius))
+    flat = fld.domain == "flat"
+    key = (_digest(pos, nrm, fld.origin, fld.e1, fld.e2, fld.n, *([layout.flat] if flat else [])), fld.domain,
+           float(fld.x[0]), float(fld.y[0]), len(fld.x), len(fld.y), fld.spacing, float(fld.thickness),
+           int(samples_per_taxel), float(radius))
     a = _SAMPLER_CACHE.get(key)
     if a is None:
-        rel = pos + fld.thickness * nrm - fld.origin
-        xy = np.column_stack([rel @ fld.e1, rel @ fld.e2])
-        pts = xy[:, None, :] + disc_offsets(samples_per_taxel, radius)[None, :, :]
+        pts = fld.taxel_xy(layout)[:, None, :] + disc_offsets(samples_per_taxel, radius)[None, :, :]
         a = _bilinear_matrix(pts, fld.x, fld.y)
-        facing = nrm @ fld.n > 0.1
+        # on the plane, taxels facing away have no point above them; in the flat domain every
+        # taxel has its own patch of the layer
+        facing = nrm @ fld.n > 0.1 if not flat else np.ones(len(pos), bool)
         if not facing.all():
             from scipy.sparse import diags
 
@@ -446,7 +467,7 @@ def press(layout, mesh, pose, layer: SoftLayer, *, force=None, indentation=None,
           model: str = "finite_layer", compliance=None, grid: ContactGrid | None = None,
           spread: bool = True, spreading: str = "layer", samples_per_taxel: int = 7, taxel_radius: float = TAXEL_RADIUS,
           backend: str | None = None, open_mesh: str = "error", warm_start: PressResult | None = None,
-          tol: float = 1e-7, maxiter: int = 1000) -> PressResult:
+          tol: float = 1e-7, maxiter: int = 1000, geometry: str = "plane") -> PressResult:
     """Press ``mesh`` onto the skin of ``layout`` through ``layer``.
 
     layout : vtcore.layout.Layout (positions, normals (N, 3), end-effector frame, metres).
@@ -464,6 +485,10 @@ def press(layout, mesh, pose, layer: SoftLayer, *, force=None, indentation=None,
     samples_per_taxel : points averaged over each 4 mm taxel disc.
     backend : proximity back-end ("open3d" / "numpy"). warm_start : a previous
         PressResult on the same layout (trajectories).
+    geometry : "plane" (default: the contact is solved on the plane normal to the press
+        direction, fast, exact for flat patches) or "unrolled" (solved on the layout's flat
+        coordinates with the layer compressed along its own normals; for strongly curved
+        patches, see :mod:`vtcore.contact.curved`).
 
     Raises UnreachableTargetError when the force cannot be reached: the object
     misses the skin, or the layer would be compressed through its whole thickness.
@@ -488,7 +513,20 @@ def press(layout, mesh, pose, layer: SoftLayer, *, force=None, indentation=None,
     pose = np.asarray(pose, float).reshape(4, 4)
     if not np.all(np.isfinite(pose)):
         raise InputError("pose has non-finite entries", key="pose")
+    if geometry not in GEOMETRIES:
+        raise InputError(f"geometry must be one of {', '.join(GEOMETRIES)}, got {geometry!r}", key="geometry")
     local, scene = _prepared(mesh, open_mesh)
+    if geometry == "unrolled":
+        from .curved import press_unrolled
+
+        res = press_unrolled(layout, local, scene, pose, layer, force=force, indentation=indentation,
+                             direction=direction, model=model, grid=grid, spread=spread, spreading=spreading,
+                             samples_per_taxel=samples_per_taxel, taxel_radius=taxel_radius, backend=backend,
+                             warm_start=warm_start, tol=tol, maxiter=maxiter)
+        if compliance is not None and res.force > 0:
+            res.object_deflection = res.force / _object_stiffness(compliance, local, res.pose, res.contact_point)
+            res.displacement = res.indentation + res.object_deflection
+        return res
     sk = _skin_grid(layout, h, layer.extent, direction, grid, taxel_radius)
     u, n, e1, e2, origin = sk["u"], sk["n"], sk["e1"], sk["e2"], sk["origin"]
     xs, ys, S, dx = sk["x"], sk["y"], sk["S"], grid.spacing
@@ -575,7 +613,8 @@ def press(layout, mesh, pose, layer: SoftLayer, *, force=None, indentation=None,
     if force is not None and force > 0 and bottomed:
         raise UnreachableTargetError(
             f"{force} N would compress the {h * 1e3:.3g} mm layer by {max_c * 1e3:.3g} mm (model {model}): "
-            "the object bottoms out on the end-effector before reaching the target force")
+            "the object bottoms out on the end-effector before reaching the target force; use a thicker or "
+            "stiffer layer or a lower force (docs/contact.md, 'The mug rim at 15 N')")
     travel = float(d) if np.isfinite(d) else 0.0
     if force is None and indentation is None:
         travel = 0.0

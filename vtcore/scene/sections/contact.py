@@ -36,6 +36,9 @@ LAYER = Section({
     "grid_spacing": Field("float", default=1e-3, gt=0, unit="m", doc="contact grid cell size"),
     "samples_per_taxel": Field("int", default=7, ge=1, doc="points averaged over each 4 mm taxel disc"),
     "backend": Field("str", default="auto", choices=("auto", "open3d", "numpy"), doc="proximity back-end"),
+    "geometry": Field("str", default="plane", choices=("plane", "unrolled"),
+                      doc="solve on the plane normal to the press (flat patches) or on the layout's unrolled "
+                          "flat coordinates with the layer compressed along its normals (curved patches)"),
 })
 
 _DIMS = {
@@ -102,7 +105,8 @@ def layer_options(scene) -> dict:
 
     t = scene["layer"] or LAYER.validate({}, _NullCtx())
     return {"model": t["model"], "grid": ContactGrid(spacing=t["grid_spacing"]),
-            "samples_per_taxel": t["samples_per_taxel"], "backend": None if t["backend"] == "auto" else t["backend"]}
+            "samples_per_taxel": t["samples_per_taxel"], "backend": None if t["backend"] == "auto" else t["backend"],
+            "geometry": t["geometry"]}
 
 
 def object_mesh(scene, i: int):

@@ -61,8 +61,7 @@ def _field_figure(fld, layout, title, cut=None):
     panels = [("surface pressure", fld.pressure)] + ([("stress at the taxels' depth", fld.stress)]
                                                      if fld.stress is not None else [])
     fig, axes = plt.subplots(1, len(panels), figsize=(5.2 * len(panels), 4.4), squeeze=False)
-    rel = layout.positions - fld.origin
-    txy = np.column_stack([rel @ fld.e1, rel @ fld.e2]) * 1e3
+    txy = fld.taxel_xy(layout) * 1e3
     ext = [fld.x[0] * 1e3, fld.x[-1] * 1e3, fld.y[0] * 1e3, fld.y[-1] * 1e3]
     vmax = max(float(fld.pressure.max()), 1e-12)
     for ax, (name, img) in zip(axes[0], panels):
@@ -96,8 +95,10 @@ def profile_cut(fld, layout, taxel_values, *, angle_deg=0.0, samples=7, radius=N
     taxel_values : (N,) Pa, the taxels' readings of that field (PressResult.pressure or the
     soft_layer effect's output). Returns a dict of arrays: ``s (K,)`` m along the cut (0 at the
     centre), ``surface (K,)``, ``stress (K,)`` or None, ``disc_mean (K,)`` Pa; ``taxel_index (M,)``,
-    ``taxel_s (M,)`` m, ``taxel_offset (M,)`` m (distance from the cut), ``taxel_value (M,)`` Pa;
-    ``centre (3,)`` m and ``direction (3,)`` unit, both in the end-effector frame.
+    ``taxel_s (M,)`` m, ``taxel_offset (M,)`` m (distance from the cut), ``taxel_value (M,)`` Pa
+    (the taxels whose discs the cut crosses or, when fewer than two, those within half a pitch);
+    ``centre (3,)`` m and ``direction (3,)`` unit, both in the end-effector frame (for a contact
+    solved in the layout's flat domain, ``geometry = "unrolled"``: in the flat coordinates, z = 0).
     """
     from ...contact.press import TAXEL_RADIUS, _sample, disc_offsets
 
@@ -120,19 +121,23 @@ def profile_cut(fld, layout, taxel_values, *, angle_deg=0.0, samples=7, radius=N
     read = fld.stress if fld.stress is not None else fld.pressure
     off = disc_offsets(samples, radius)
     disc = _sample(pts[:, None, :] + off[None, :, :], read, fld.x, fld.y).mean(axis=1)
-    # taxels as taxel_means places them: below the surface point along their normals
-    pos = np.asarray(layout.positions, float) + fld.thickness * np.asarray(layout.normals, float)
-    rel = pos - fld.origin
-    txy = np.column_stack([rel @ fld.e1, rel @ fld.e2]) - c
+    # taxels where taxel_means reads them
+    txy = fld.taxel_xy(layout) - c
     ts, to = txy @ t, txy @ o
     idx = np.flatnonzero(np.abs(to) < radius)
+    if len(idx) < 2 and len(txy) > 1:
+        # the cut runs between two rows of taxels: show the rows within half a pitch of it
+        from scipy.spatial import cKDTree
+
+        pitch = float(np.median(cKDTree(txy).query(txy, k=2)[0][:, 1]))
+        idx = np.flatnonzero(np.abs(to) < max(radius, 0.5 * pitch))
     idx = idx[np.argsort(ts[idx], kind="stable")]
     centre = fld.origin + c[0] * fld.e1 + c[1] * fld.e2
     return {"s": s, "surface": _sample(pts, fld.pressure, fld.x, fld.y),
             "stress": _sample(pts, fld.stress, fld.x, fld.y) if fld.stress is not None else None,
             "disc_mean": disc, "taxel_index": idx, "taxel_s": ts[idx], "taxel_offset": to[idx],
             "taxel_value": np.asarray(taxel_values, float)[idx], "centre": centre,
-            "direction": t[0] * fld.e1 + t[1] * fld.e2}
+            "direction": t[0] * fld.e1 + t[1] * fld.e2, "domain": fld.domain}
 
 
 def _profile_figure(cut, title):
@@ -146,12 +151,13 @@ def _profile_figure(cut, title):
     ax.plot(s, cut["disc_mean"], color="C2", lw=1.2, ls="--", label="taxel-disc mean (what a taxel here reads)")
     if len(cut["taxel_index"]):
         sc = ax.scatter(cut["taxel_s"] * 1e3, cut["taxel_value"], c=np.abs(cut["taxel_offset"]) * 1e3,
-                        cmap="Reds_r", vmin=0, vmax=2.5, s=26, edgecolors="k", linewidths=0.5, zorder=3,
-                        label="taxels crossed by the cut")
+                        cmap="Reds_r", vmin=0, vmax=4.0, s=26, edgecolors="k", linewidths=0.5, zorder=3,
+                        label="taxels near the cut")
         fig.colorbar(sc, ax=ax, label="taxel centre off the cut (mm)", shrink=0.85)
     c, d = cut["centre"] * 1e3, cut["direction"]
+    where = "flat (unrolled) coordinates" if cut.get("domain") == "flat" else "end-effector frame"
     ax.set_xlabel(f"along ({d[0]:.2f}, {d[1]:.2f}, {d[2]:.2f}) through the contact centre "
-                  f"({c[0]:.1f}, {c[1]:.1f}, {c[2]:.1f}) mm (mm)", fontsize=8)
+                  f"({c[0]:.1f}, {c[1]:.1f}, {c[2]:.1f}) mm, {where} (mm)", fontsize=8)
     ax.set_ylabel("Pa")
     ax.set_title(title, fontsize=9)
     ax.legend(loc="best", fontsize=7)
