@@ -156,7 +156,7 @@ def press_unrolled(layout, local, scene, pose, layer, *, force, indentation, dir
     sk = unrolled_skin(layout, h, layer.extent, grid, taxel_radius)
     u, n, e1, e2 = _frame(layout, direction)
     pts, nr, dx = sk["pts"], sk["nrm"], grid.spacing
-    c = nr @ n                                           # cos of the tilt between cell normal and motion
+    c = np.einsum("xyi,i->xy", nr, n)  # cos of the tilt between cell normal and motion
     ok = sk["skin"] & (c > 0.1) & np.all(np.isfinite(pts), axis=-1)
     gap = np.full(c.shape, np.inf)
     # only cells under the object's footprint (projected along u) can meet it
@@ -165,7 +165,7 @@ def press_unrolled(layout, local, scene, pose, layer, *, force, indentation, dir
     box = local.bounds[0] + _CORNERS * (local.bounds[1] - local.bounds[0])
     box = box @ pose[:3, :3].T + pose[:3, 3]
     b1, b2 = box @ e1, box @ e2
-    p1, p2 = pts @ e1, pts @ e2
+    p1, p2 = np.einsum("xyi,i->xy", pts, e1), np.einsum("xyi,i->xy", pts, e2)  # einsum: no BLAS threads
     cand = ok & (p1 >= b1.min() - dx) & (p1 <= b1.max() + dx) & (p2 >= b2.min() - dx) & (p2 <= b2.max() + dx)
     if cand.any():
         gap[cand] = _envelope_posed(pts[cand], n, local, scene, pose, backend)
@@ -290,7 +290,7 @@ def press_unrolled(layout, local, scene, pose, layer, *, force, indentation, dir
     if total > 0:
         on = p > 0
         wgt = pflat[on] * cf[on]
-        cpt = (wgt @ pts[on]) / wgt.sum()
+        cpt = np.einsum("m,mi->i", wgt, pts[on]) / wgt.sum()
         cpt_obj = new_pose[:3, :3].T @ (cpt - new_pose[:3, 3])
     return PressResult(
         pressure=taxel, surface_pressure=surf, force=total, indentation=indent,
