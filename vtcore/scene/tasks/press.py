@@ -287,11 +287,13 @@ def run(scene, ctx) -> TaskResult:
                       samples=state.get("taxel_samples", opts["samples_per_taxel"]))
     title = f"{scene.name}: {obj['name']} through {layer.thickness * 1e3:g} mm ({opts['model']})"
     flat = layout.flat if layout.flat is not None else layout.positions[:, :2]
-    figures = {
-        "response": taxel_map(flat, mean, title=f"{scene.name}: mean response, {obj['name']}", label=unit),
-        "pressure_field": _field_figure(fld, layout, title, cut),
-        "profile": _profile_figure(cut, title),
-    }
+    figures = {}
+    if scene["output"]["plots"]:  # the runner closes only the figures it saves
+        figures = {
+            "response": taxel_map(flat, mean, title=f"{scene.name}: mean response, {obj['name']}", label=unit),
+            "pressure_field": _field_figure(fld, layout, title, cut),
+            "profile": _profile_figure(cut, title),
+        }
     arrays = {
         "positions": layout.positions, "normals": layout.normals, "taxel_ids": layout.taxel_ids,
         "timestamps": stamps, "frames": frames, "pressure": per, "surface_pressure": surf, "force": force,
