@@ -70,3 +70,29 @@ def test_inconsistent_mug_is_rejected(tmp_path, scenes_dir):
     with pytest.raises(SceneError, match="mug_inner_diameter"):
         run_scene(scenes_dir / "contour_mug_planar.toml", tmp_path / "x",
                   QUICK + ["task.mug_inner_diameter=0.09"])
+
+
+@pytest.mark.parametrize("name", ["contour_ruler_planar", "contour_mug_planar", "contour_ruler_curved",
+                                  "contour_mug_curved", "two_finger_press"])
+def test_scenes_describe_their_cover_in_the_standard_layer_table(scenes_dir, name):
+    s = load_scene(scenes_dir / f"{name}.toml")
+    assert s["layer"] is not None and s["layer"]["thickness"] > 0
+    for key in ("thickness", "material"):  # no longer task keys: one place for the layer
+        with pytest.raises(SceneError, match=f"task.{key}"):
+            load_scene(scenes_dir / f"{name}.toml", [f"task.{key}=0.006" if key == "thickness"
+                                                     else f'task.{key}="ecoflex_00_50"'])
+
+
+def test_contour_task_presses_through_the_layer_table(tmp_path, scenes_dir):
+    args = QUICK + ["task.contact=analytic", 'task.methods=["mesh"]', "output.plots=false"]
+    a = run_scene(scenes_dir / "contour_ruler_curved.toml", tmp_path / "a", args)
+    b = run_scene(scenes_dir / "contour_ruler_curved.toml", tmp_path / "b",
+                  args + ["layer.thickness=0.003", 'layer.material="dragon_skin_30"'])
+    ra, rb = (tmp_path / "a" / "report.md").read_text(), (tmp_path / "b" / "report.md").read_text()
+    assert "6 mm of ecoflex_00_50" in ra and "3 mm of dragon_skin_30" in rb
+    assert "Deviation from seed 002: the cover" in ra
+    # on the curved skin the analytic contact's pressure falls off over the layer thickness
+    pa, pb = (np.load(tmp_path / x / "arrays.npz")["pressure"] for x in "ab")
+    assert not (pa.shape == pb.shape and np.allclose(pa, pb))
+    with pytest.raises(SceneError, match="layer.thickness"):
+        run_scene(scenes_dir / "contour_ruler_planar.toml", tmp_path / "c", args + ["layer.thickness=0.0"])

@@ -2,7 +2,7 @@
 
 The default scene presses two fingertips (spheres) on the curved patch of seed
 002; the Eq. 6 response and the Eq. 7 edges should outline each finger, as in
-Fig. 1 (c)-(d). Reports the number of edge components and how many pressed
+Fig. 1 (c)-(d). The soft layer is the scene's standard ``[layer]`` table. Reports the number of edge components and how many pressed
 taxels each outline encloses.
 """
 
@@ -23,8 +23,6 @@ PARAMS = Section({
     "end_effector": Field("str", default="seed002_curved", choices=("seed002_planar", "seed002_curved")),
     "fingers": Field("tables", default=[], section=FINGER, doc="[[task.fingers]] tables"),
     "force": Field("float", default=10.0, gt=0, unit="N", doc="total force of all fingers"),
-    "material": Field("str", default="ecoflex_00_20", doc="soft layer material"),
-    "thickness": Field("float", default=3e-3, gt=0, unit="m"),
     "fraction": Field("float", default=0.15, ge=0, le=1, doc="Eq. 7 threshold / strongest response"),
     "readings": Field("int", default=5, ge=1, doc="sensor readings while holding the force"),
     "rate": Field("float", default=20.0, gt=0, unit="Hz", doc="CySkin: 20 Hz (seed 002)"),
@@ -34,14 +32,18 @@ PARAMS = Section({
 def run(scene, ctx) -> TaskResult:
     import trimesh
 
-    from ...contact import SoftLayer, make_object, press
+    from ...contact import make_object, press
     from ...filters import EdgeFilter, MeshEdgeDetector
     from ...layout import skin_mesh
+    from ..sections.contact import build_layer, layer_options
     from .contour import control_skin
 
     p = scene["task"]
     if not p["fingers"]:
         raise scene.error("task.fingers", "list at least one [[task.fingers]] table (position, radius)")
+    layer = build_layer(scene)
+    if layer.thickness <= 0:
+        raise scene.error("layer.thickness", "edge_press presses through a soft layer: must be > 0 m")
     _, layout, frame = control_skin(p["end_effector"])
     mesh = skin_mesh(layout)
     parts = []
@@ -49,11 +51,11 @@ def run(scene, ctx) -> TaskResult:
         s = make_object("sphere", radius=f["radius"])  # rests on z = 0, centre at z = radius
         # upside down above the skin: the sphere's lowest point at the layer surface + 5 mm
         s.apply_translation([f["position"][0], f["position"][1], -f["radius"]])
-        s.apply_translation([0.0, 0.0, 2 * f["radius"] + p["thickness"] + 0.005])
+        s.apply_translation([0.0, 0.0, 2 * f["radius"] + layer.thickness + 0.005])
         parts.append(s)
     obj = trimesh.util.concatenate(parts)
-    layer = SoftLayer(thickness=p["thickness"], material=p["material"])
-    res = press(layout, obj, np.eye(4), layer, force=p["force"], direction=[0.0, 0.0, -1.0])
+    res = press(layout, obj, np.eye(4), layer, force=p["force"], direction=[0.0, 0.0, -1.0],
+                **layer_options(scene))
     pressure = np.broadcast_to(res.pressure, (p["readings"], len(layout))).copy()
     frames = np.asarray(ctx.pipeline.apply("sensor", pressure.copy(), ctx))
     ef = EdgeFilter(mesh)
@@ -73,7 +75,8 @@ def run(scene, ctx) -> TaskResult:
 
     figures = {"fig1": _saver(_figure, layout, frames[0], response[0], edges[0], scene.name)}
     note = (f"Seed 002 Fig. 1: {len(p['fingers'])} finger(s) at {p['force']:.0f} N on "
-            f"{p['end_effector']}; the Eq. 6/7 edges form {feats.n_components} connected component(s) "
+            f"{p['end_effector']} through {layer.thickness * 1e3:g} mm of {layer.material} ([layer]; seed 002 "
+            "does not describe its cover); the Eq. 6/7 edges form {feats.n_components} connected component(s) "
             f"over {int(edges[0].sum())} taxels around {int(pressed.sum())} pressed taxels. Eq. 6 marks "
             "the low side of a rise, so the outline lies just outside each contact "
             f"({metrics['edge_on_pressed_fraction']:.0%} of edge taxels are themselves pressed).")
@@ -114,5 +117,5 @@ def _figure(layout, frame, response, edge, name):
     return fig
 
 
-register_task(TaskSpec("edge_press", run, PARAMS, sections=(),
+register_task(TaskSpec("edge_press", run, PARAMS, sections=("layer",),
                        doc="press fingertips on a skin and show the seed 002 edge filter (Fig. 1)"))
