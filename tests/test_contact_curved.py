@@ -47,7 +47,8 @@ def _reference(mesh, pose, layer, force, u, du=0.5e-3):
     verts = np.asarray(mesh.vertices) @ pose[:3, :3].T + pose[:3, 3]
     o = verts.mean(0)
     sc = o3d.t.geometry.RaycastingScene()
-    sc.add_triangles(o3d.core.Tensor((verts - o).astype(np.float32)), o3d.core.Tensor(np.asarray(mesh.faces, np.uint32)))
+    sc.add_triangles(o3d.core.Tensor((verts - o).astype(np.float32)),
+                     o3d.core.Tensor(np.asarray(mesh.faces, np.uint32)))
 
     def state(d):
         rays = np.hstack([pts - o - d * u - 0.2 * nrm, nrm]).astype(np.float32)

@@ -1,7 +1,6 @@
 """Contact scenes: press task modes, effects only when listed, the 12 seed-001 scenes, the benchmark."""
 
 import json
-import tomllib
 
 import numpy as np
 import pytest
