@@ -116,6 +116,11 @@ def test_unrolled_finite_layer_on_the_curved_patch_and_bad_input():
     assert np.all(np.isfinite(r.pressure)) and r.pressure.max() > 0
     # the pressure sits where the cube is: around the reference taxel, on the arc
     assert np.linalg.norm(CURVED.flat[r.pressure.argmax()] - CURVED.flat[REF]) < 0.02
+    # the same query on either proximity back-end (Blender has no open3d)
+    r_np = press(CURVED, m, pose, layer, force=5.0, direction=u, geometry="unrolled", grid=ContactGrid(spacing=1e-3),
+                 backend="numpy")
+    assert r_np.travel == pytest.approx(r.travel, abs=1e-8)
+    np.testing.assert_allclose(r_np.pressure, r.pressure, rtol=0, atol=1e-3 * r.pressure.max())
     seq = [press(CURVED, m, pose, layer, indentation=dd, direction=u, geometry="unrolled",
                  grid=ContactGrid(spacing=1e-3)).force for dd in (0.2e-3, 0.5e-3, 1e-3)]
     assert 0 < seq[0] < seq[1] < seq[2]
