@@ -1,0 +1,91 @@
+"""Baked contacts: per-frame values stored with the .blend and played back.
+
+The cache of a taxel object is a separate mesh datablock (``Object.vtskin.cache``,
+fake user so it is saved) with one vertex per taxel and one point attribute per
+baked frame and quantity: ``pressure_00012``, ``response_00012``, ``edge_00012``.
+Playback copies one frame's attributes to the taxel object with two
+``foreach_get``/``foreach_set`` calls per quantity: nothing is recomputed.
+"""
+
+from __future__ import annotations
+
+import bpy
+import numpy as np
+
+from . import bridge
+
+QUANTITIES = ("pressure", "response", "edge")
+
+
+def _key(name: str, frame: int) -> str:
+    return f"{name}_{frame:05d}"
+
+
+def store(ob, frames, **series):
+    """Store a bake on taxel object ``ob``.
+
+    frames : (T,) int scene frames. series : name -> (T, N) array for the names
+    in QUANTITIES (``edge`` bool). Replaces any previous cache of ``ob``.
+    """
+    n = len(ob.data.vertices)
+    frames = np.asarray(frames, dtype=np.int64)
+    old = ob.vtskin.cache
+    cache = bpy.data.meshes.new(f"{ob.name} bake")
+    cache.vertices.add(n)
+    cache.use_fake_user = True
+    for name, values in series.items():
+        values = np.asarray(values)
+        if values.shape != (len(frames), n):
+            raise ValueError(f"bake {name}: shape {values.shape}, expected {(len(frames), n)}")
+        kind = "BOOLEAN" if name == "edge" else "FLOAT"
+        for f, row in zip(frames, values):
+            bridge.set_attribute(cache, _key(name, int(f)), row, kind)
+    ob.vtskin.cache = cache
+    ob.vtskin.bake_start = int(frames.min()) if len(frames) else 0
+    ob.vtskin.bake_end = int(frames.max()) if len(frames) else -1
+    if old is not None:
+        old.use_fake_user = False
+        if old.users == 0:
+            bpy.data.meshes.remove(old)
+
+
+def clear(ob):
+    cache = ob.vtskin.cache
+    ob.vtskin.cache = None
+    ob.vtskin.bake_end = ob.vtskin.bake_start - 1
+    if cache is not None:
+        cache.use_fake_user = False
+        if cache.users == 0:
+            bpy.data.meshes.remove(cache)
+
+
+def frame_values(ob, frame: int) -> dict:
+    """The cached arrays of ``frame`` (clamped to the baked range): name -> (N,)."""
+    s = ob.vtskin
+    f = min(max(int(frame), s.bake_start), s.bake_end)
+    out = {}
+    for name in QUANTITIES:
+        key = _key(name, f)
+        if key in s.cache.attributes:
+            out[name] = bridge.get_attribute(s.cache, key)
+    return out
+
+
+def apply(ob, frame: int):
+    """Show the cached values of ``frame`` on taxel object ``ob``."""
+    me = ob.data
+    for name, values in frame_values(ob, frame).items():
+        attr = me.attributes.get(name)
+        if attr is None or len(attr.data) != len(values):
+            continue
+        key = "value"
+        attr.data.foreach_set(key, values)
+    me.update()
+
+
+def apply_all(scene):
+    for ob in scene.objects:
+        s = getattr(ob, "vtskin", None)
+        if s is None or s.role != "TAXELS" or s.cache is None or s.bake_end < s.bake_start:
+            continue
+        apply(ob, scene.frame_current)

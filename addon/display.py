@@ -1,0 +1,160 @@
+"""Drawing taxels: a geometry-nodes modifier that puts a 4 mm disc on every taxel.
+
+Each disc is oriented along the taxel's ``normal`` attribute and coloured by a
+chosen attribute through a colour ramp (normalised by the attribute's min/max on
+the object); a colour attribute such as ``tactile_color`` is used as is. The
+colour is stored on the points as ``vtskin_display`` and read by the material
+through an Attribute node of type *Instancer*. The skin mesh itself is kept and
+drawn as well, so its edges stay visible.
+"""
+
+from __future__ import annotations
+
+import bpy
+
+GROUP = "vtskin taxel discs"
+MATERIAL = "vtskin taxel"
+MODIFIER = "vtskin discs"
+DISPLAY_ATTR = "vtskin_display"
+DISC_RADIUS = 2e-3  # m: 4 mm discs, the CySkin taxel size
+
+
+def _socket(group, name, in_out, socket_type, default=None):
+    s = group.interface.new_socket(name, in_out=in_out, socket_type=socket_type)
+    if default is not None:
+        s.default_value = default
+    return s
+
+
+def node_group():
+    """The (shared) geometry-nodes group, built once per file."""
+    ng = bpy.data.node_groups.get(GROUP)
+    if ng is not None:
+        return ng
+    ng = bpy.data.node_groups.new(GROUP, "GeometryNodeTree")
+    _socket(ng, "Geometry", "INPUT", "NodeSocketGeometry")
+    _socket(ng, "Attribute", "INPUT", "NodeSocketString", "response")
+    _socket(ng, "Is colour", "INPUT", "NodeSocketBool", False)
+    _socket(ng, "Radius", "INPUT", "NodeSocketFloat", DISC_RADIUS)
+    _socket(ng, "Geometry", "OUTPUT", "NodeSocketGeometry")
+    n, link = ng.nodes, ng.links.new
+    gin = n.new("NodeGroupInput")
+    gout = n.new("NodeGroupOutput")
+
+    value = n.new("GeometryNodeInputNamedAttribute")
+    value.data_type = "FLOAT"
+    link(gin.outputs["Attribute"], value.inputs["Name"])
+    stats = n.new("GeometryNodeAttributeStatistic")
+    stats.data_type = "FLOAT"
+    stats.domain = "POINT"
+    link(gin.outputs["Geometry"], stats.inputs["Geometry"])
+    link(value.outputs["Attribute"], stats.inputs["Attribute"])
+    norm = n.new("ShaderNodeMapRange")
+    link(value.outputs["Attribute"], norm.inputs["Value"])
+    link(stats.outputs["Min"], norm.inputs["From Min"])
+    link(stats.outputs["Max"], norm.inputs["From Max"])
+    ramp = n.new("ShaderNodeValToRGB")
+    ramp.name = "Ramp"
+    _viridis(ramp.color_ramp)
+    link(norm.outputs["Result"], ramp.inputs["Fac"])
+
+    colour = n.new("GeometryNodeInputNamedAttribute")
+    colour.data_type = "FLOAT_COLOR"
+    link(gin.outputs["Attribute"], colour.inputs["Name"])
+    switch = n.new("GeometryNodeSwitch")
+    switch.input_type = "RGBA"
+    link(gin.outputs["Is colour"], switch.inputs["Switch"])
+    link(ramp.outputs["Color"], switch.inputs["False"])
+    link(colour.outputs["Attribute"], switch.inputs["True"])
+
+    store = n.new("GeometryNodeStoreNamedAttribute")
+    store.data_type = "FLOAT_COLOR"
+    store.domain = "POINT"
+    store.inputs["Name"].default_value = DISPLAY_ATTR
+    link(gin.outputs["Geometry"], store.inputs["Geometry"])
+    link(switch.outputs["Output"], store.inputs["Value"])
+
+    circle = n.new("GeometryNodeMeshCircle")
+    circle.fill_type = "NGON"
+    circle.inputs["Vertices"].default_value = 16
+    link(gin.outputs["Radius"], circle.inputs["Radius"])
+    setmat = n.new("GeometryNodeSetMaterial")
+    setmat.inputs["Material"].default_value = material()
+    link(circle.outputs["Mesh"], setmat.inputs["Geometry"])
+
+    normal = n.new("GeometryNodeInputNamedAttribute")
+    normal.data_type = "FLOAT_VECTOR"
+    normal.inputs["Name"].default_value = "normal"
+    align = n.new("FunctionNodeAlignEulerToVector")
+    align.axis = "Z"
+    link(normal.outputs["Attribute"], align.inputs["Vector"])
+
+    # Only taxel points get discs: the skin mesh's vertices ARE the taxels.
+    inst = n.new("GeometryNodeInstanceOnPoints")
+    link(store.outputs["Geometry"], inst.inputs["Points"])
+    link(setmat.outputs["Geometry"], inst.inputs["Instance"])
+    link(align.outputs["Rotation"], inst.inputs["Rotation"])
+
+    join = n.new("GeometryNodeJoinGeometry")
+    link(inst.outputs["Instances"], join.inputs["Geometry"])
+    link(store.outputs["Geometry"], join.inputs["Geometry"])
+    link(join.outputs["Geometry"], gout.inputs["Geometry"])
+    for i, node in enumerate((gin, value, stats, norm, ramp, colour, switch, store, circle, setmat,
+                              normal, align, inst, join, gout)):
+        node.location = (200 * i, 0)
+    return ng
+
+
+def _viridis(ramp):
+    stops = [(0.0, (0.267, 0.005, 0.329, 1)), (0.25, (0.229, 0.322, 0.546, 1)),
+             (0.5, (0.128, 0.567, 0.551, 1)), (0.75, (0.369, 0.789, 0.383, 1)),
+             (1.0, (0.993, 0.906, 0.144, 1))]
+    els = ramp.elements
+    els[0].position, els[0].color = stops[0]
+    els[1].position, els[1].color = stops[-1]
+    for pos, col in stops[1:-1]:
+        e = els.new(pos)
+        e.color = col
+
+
+def material():
+    """The material of the discs: the ``vtskin_display`` colour, emissive enough to read."""
+    mat = bpy.data.materials.get(MATERIAL)
+    if mat is not None:
+        return mat
+    mat = bpy.data.materials.new(MATERIAL)
+    mat.use_nodes = True
+    nt = mat.node_tree
+    bsdf = nt.nodes.get("Principled BSDF")
+    attr = nt.nodes.new("ShaderNodeAttribute")
+    attr.attribute_type = "INSTANCER"
+    attr.attribute_name = DISPLAY_ATTR
+    attr.location = (-400, 0)
+    nt.links.new(attr.outputs["Color"], bsdf.inputs["Base Color"])
+    nt.links.new(attr.outputs["Color"], bsdf.inputs["Emission Color"])
+    bsdf.inputs["Emission Strength"].default_value = 0.3
+    mat.diffuse_color = (0.8, 0.8, 0.8, 1.0)
+    return mat
+
+
+def ensure_display(ob):
+    """Add (once) the disc modifier to taxel object ``ob`` and colour by its setting."""
+    mod = ob.modifiers.get(MODIFIER)
+    if mod is None:
+        mod = ob.modifiers.new(MODIFIER, "NODES")
+        mod.node_group = node_group()
+    set_color_by(ob, ob.vtskin.color_by)
+    return mod
+
+
+def set_color_by(ob, name: str):
+    """Colour the discs of ``ob`` by attribute ``name`` (ramp for scalars, as is for colours)."""
+    mod = ob.modifiers.get(MODIFIER)
+    if mod is None:
+        return
+    ng = mod.node_group
+    ids = {s.name: s.identifier for s in ng.interface.items_tree if s.item_type == "SOCKET" and s.in_out == "INPUT"}
+    mod[ids["Attribute"]] = name
+    attr = ob.data.attributes.get(name) if ob.type == "MESH" else None
+    mod[ids["Is colour"]] = bool(attr is not None and attr.data_type in ("FLOAT_COLOR", "BYTE_COLOR"))
+    ob.data.update()

@@ -1,0 +1,75 @@
+"""Taxel objects: a vtcore ``Layout`` <-> a mesh object with one vertex per taxel.
+
+Vertex positions are the taxel positions in the skin frame (the object's local
+frame, metres); the skin mesh is the object's faces; attributes carry
+``taxel_id``, ``module_id``, ``normal``, ``pressure``, ``response`` and ``edge``.
+"""
+
+from __future__ import annotations
+
+import bpy
+import numpy as np
+
+from . import bridge
+
+
+def new_object(context, name: str, role: str = "TAXELS", matrix=None):
+    """A new mesh object ``name`` linked to the active collection (or the scene's)."""
+    me = bpy.data.meshes.new(name)
+    ob = bpy.data.objects.new(name, me)
+    coll = context.collection or context.scene.collection
+    coll.objects.link(ob)
+    if matrix is not None:
+        ob.matrix_world = [list(r) for r in np.asarray(matrix)]
+    ob.vtskin.role = role
+    return ob
+
+
+def write_layout(ob, layout, triangles=None, pressure=None, response=None, edge=None):
+    """Replace the geometry and taxel attributes of ``ob`` with ``layout``.
+
+    layout : vtcore Layout (positions in ``ob``'s local frame, metres).
+    triangles : (F, 3) skin mesh faces or None. pressure/response : (N,) or None
+    (zeros). edge : (N,) bool or None (False).
+    """
+    n = len(layout)
+    me = ob.data
+    bridge.write_mesh(me, layout.positions, triangles)
+    bridge.set_attribute(me, "taxel_id", layout.taxel_ids)
+    bridge.set_attribute(me, "module_id", layout.module_ids)
+    bridge.set_attribute(me, "normal", layout.normals)
+    bridge.set_attribute(me, "pressure", np.zeros(n) if pressure is None else pressure)
+    bridge.set_attribute(me, "response", np.zeros(n) if response is None else response)
+    bridge.set_attribute(me, "edge", np.zeros(n, bool) if edge is None else edge)
+    ob.vtskin.role = "TAXELS"
+
+
+def read_layout(ob):
+    """The vtcore Layout stored on taxel object ``ob`` (positions in its local frame, metres)."""
+    from vtcore.layout import Layout
+
+    me = ob.data
+    n = len(me.vertices)
+    co = np.empty(3 * n, np.float32)
+    me.vertices.foreach_get("co", co)
+    names = me.attributes.keys()
+    normals = bridge.get_attribute(me, "normal") if "normal" in names else np.tile([0.0, 0.0, 1.0], (n, 1))
+    ids = bridge.get_attribute(me, "taxel_id") if "taxel_id" in names else np.arange(n)
+    mods = bridge.get_attribute(me, "module_id") if "module_id" in names else np.zeros(n, np.int64)
+    normals = np.asarray(normals, np.float64)
+    normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-12)
+    return Layout(co.reshape(-1, 3).astype(np.float64), normals, ids, mods, frame=ob.name,
+                  transform=bridge.matrix(ob))
+
+
+def triangles(ob) -> np.ndarray:
+    """(F, 3) int: the skin mesh triangles stored as ``ob``'s faces."""
+    me = ob.data
+    me.calc_loop_triangles()
+    tri = np.empty(3 * len(me.loop_triangles), np.int32)
+    me.loop_triangles.foreach_get("vertices", tri)
+    return tri.reshape(-1, 3).astype(np.int64)
+
+
+def is_taxels(ob) -> bool:
+    return ob is not None and ob.type == "MESH" and ob.vtskin.role == "TAXELS"
