@@ -12,14 +12,12 @@ incremental per-touch update, 1,000 noise-free touches (where truncation pays), 
 
 from __future__ import annotations
 
-import csv
-import io
 import time
 from pathlib import Path
 
 import numpy as np
 
-from .._io import atomic_write
+from .._bench import best_time, save_png, write_table
 from . import propagation as prop
 from .compliance import ProbeModel
 from .experiment import probe_object
@@ -27,15 +25,6 @@ from .objects import make_seed000_object
 from .propagation import AugmentedPointCloud, ClusterPropagation, GPPropagation, SmoothPropagation
 
 PAPER_POINTS = 33676
-
-
-def _best(fn, repeat):
-    best, out = np.inf, None
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        out = fn()
-        best = min(best, time.perf_counter() - t0)
-    return best, out
 
 
 def _row(method, setting, points, touches, seconds, error_pct):
@@ -60,7 +49,7 @@ def run(out: Path, quick: bool = False) -> list[dict]:
     rows = []
 
     def measure(method, setting, est, points=x, touches=v, values=c, with_error=True, repeat=rep):
-        t, y = _best(lambda: est.fit(touches, values).predict(points), repeat)
+        t, y = best_time(lambda: est.fit(touches, values).predict(points), repeat)
         rows.append(_row(method, setting, len(points), len(touches), t, err(y) if with_error else None))
         return y
 
@@ -105,7 +94,7 @@ def run(out: Path, quick: bool = False) -> list[dict]:
     # the GP baseline of the appendix
     measure("GP", "24 touches, RBF + white noise", GPPropagation(random_state=0), repeat=1)
     gp_aug = GPPropagation(radius=0.03, voxel=0.004, max_train=300 if quick else 1500, random_state=0)
-    t, y = _best(lambda: gp_aug.fit(v, c, visual_points=x).predict(x), 1)
+    t, y = best_time(lambda: gp_aug.fit(v, c, visual_points=x).predict(x), 1)
     rows.append(_row("GP", f"3 cm neighbourhoods, voxel 4 mm, {len(gp_aug.train_points_)} training points",
                      len(x), 24, t, err(y)))
 
@@ -115,7 +104,7 @@ def run(out: Path, quick: bool = False) -> list[dict]:
     big = x[rng.integers(0, len(x), m)] + rng.normal(0, 5e-4, (m, 3))
     for name, est in (("cluster", ClusterPropagation()), ("smooth", SmoothPropagation()),
                       ("smooth", SmoothPropagation(dtype=np.float32))):
-        t, _ = _best(lambda est=est: est.fit(v, c).predict(big), max(2, rep // 2))
+        t, _ = best_time(lambda est=est: est.fit(v, c).predict(big), max(2, rep // 2))
         setting = "float32 kernel" if getattr(est, "dtype", np.float64) is np.float32 else "default"
         rows.append(_row(name, f"{m:,} points, {setting}", m, 24, t, None))
 
@@ -124,26 +113,12 @@ def run(out: Path, quick: bool = False) -> list[dict]:
 
 
 def _write(out: Path, rows: list[dict], quick: bool) -> None:
-    out.mkdir(parents=True, exist_ok=True)
-    cols = list(rows[0])
-    buf = io.StringIO()
-    w = csv.DictWriter(buf, fieldnames=cols, lineterminator="\n")
-    w.writeheader()
-    w.writerows(rows)
-    with atomic_write(out / "table.csv", "w", encoding="utf-8") as fh:
-        fh.write(buf.getvalue())
-    lines = ["# Augmented point cloud: propagation time and accuracy", "",
-             f"Empty bottle, two virtual D415s, {rows[0]['points']:,} points, 24 probes (series probe model: the "
-             "dense ground truth is known at every point). Error: mean |c - c_true| in % of the mean c_true. "
-             "Time: best of several runs, fit + predict, one core." + (" QUICK RUN (small sizes)." if quick else ""),
-             "", "Goals (issue 6): smooth <= 5 ms and cluster-based <= 3 ms on 33,676 points x 24 touches; "
-             "1 M points x 24 touches <= 0.2 s. Paper: smooth 3.1 s, cluster ~0.1 s, GP ~132 s per object.", "",
-             "| method | setting | points | touches | time (ms) | error (%) |", "|---|---|---|---|---|---|"]
-    for r in rows:
-        e = "-" if r["error_rel_pct"] is None else f"{r['error_rel_pct']:.2f}"
-        lines.append(f"| {r['method']} | {r['setting']} | {r['points']:,} | {r['touches']} | {r['time_ms']:.3f} | {e} |")
-    with atomic_write(out / "table.md", "w", encoding="utf-8") as fh:
-        fh.write("\n".join(lines) + "\n")
+    write_table(out, rows, title="Augmented point cloud: propagation time and accuracy", notes=[
+        f"Empty bottle, two virtual D415s, {rows[0]['points']:,} points, 24 probes (series probe model: the "
+        "dense ground truth is known at every point). Error: mean |c - c_true| in % of the mean c_true. "
+        "Time: best of several runs, fit + predict, one core." + (" QUICK RUN (small sizes)." if quick else ""),
+        "Goals (issue 6): smooth <= 5 ms and cluster-based <= 3 ms on 33,676 points x 24 touches; "
+        "1 M points x 24 touches <= 0.2 s. Paper: smooth 3.1 s, cluster ~0.1 s, GP ~132 s per object."])
 
     import matplotlib
 
@@ -164,6 +139,4 @@ def _write(out: Path, rows: list[dict], quick: bool) -> None:
     ax.set_ylabel("error vs dense ground truth (% of mean c)")
     ax.set_title(f"Propagation on {rows[0]['points']:,} points: accuracy vs time", fontsize=10)
     ax.grid(True, which="both", alpha=0.3)
-    with atomic_write(out / "accuracy_vs_time.png", "wb") as fh:
-        fig.savefig(fh, format="png", dpi=120, bbox_inches="tight")
-    plt.close(fig)
+    save_png(fig, out / "accuracy_vs_time.png")

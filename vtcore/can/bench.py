@@ -17,14 +17,11 @@ Accuracy: samples that differ from the reference decode of the same frames (must
 
 from __future__ import annotations
 
-import csv
-import io
-import time
 from pathlib import Path
 
 import numpy as np
 
-from .._io import atomic_write
+from .._bench import best_time, save_png, write_table
 from .codecs import Cyskin16Codec, IcubCodec
 from .decode import decode_batches
 from .encode import encode
@@ -62,17 +59,6 @@ def _reference(msgs, codec, ids, period):
     return out, mask
 
 
-def _time(fn, repeat=3):
-    """Best CPU time of ``repeat`` calls (process time: the machine is shared, and wall time
-    would charge other processes' work to whichever method ran while they did)."""
-    best, res = np.inf, None
-    for _ in range(repeat):
-        t0 = time.process_time()
-        res = fn()
-        best = min(best, time.process_time() - t0)
-    return best, res
-
-
 def run(out: Path, quick: bool = False) -> list[dict]:
     from .logs import iter_batches, write_log
 
@@ -84,7 +70,8 @@ def run(out: Path, quick: bool = False) -> list[dict]:
         periods = (20_000 if quick else 1_000_000) // per
         batch, ids, wire = _log_in_memory(codec, periods)
         n = len(batch)
-        sec, res = _time(lambda: decode_batches(batch, codec, taxel_ids=ids, period=0.05), 1 if quick else 3)
+        sec, res = best_time(lambda: decode_batches(batch, codec, taxel_ids=ids, period=0.05), 1 if quick else 3,
+                             clock="cpu")
         exact = int((res.frames != wire).sum() + (~res.mask).sum())
         rows.append({"codec": codec.name, "method": "vectorised", "frames": n, "seconds": sec,
                      "frames_per_s": n / sec, "mismatched_samples": exact})
@@ -92,9 +79,9 @@ def run(out: Path, quick: bool = False) -> list[dict]:
         ref_periods = n_ref // per
         n_ref = ref_periods * per
         msgs = list(batch.take(slice(0, n_ref)).to_messages())
-        sec_m, res_m = _time(lambda: decode_batches(FrameBatch.from_messages(msgs), codec, taxel_ids=ids,
-                                                    period=0.05), 1 if quick else 3)
-        sec_r, (ref, ref_mask) = _time(lambda: _reference(msgs, codec, ids, 0.05), 1)
+        sec_m, res_m = best_time(lambda: decode_batches(FrameBatch.from_messages(msgs), codec, taxel_ids=ids,
+                                                        period=0.05), 1 if quick else 3, clock="cpu")
+        sec_r, (ref, ref_mask) = best_time(lambda: _reference(msgs, codec, ids, 0.05), 1, clock="cpu")
         mism = int((res_m.frames != ref).sum() + (res_m.mask != ref_mask).sum())
         mism_truth = int((ref != wire[:ref_periods]).sum())
         rows.append({"codec": codec.name, "method": "vectorised_from_messages", "frames": n_ref, "seconds": sec_m,
@@ -105,9 +92,8 @@ def run(out: Path, quick: bool = False) -> list[dict]:
         n_file = min(n, 10_000 if quick else 100_000)
         path = out / f"_bench_{codec.name}.log"
         write_log(path, batch.take(slice(0, n_file)))
-        t0 = time.process_time()
-        res_f = decode_batches(iter_batches(path), codec, taxel_ids=ids, period=0.05)
-        sec_f = time.process_time() - t0
+        sec_f, res_f = best_time(lambda: decode_batches(iter_batches(path), codec, taxel_ids=ids, period=0.05), 1,
+                                 clock="cpu")
         path.unlink()
         k = len(res_f.timestamps)
         mism_f = int((res_f.frames[res_f.mask] != wire[:k][res_f.mask]).sum())
@@ -121,25 +107,12 @@ def run(out: Path, quick: bool = False) -> list[dict]:
 
 
 def _write(out: Path, rows: list[dict], quick: bool) -> None:
-    cols = ["codec", "method", "frames", "seconds", "frames_per_s", "speedup_vs_reference", "mismatched_samples"]
-    buf = io.StringIO()
-    w = csv.DictWriter(buf, fieldnames=cols)
-    w.writeheader()
-    for r in rows:
-        w.writerow({k: r[k] for k in cols})
-    with atomic_write(out / "table.csv", "w", encoding="utf-8") as fh:
-        fh.write(buf.getvalue())
-    md = ["# CAN decoding: vectorised vs per-message python-can + cantools", "",
-          f"{'Quick run (small sizes).' if quick else 'Full run.'} Same frames, same machine, one run; "
-          "`mismatched_samples` counts samples that differ from the reference decode "
-          "(for the reference row: from the values that were encoded).", "",
-          "| codec | method | frames | CPU seconds | frames/s | x reference | mismatched samples |",
-          "|---|---|---:|---:|---:|---:|---:|"]
-    for r in rows:
-        md.append(f"| {r['codec']} | {r['method']} | {r['frames']} | {r['seconds']:.4f} | "
-                  f"{r['frames_per_s']:.3g} | {r['speedup_vs_reference']:.1f} | {r['mismatched_samples']} |")
-    with atomic_write(out / "table.md", "w", encoding="utf-8") as fh:
-        fh.write("\n".join(md) + "\n")
+    write_table(out, rows, title="CAN decoding: vectorised vs per-message python-can + cantools", notes=[
+        f"{'Quick run (small sizes).' if quick else 'Full run.'} Same frames, same machine, one run; CPU seconds. "
+        "`mismatched_samples` counts samples that differ from the reference decode "
+        "(for the reference row: from the values that were encoded)."],
+        columns=["codec", "method", "frames", "seconds", "frames_per_s", "speedup_vs_reference",
+                 "mismatched_samples"])
     import matplotlib
 
     matplotlib.use("Agg")
@@ -158,6 +131,4 @@ def _write(out: Path, rows: list[dict], quick: bool) -> None:
     ax.set_title("CAN decode: accuracy vs time")
     ax.axvline(1.0, color="0.6", ls="--", lw=0.8)
     ax.text(1.0, ax.get_ylim()[1] * 0.9 if ax.get_ylim()[1] > 0 else 0.5, " 1 M frames/s", fontsize=7, color="0.4")
-    with atomic_write(out / "accuracy_vs_time.png", "wb") as fh:
-        fig.savefig(fh, format="png", dpi=120, bbox_inches="tight")
-    plt.close(fig)
+    save_png(fig, out / "accuracy_vs_time.png")

@@ -19,14 +19,12 @@ layer as the reference.
 
 from __future__ import annotations
 
-import csv
-import io
 import time
 from pathlib import Path
 
 import numpy as np
 
-from .._io import atomic_write
+from .._bench import save_png, write_table
 from .formation import CategoryFormation, kmeans_splits, single_threaded
 from .tasks import PAPER_OBJECTS, make_tasks, task_accuracies
 
@@ -109,24 +107,12 @@ def run(out: Path, quick: bool = False) -> list[dict]:
                      "same_top_split": f"{sum(same)}/{len(same)}",
                      "reference": (model, dx) == ref_key})
 
-    fields = list(rows[0])
-    buf = io.StringIO()
-    w = csv.DictWriter(buf, fieldnames=fields, lineterminator="\n")
-    w.writeheader()
-    w.writerows(rows)
-    with atomic_write(out / "table.csv", "w", encoding="utf-8") as fh:
-        fh.write(buf.getvalue())
-    lines = ["# Category formation: contact model and grid against time",
-             "",
-             f"Seed 001's four objects at 10 N through {', '.join(f'{h * 1e3:g}' for h in thicknesses)} mm; "
-             f"reference: {ref_key[0]} at {ref_key[1] * 1e3:g} mm. Error: largest |expected accuracy - "
-             f"reference| over the layers reached and the 7 tasks (a model may not reach 10 N through a thin "
-             f"layer: the half-space ignores the rigid base). Same top split: layers whose most likely "
-             f"K-Means split is the reference's.", "",
-             "| " + " | ".join(fields) + " |", "|" + "---|" * len(fields)]
-    lines += ["| " + " | ".join(str(r[f]) for f in fields) + " |" for r in rows]
-    with atomic_write(out / "table.md", "w", encoding="utf-8") as fh:
-        fh.write("\n".join(lines) + "\n")
+    write_table(out, rows, title="Category formation: contact model and grid against time", notes=[
+        f"Seed 001's four objects at 10 N through {', '.join(f'{h * 1e3:g}' for h in thicknesses)} mm; "
+        f"reference: {ref_key[0]} at {ref_key[1] * 1e3:g} mm. Error: largest |expected accuracy - "
+        f"reference| over the layers reached and the 7 tasks (a model may not reach 10 N through a thin "
+        f"layer: the half-space ignores the rigid base). Same top split: layers whose most likely "
+        f"K-Means split is the reference's."])
 
     import matplotlib
 
@@ -147,7 +133,5 @@ def run(out: Path, quick: bool = False) -> list[dict]:
     ax.set_title("category formation: contact model and grid")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
-    with atomic_write(out / "accuracy_vs_time.png", "wb") as fh:
-        fig.savefig(fh, format="png", dpi=120, bbox_inches="tight")
-    plt.close(fig)
+    save_png(fig, out / "accuracy_vs_time.png")
     return rows

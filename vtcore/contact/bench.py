@@ -12,14 +12,13 @@ Plus one row of the local model on a 4,000-taxel flat patch.
 
 from __future__ import annotations
 
-import csv
 import os
 import time
 from pathlib import Path
 
 import numpy as np
 
-from .._io import atomic_write
+from .._bench import save_png, write_table
 from .materials import SoftLayer
 from .objects import make_object
 from .press import ContactGrid, press_sequence
@@ -98,20 +97,11 @@ def run(out: Path, quick: bool = False) -> list[dict]:
                      "frames_per_s": 1.0 / dt})
 
     load = (load0, os.getloadavg()[0]) if hasattr(os, "getloadavg") else (float("nan"),) * 2
-    keys = list(rows[0])
-    with atomic_write(out / "table.csv", "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=keys)
-        w.writeheader()
-        w.writerows(rows)
-    lines = ["| " + " | ".join(keys) + " |", "|" + "---|" * len(keys)]
-    for r in rows:
-        lines.append("| " + " | ".join(f"{v:.4g}" if isinstance(v, float) else str(v) for v in r.values()) + " |")
-    with atomic_write(out / "table.md", "w") as fh:
-        fh.write(f"# Contact benchmark ({'quick' if quick else 'full'})\n\nSphere r 30 mm sliding over "
-                 f"{len(layout)} taxels through 3 mm Ecoflex 00-20, {frames} warm-started frames; error = mean "
-                 f"relative L2 error of the taxel readings vs finite layer at {ref_grid * 1e3:g} mm, "
-                 f"{ref_samples} samples. Times: best of {rep} runs, wall and process CPU per frame; "
-                 f"load average {load[0]:.1f} / {load[1]:.1f} before / after.\n\n" + "\n".join(lines) + "\n")
+    write_table(out, rows, title=f"Contact benchmark ({'quick' if quick else 'full'})", notes=[
+        f"Sphere r 30 mm sliding over {len(layout)} taxels through 3 mm Ecoflex 00-20, {frames} warm-started "
+        f"frames; error = mean relative L2 error of the taxel readings vs finite layer at {ref_grid * 1e3:g} mm, "
+        f"{ref_samples} samples. Times: best of {rep} runs, wall and process CPU per frame; "
+        f"load average {load[0]:.1f} / {load[1]:.1f} before / after."])
     import matplotlib
 
     matplotlib.use("Agg")
@@ -133,7 +123,5 @@ def run(out: Path, quick: bool = False) -> list[dict]:
     ax.set_ylabel("relative error vs fine finite layer")
     ax.set_title("contact: accuracy vs time (labels: grid mm / samples per taxel)")
     ax.legend()
-    with atomic_write(out / "accuracy_vs_time.png", "wb") as fh:
-        fig.savefig(fh, format="png", dpi=120, bbox_inches="tight")
-    plt.close(fig)
+    save_png(fig, out / "accuracy_vs_time.png")
     return rows

@@ -19,24 +19,12 @@ Cases (each row: what, method, setting, size, seconds, accuracy):
 
 from __future__ import annotations
 
-import csv
-import io
-import time
 import warnings
 from pathlib import Path
 
 import numpy as np
 
-from .._io import atomic_write
-
-
-def _timeit(fn, repeat=1):
-    best, out = np.inf, None
-    for _ in range(repeat):
-        t = time.perf_counter()
-        out = fn()
-        best = min(best, time.perf_counter() - t)
-    return best, out
+from .._bench import best_time, save_png, write_table
 
 
 def _cylinder_mesh(radius, length, faces_target):
@@ -89,8 +77,8 @@ def _place_rows(quick):
     for method, mf in settings:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            sec, (lay, rep) = _timeit(lambda: place(mesh, patch, (r, 0, 0), (0, 1, 0), method=method,
-                                                    max_faces=mf))
+            sec, (lay, rep) = best_time(lambda: place(mesh, patch, (r, 0, 0), (0, 1, 0), method=method,
+                                                        max_faces=mf), repeat=1)
         solved = "" if method == "project" else (" solved on all" if mf is None else f" solved on ~{mf}")
         rows.append({"case": "place_1000" if not quick else "place_100", "method": method,
                      "setting": f"{len(mesh.faces)} faces{solved}", "n": patch.n_modules, "seconds": sec,
@@ -119,7 +107,7 @@ def _sphere_rows(quick):
             for mf in ((1000,) if quick else (2000, 5000)):
                 with warnings.catch_warnings():
                     warnings.simplefilter("ignore")
-                    sec, (lay, rep) = _timeit(lambda: place(mesh, p, (0, 0, R), (1, 0, 0), max_faces=mf))
+                    sec, (lay, rep) = best_time(lambda: place(mesh, p, (0, 0, R), (1, 0, 0), max_faces=mf), repeat=1)
                 err = np.linalg.norm(lay.positions - exact, axis=1).max() * 1e3
                 rows.append({"case": "exp_sphere", "method": "logmap", "n": len(p), "seconds": sec,
                              "setting": f"icosphere {s} ({len(mesh.faces)} faces) max_faces={mf}",
@@ -130,8 +118,8 @@ def _sphere_rows(quick):
                 continue
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                sec, (lay, rep) = _timeit(lambda: place(mesh, p, (0, 0, R), (1, 0, 0), method=method,
-                                                        max_faces=None))
+                sec, (lay, rep) = best_time(lambda: place(mesh, p, (0, 0, R), (1, 0, 0), method=method,
+                                                            max_faces=None), repeat=1)
             err = np.linalg.norm(lay.positions - exact, axis=1).max() * 1e3
             rows.append({"case": "exp_sphere", "method": method, "setting": f"icosphere {s} ({len(mesh.faces)} faces)",
                          "n": len(p), "seconds": sec, "accuracy": err, "accuracy_name": "max_error_mm",
@@ -158,12 +146,12 @@ def _skin_rows(quick):
         pos = np.column_stack([r * np.sin(th), f[:, 1], r * np.cos(th)])
         nrm = np.column_stack([np.sin(th), 0 * th, np.cos(th)])
         lay = Layout(pos, nrm, np.arange(len(f)), np.zeros(len(f)), flat=f)
-        sec, ref = _timeit(lambda: skin_mesh(lay), repeat=3)
+        sec, ref = best_time(lambda: skin_mesh(lay), repeat=3)
         rows.append({"case": "skin_mesh", "method": "flat", "setting": "Delaunay of flat coords", "n": len(f),
                      "seconds": sec, "accuracy": 1.0, "accuracy_name": "edge_agreement", "extra": ""})
         if 2 * np.pi * r > np.ptp(f[:, 0]):
             lay3 = Layout(pos, nrm, lay.taxel_ids, lay.module_ids)
-            sec, m = _timeit(lambda: skin_mesh(lay3), repeat=3)
+            sec, m = best_time(lambda: skin_mesh(lay3), repeat=3)
             rows.append({"case": "skin_mesh", "method": "surface", "setting": "3-D positions only", "n": len(f),
                          "seconds": sec, "accuracy": edge_agreement(m.edges, ref.edges),
                          "accuracy_name": "edge_agreement", "extra": ""})
@@ -171,7 +159,7 @@ def _skin_rows(quick):
             # too wide to wrap once: measure the surface method on the flat lattice instead
             lay3 = Layout(np.column_stack([f, 0 * f[:, 0]]), np.tile([0, 0, 1.0], (len(f), 1)),
                           lay.taxel_ids, lay.module_ids)
-            sec, m = _timeit(lambda: skin_mesh(lay3), repeat=3)
+            sec, m = best_time(lambda: skin_mesh(lay3), repeat=3)
             rows.append({"case": "skin_mesh", "method": "surface", "setting": "3-D positions only (plane)",
                          "n": len(f), "seconds": sec, "accuracy": edge_agreement(m.edges, ref.edges),
                          "accuracy_name": "edge_agreement", "extra": ""})
@@ -192,7 +180,7 @@ def _maker_rows(quick):
             tri, _ = peel(tri, lay.positions, s)
             return mesh_from_triangles(lay.positions, lay.normals, tri)
 
-        sec, m = _timeit(run, repeat=2)
+        sec, m = best_time(run, repeat=2)
         rows.append({"case": "maker_agreement", "method": "surface", "setting": f"chart radius {cr} spacings",
                      "n": len(lay), "seconds": sec, "accuracy": edge_agreement(m.edges, ref),
                      "accuracy_name": "edge_agreement (synthetic maker)", "extra": ""})
@@ -209,21 +197,9 @@ def run(out: Path, quick: bool = False) -> list[dict]:
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     rows = _place_rows(quick) + _sphere_rows(quick) + _skin_rows(quick) + _maker_rows(quick)
-    cols = ["case", "method", "setting", "n", "seconds", "accuracy_name", "accuracy", "extra"]
-    buf = io.StringIO()
-    w = csv.DictWriter(buf, fieldnames=cols, lineterminator="\n")
-    w.writeheader()
-    for r in rows:
-        w.writerow({k: (f"{r[k]:.6g}" if isinstance(r[k], float) else r[k]) for k in cols})
-    with atomic_write(out / "table.csv", "w", encoding="utf-8", newline="") as fh:
-        fh.write(buf.getvalue())
-    md = ["# Layout benchmark" + (" (quick)" if quick else ""), "",
-          "Targets: 1,000 modules on a 100k-face mesh <= 5 s; skin mesh of 4,000 taxels <= 0.5 s.", "",
-          "| case | method | setting | n | seconds | accuracy | value | notes |", "|---|---|---|---|---|---|---|---|"]
-    md += [f"| {r['case']} | {r['method']} | {r['setting']} | {r['n']} | {r['seconds']:.3f} | {r['accuracy_name']} | "
-           f"{r['accuracy']:.4g} | {r['extra']} |" for r in rows]
-    with atomic_write(out / "table.md", "w", encoding="utf-8") as fh:
-        fh.write("\n".join(md) + "\n")
+    write_table(out, rows, title="Layout benchmark" + (" (quick)" if quick else ""), notes=[
+        "Targets: 1,000 modules on a 100k-face mesh <= 5 s; skin mesh of 4,000 taxels <= 0.5 s."],
+        columns=["case", "method", "setting", "n", "seconds", "accuracy_name", "accuracy", "extra"])
     fig, axes = plt.subplots(1, 3, figsize=(13, 4))
     for ax, case, ylab in ((axes[0], ("place_1000", "place_100"), "max module-edge strain"),
                            (axes[1], ("exp_sphere",), "max error vs exact exp map (mm)"),
@@ -239,7 +215,5 @@ def run(out: Path, quick: bool = False) -> list[dict]:
         ax.set_title("/".join(case))
         ax.legend(fontsize=6)
     fig.tight_layout()
-    with atomic_write(out / "accuracy_vs_time.png", "wb") as fh:
-        fig.savefig(fh, format="png", dpi=110)
-    plt.close(fig)
+    save_png(fig, out / "accuracy_vs_time.png", dpi=110)
     return rows

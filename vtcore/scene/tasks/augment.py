@@ -9,9 +9,9 @@ the dense ground truth, write the augmented PLYs and a Fig.-7-style picture.
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
+
+from ..._bench import best_time
 
 from ...augment import (ClusterPropagation, GPPropagation, ProbeModel, SmoothPropagation, colour_map, compliance,
                         load_probes, make_seed000_object, read_point_cloud, two_cameras, write_ply)
@@ -58,16 +58,6 @@ PARAMS = Section({
                       doc="tactile colour channels; compliance first"),
     "ply": Field("bool", default=True, doc="write augmented_{cluster,smooth}.ply"),
 })
-
-
-def _timed(fn, repeat=3):
-    """Best of ``repeat`` wall times (s) and the result: propagation timings are a few ms."""
-    best, out = np.inf, None
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        out = fn()
-        best = min(best, time.perf_counter() - t0)
-    return best, out
 
 
 def _contact_prober(scene, ctx, obj):
@@ -143,10 +133,10 @@ def run(scene, ctx) -> TaskResult:
     preds, metrics = {}, {}
     for name, est in methods.items():
         if name == "gp":
-            t_fit, _ = _timed(lambda: est.fit(v, c, visual_points=x), repeat=1)
+            t_fit, _ = best_time(lambda: est.fit(v, c, visual_points=x), repeat=1)
         else:
-            t_fit, _ = _timed(lambda: est.fit(v, c))
-        t_pred, y = _timed(lambda: est.predict(x), repeat=1 if name == "gp" else 3)
+            t_fit, _ = best_time(lambda: est.fit(v, c))
+        t_pred, y = best_time(lambda: est.predict(x), repeat=1 if name == "gp" else 3)
         preds[name] = y
         yt = y if truth_points is x else est.predict(truth_points)
         comp = yt if yt.ndim == 1 else yt[:, 0]
