@@ -15,6 +15,7 @@ def test_filters_bench_quick(tmp_path):
     assert len(table) == len(rows)
     kinds = {r["row"] for r in rows}
     assert {"mesh_filter", "mesh_filter_batch", "detect_mesh", "detect_image", "detect_subtaxel"} <= kinds
+    assert not any(k.startswith("contour_") for k in kinds)  # closed loop: vtcore bench control
     for r in rows:
         assert r["ms_per_frame"] > 0
         if r["row"].startswith("detect_"):

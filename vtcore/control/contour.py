@@ -69,38 +69,14 @@ def control_frame(layout) -> np.ndarray:
     ``layout.meta["reference_point"]`` (3,), else the taxel nearest the centroid.
     z: the outward normal at x_R (the approach axis, perpendicular to the object).
     x: for a skin curved about one axis (seed 002's non-planar patch) the axis
-    of the curvature, the only direction along which a straight edge can lie on
-    the contact line; for a flat skin, the layout's x axis (projected).
+    of the curvature; for a flat skin, the layout's x axis (projected).
+    It is the frame the edge detectors project into (Eq. 8),
+    :func:`vtcore.filters.skin_frame`, which lives in ``vtcore.filters`` so the
+    filters' own benchmark can use it without importing control.
     """
-    pos = np.asarray(layout.positions, dtype=np.float64)
-    nrm = np.asarray(layout.normals, dtype=np.float64)
-    meta = getattr(layout, "meta", {}) or {}
-    if "reference_taxel" in meta:
-        i = int(meta["reference_taxel"])
-        origin = pos[i]
-    else:
-        origin = np.asarray(meta.get("reference_point", pos.mean(axis=0)), dtype=np.float64)
-        i = int(np.argmin(np.linalg.norm(pos - origin, axis=1)))
-    z = nrm[i] / np.linalg.norm(nrm[i])
-    dev = nrm - nrm.mean(axis=0)
-    if np.abs(dev).max() < 0.05:
-        # flat skin: keep the layout's own x axis (the patch's long side for seed 002)
-        x = np.array([1.0, 0.0, 0.0]) - z * z[0]
-        if np.linalg.norm(x) < 1e-9:
-            x = np.array([0.0, 1.0, 0.0]) - z * z[1]
-    else:
-        # curved skin: the normals turn about the curvature axis, which is
-        # perpendicular to the direction in which they vary most
-        _, _, vt = np.linalg.svd(dev, full_matrices=False)
-        x = np.cross(z, vt[0])
-        if np.linalg.norm(x) < 1e-9:
-            x = np.array([1.0, 0.0, 0.0]) - z * z[0]
-        if x @ np.array([1.0, 1.0, 1e-3]) < 0:  # deterministic sign
-            x = -x
-    x = x - z * (x @ z)
-    x /= np.linalg.norm(x)
-    y = np.cross(z, x)
-    return pose(np.column_stack([x, y, z]), origin)
+    from ..filters import skin_frame
+
+    return skin_frame(layout)
 
 
 def motion(features, step: float):
@@ -325,3 +301,130 @@ class AnalyticContact:
         if total <= 0:
             return None
         return p * (self.force / total)
+
+
+# --------------------------------------------------------------------------------------
+# Seed 002's experiment: skins in the control frame, objects, starts, a press per tap
+# --------------------------------------------------------------------------------------
+
+def control_skin(name: str):
+    """``(end-effector mesh, layout in the control frame, control frame pose in the layout frame)``.
+
+    name : a ``vtcore.layout`` end-effector, e.g. ``"seed002_planar"`` or ``"seed002_curved"``.
+    """
+    from .. import layout as L
+
+    mesh, lay = getattr(L, name)()
+    frame = control_frame(lay)
+    moved = lay.transformed(np.linalg.inv(frame), frame="control")
+    moved.meta = dict(lay.meta)
+    return mesh, moved, frame
+
+
+def seed002_object(kind: str, *, ruler_length: float = 0.25, ruler_thickness: float = 1e-3,
+                   ruler_height: float = 0.02, mug_outer_diameter: float = 0.081,
+                   mug_inner_diameter: float = 0.075, mug_height: float = 0.10,
+                   reference_radius: float = 0.0395):
+    """Seed 002's objects standing on a table whose top face is the world plane z = 0.
+
+    kind : ``"ruler"`` (a 1 mm thick straight edge along world x) or ``"mug"`` (a rim,
+    81/75 mm, error measured against the 39.5 mm reference radius). Metres.
+    Returns ``(contour, (make_object kind, dims), world pose (4, 4) of the object)``.
+    """
+    if kind == "ruler":
+        half = ruler_length / 2
+        contour = LineContour(0.0, -half, half, ruler_thickness)
+        spec = ("box", {"extents": (ruler_length, ruler_thickness, ruler_height)})
+        height = ruler_height
+    elif kind == "mug":
+        ro, ri = mug_outer_diameter / 2, mug_inner_diameter / 2
+        if not ri < ro:
+            raise InputError("must be smaller than mug_outer_diameter", key="mug_inner_diameter")
+        contour = CircleContour((0.0, 0.0), ri, ro, reference_radius)
+        spec = ("mug", {"radius": ro, "wall": ro - ri, "height": mug_height})
+        height = mug_height
+    else:
+        raise InputError(f"unknown object {kind!r}; use 'ruler' or 'mug'", key="object")
+    world = np.eye(4)
+    world[2, 3] = -height  # the object stands on a table; its top face is the plane z = 0
+    return contour, spec, world
+
+
+def random_starts(contour, runs: int, rng, *, offset: float = 2e-3, heading: float = 0.17,
+                  step: float = 5e-3, margin: float = 0.03) -> list:
+    """Seeded initial control-frame poses (4x4, world) near ``contour``.
+
+    x_R within ``+-offset`` m of the contour (the reference radius for a circle),
+    heading error within ``+-heading`` rad; a line starts ``margin`` (+ up to one
+    ``step``) inside its start, a circle at a random angle, going clockwise as in
+    seed 002 Fig. 8.
+    """
+    out = []
+    for _ in range(int(runs)):
+        off = rng.uniform(-offset, offset)
+        hd = rng.uniform(-heading, heading)
+        if isinstance(contour, LineContour):
+            x0 = contour.x_start + margin + rng.uniform(0, step)
+            out.append(facing_down([x0, contour.offset + off], hd))
+        else:
+            a0 = rng.uniform(0, 2 * np.pi)
+            r = contour.reference + off
+            c = np.asarray(contour.centre)
+            # clockwise: heading = angle - pi/2
+            out.append(facing_down(c + r * np.array([np.cos(a0), np.sin(a0)]), a0 - np.pi / 2 + hd))
+    return out
+
+
+class PressContact:
+    """One tap of seed 002 §5.2 with the contact solver: ``sense(world_pose) -> (N,) Pa or None``.
+
+    The control frame is placed at ``world_pose`` with the skin's outer surface
+    ``lift`` above the object's top (``height = layer.thickness + lift``), then
+    the object is pressed along the approach axis until ``force`` N
+    (``vtcore.contact.press``). Only taxels within ``active_depth`` m of the tangent
+    plane at x_R are solved: the rest cannot reach a flat-topped object within
+    the layer's travel (<1 % change, 3-5x faster).
+
+    A tap whose force would bottom the layer out presses as deep as the layer
+    allows (80 % of its thickness), as a real force loop stops at the hard stop;
+    ``saturated`` counts such taps, ``forces`` holds the force of each tap (N).
+
+    layout : Layout in the control frame. mesh : object (trimesh, object frame).
+    world : (4, 4) object pose in the world. layer : vtcore.contact.SoftLayer.
+    press_options : more keyword arguments for ``vtcore.contact.press``.
+    """
+
+    def __init__(self, layout, mesh, world, layer, force: float = 15.0, lift: float = 0.01,
+                 active_depth: float = 0.012, **press_options):
+        self.n = len(layout)
+        self.active = np.flatnonzero(np.asarray(layout.positions)[:, 2] >= -active_depth)
+        self.sub = layout.subset(self.active)
+        self.mesh, self.world, self.layer = mesh, np.asarray(world, dtype=np.float64), layer
+        self.force, self.height = float(force), layer.thickness + float(lift)
+        self.options = dict(direction=[0.0, 0.0, -1.0], open_mesh="envelope", **press_options)
+        self.saturated, self.forces = 0, []
+
+    def __call__(self, world_pose):
+        from ..contact import press
+        from ..errors import UnreachableTargetError
+
+        w = np.array(world_pose, dtype=np.float64)
+        w[2, 3] = self.height
+        pose = np.linalg.inv(w) @ self.world
+        try:
+            res = press(self.sub, self.mesh, pose, self.layer, force=self.force, **self.options)
+        except UnreachableTargetError:
+            # either the object misses the skin, or the layer would bottom out before the
+            # target force (a short contact across the curved patch)
+            try:
+                res = press(self.sub, self.mesh, pose, self.layer, indentation=0.8 * self.layer.thickness,
+                            **self.options)
+            except UnreachableTargetError:
+                return None
+            if not np.any(res.pressure > 0):
+                return None
+            self.saturated += 1
+        self.forces.append(float(res.force))
+        full = np.zeros(self.n)
+        full[self.active] = res.pressure
+        return full

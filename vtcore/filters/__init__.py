@@ -9,7 +9,7 @@ edge features (components, orientation, centroid) by three methods.
 
 from .detectors import ImageEdgeDetector, MeshEdgeDetector, SubtaxelEdgeDetector, make_detector
 from .extract import (EdgeFeatures, component_orientation, features, mean_axis, mesh_components,
-                      plane_basis, project_plane, wrap_half_pi)
+                      plane_basis, project_plane, skin_frame, wrap_half_pi)
 from .image import TactileImage, canny_edges, flatten
 from .local import (EdgeFilter, apply_local, edge_filter, inverse_distance, local_operator,
                     relative_threshold, threshold)
@@ -18,7 +18,7 @@ from .subdivide import loop_subdivision
 __all__ = [
     "edge_filter", "EdgeFilter", "threshold", "relative_threshold", "local_operator", "apply_local",
     "inverse_distance", "EdgeFeatures", "features", "mesh_components", "component_orientation",
-    "mean_axis", "plane_basis", "project_plane", "wrap_half_pi", "TactileImage", "canny_edges",
+    "mean_axis", "plane_basis", "project_plane", "skin_frame", "wrap_half_pi", "TactileImage", "canny_edges",
     "flatten", "loop_subdivision", "MeshEdgeDetector", "ImageEdgeDetector", "SubtaxelEdgeDetector",
     "make_detector",
 ]

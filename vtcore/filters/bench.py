@@ -12,12 +12,10 @@ Rows:
   grid (0.5/1/2 mm), the Loop subdivision levels (0/1/2).
 - ``image_backproject_all`` the whole image pipeline with every skin pixel
   back-projected and used in the moments (seed 002's worst case, 7.2 ms).
-- ``contour_<method>`` one seeded run of each seed 002 contour scene per method:
-  detection time per tap next to the closed-loop contour error d-bar (``pos_err_mm``).
 
-Like ``vtcore.scene``, this benchmark composes packages (it uses the control
-frame and the analytic contact of ``vtcore.control``); the filters themselves
-import nothing to their right.
+Only layout, contact and filters are used (filters sits left of control): the
+closed-loop contour error of each method next to its time is
+``vtcore bench control`` (``vtcore/control/bench.py``).
 """
 
 from __future__ import annotations
@@ -63,14 +61,14 @@ def _random_mesh(n, rng):
 
 
 def _skins():
-    """The seed 002 skins in their control frames (x_R at the origin, z the approach axis)."""
+    """The seed 002 skins in their detector frames (x_R at the origin, z the approach axis)."""
     from .. import layout as L
-    from ..control import control_frame
+    from .extract import skin_frame
 
     out = {}
     for name in ("seed002_planar", "seed002_curved"):
         _, lay = getattr(L, name)()
-        lay = lay.transformed(np.linalg.inv(control_frame(lay)))
+        lay = lay.transformed(np.linalg.inv(skin_frame(lay)))
         out[name] = (lay, L.skin_mesh(lay))
     return out
 
@@ -79,15 +77,37 @@ def _line_cases(n, rng):
     return [(rng.uniform(-4e-3, 4e-3), rng.uniform(-0.6, 0.6)) for _ in range(n)]
 
 
+def line_pressure(positions, offset, angle, width=1e-3, force=15.0, spread=2e-3, depth=3e-3, area=4.9e-5):
+    """Taxel pressure (N,) Pa of a thin straight edge pressed on a skin facing it, or None.
+
+    The skin's frame (positions (N, 3) metres, z towards the object) is turned by
+    ``angle`` (rad) about z and flipped onto a table, as the control frame of a robot
+    facing down; the edge runs along the table's x at ``y = offset`` (m) and is
+    ``width`` m wide. In skin coordinates a point is at table height
+    ``y_t = sin(angle) x - cos(angle) y``. Pressure:
+    ``exp(-d^2 / (2 spread^2)) * clip(1 - (z_max - z) / depth, 0, 1)``, with ``d``
+    the distance to the edge's top face and ``z_max`` the highest skin point near it
+    (where a curved skin touches first), scaled to ``force`` over ``area`` per taxel.
+    The same field as ``vtcore.control.AnalyticContact`` for a straight edge, written
+    out here because the filters may not import control (layering).
+    """
+    q = np.asarray(positions, dtype=np.float64)
+    y_t = np.sin(angle) * q[:, 0] - np.cos(angle) * q[:, 1]
+    dist = np.maximum(np.abs(y_t - offset) - width / 2, 0.0)
+    near = dist < 3 * spread
+    if not near.any():
+        return None
+    zmax = q[near, 2].max()
+    p = np.exp(-0.5 * (dist / spread) ** 2) * np.clip(1 - (zmax - q[:, 2]) / depth, 0, 1)
+    total = p.sum() * area
+    return None if total <= 0 else p * (force / total)
+
+
 def _accuracy(det, lay, cases):
     """Mean position (mm) and angle (deg) error of ``det`` on analytic straight edges."""
-    from ..control import AnalyticContact, LineContour, facing_down
-
     pos_err, ang_err, frames = [], [], []
     for off, ang in cases:
-        contour = LineContour(off, -1.0, 1.0, 1e-3)
-        pose = facing_down([0.0, 0.0], ang)
-        p = AnalyticContact(lay.positions, contour, force=15.0)(pose)
+        p = line_pressure(lay.positions, off, ang)
         if p is None:
             continue
         frames.append(p)
@@ -96,10 +116,10 @@ def _accuracy(det, lay, cases):
             pos_err.append(np.nan)
             ang_err.append(np.nan)
             continue
-        c = pose[:3, :3] @ np.r_[f.centroid, 0.0] + pose[:3, 3]
-        d = pose[:3, :3] @ np.r_[np.cos(f.theta), np.sin(f.theta), 0.0]
-        pos_err.append(abs(c[1] - off) * 1e3)
-        a = np.arctan2(d[1], d[0])
+        c = f.centroid
+        pos_err.append(abs(np.sin(ang) * c[0] - np.cos(ang) * c[1] - off) * 1e3)
+        # the edge's direction on the table: the skin's theta seen through the flip and the turn
+        a = ang - f.theta
         ang_err.append(abs(np.degrees(np.mod(a + np.pi / 2, np.pi) - np.pi / 2)))
     miss = int(np.sum(np.isnan(pos_err)))
     return float(np.nanmean(pos_err)), float(np.nanmean(ang_err)), miss, frames
@@ -180,36 +200,7 @@ def run(out: Path, quick: bool = False) -> list[dict]:
                      "knob": f"{int(img.tactile.inside.sum())} px", "ms_per_frame": t * 1e3,
                      "taxel_frames_per_s": len(lay) / t, "pos_err_mm": "", "ang_err_deg": "", "misses": ""})
 
-    # 4. closed loop: each method driving the seed 002 contour scenes (one seeded run each)
-    rows += _contour_rows(out, quick)
     _write(out, rows)
-    return rows
-
-
-def _contour_rows(out: Path, quick: bool) -> list[dict]:
-    """Contour error d-bar (mm) of each method next to its per-frame time, from the scenes."""
-    import tempfile
-
-    from ..scene import run_scene
-
-    scenes = Path(__file__).resolve().parents[2] / "scenes"
-    names = ["contour_ruler_planar"] if quick else [
-        "contour_ruler_planar", "contour_mug_planar", "contour_ruler_curved", "contour_mug_curved"]
-    rows = []
-    for name in names:
-        path = scenes / f"{name}.toml"
-        if not path.exists():
-            continue
-        over = ["task.runs=1", "output.plots=false", "output.arrays=false"] + (["task.max_taps=10"] if quick else [])
-        with tempfile.TemporaryDirectory() as tmp:
-            m = run_scene(path, Path(tmp), over)["metrics"]
-        for method in ("mesh", "image", "subtaxel"):
-            if f"{method}_d_mean_mm" not in m:
-                continue
-            rows.append({"row": f"contour_{method}", "skin": name.replace("contour_", ""), "taxels": m["taxels"],
-                         "frames": m[f"{method}_taps"], "knob": "1 run, closed loop",
-                         "ms_per_frame": m[f"{method}_detect_ms"], "taxel_frames_per_s": "",
-                         "pos_err_mm": m[f"{method}_d_mean_mm"], "ang_err_deg": "", "misses": ""})
     return rows
 
 
@@ -252,37 +243,32 @@ def _write(out: Path, rows: list[dict]) -> None:
     fig, ax = plt.subplots(figsize=(6.5, 4.5))
     colours = {"mesh": "C0", "image": "C1", "subtaxel": "C2"}
     markers = {"seed002_planar": "o", "seed002_curved": "s"}
-    fig.clf()
-    axes = fig.subplots(1, 2)
-    fig.set_size_inches(12, 4.5)
     for r in rows:
-        method = r["row"].split("_", 1)[1] if "_" in r["row"] else ""
+        method = r["row"].split("_", 1)[1] if r["row"].startswith("detect_") else ""
         if r["pos_err_mm"] == "" or method not in colours:
             continue
-        if r["row"].startswith("detect_"):
-            ax, mk, label = axes[0], markers.get(r["skin"], "o"), r["knob"]
-        else:
-            ax, mk, label = axes[1], "s" if "curved" in r["skin"] else "o", r["skin"]
-        ax.scatter(r["ms_per_frame"], r["pos_err_mm"], c=colours[method], marker=mk)
-        ax.annotate(label, (r["ms_per_frame"], r["pos_err_mm"]), fontsize=6, xytext=(3, 3),
+        ax.scatter(r["ms_per_frame"], r["pos_err_mm"], c=colours[method], marker=markers.get(r["skin"], "o"))
+        ax.annotate(r["knob"], (r["ms_per_frame"], r["pos_err_mm"]), fontsize=6, xytext=(3, 3),
                     textcoords="offset points")
     for name, c in colours.items():
-        axes[0].scatter([], [], c=c, label=name)
+        ax.scatter([], [], c=c, label=name)
     for name, mk in markers.items():
-        axes[0].scatter([], [], c="k", marker=mk, label=name)
-    axes[0].legend(fontsize=7)
-    from matplotlib.ticker import FormatStrFormatter, LogLocator, NullFormatter
-
-    for ax in axes:
-        ax.set_xscale("log")
-        ax.xaxis.set_major_locator(LogLocator(base=10, subs=(1.0, 2.0, 5.0)))
-        ax.xaxis.set_major_formatter(FormatStrFormatter("%g"))
-        ax.xaxis.set_minor_formatter(NullFormatter())
-        ax.set_xlabel("time per frame (ms)")
-    axes[0].set_ylabel("edge position error, straight edges (mm)")
-    axes[1].set_ylabel("contour error d-bar, closed loop (mm)")
-    axes[0].set_title("single frames: accuracy vs time")
-    axes[1].set_title("contour following (one run per scene)")
+        ax.scatter([], [], c="k", marker=mk, label=name)
+    ax.legend(fontsize=7)
+    log_time_axis(ax)
+    ax.set_ylabel("edge position error, straight edges (mm)")
+    ax.set_title("single frames: accuracy vs time (closed loop: vtcore bench control)")
     with atomic_write(out / "accuracy_vs_time.png", "wb") as fh:
         fig.savefig(fh, format="png", dpi=120, bbox_inches="tight")
     plt.close(fig)
+
+
+def log_time_axis(ax) -> None:
+    """A readable log x axis of milliseconds per frame (1, 2, 5 ticks)."""
+    from matplotlib.ticker import FormatStrFormatter, LogLocator, NullFormatter
+
+    ax.set_xscale("log")
+    ax.xaxis.set_major_locator(LogLocator(base=10, subs=(1.0, 2.0, 5.0)))
+    ax.xaxis.set_major_formatter(FormatStrFormatter("%g"))
+    ax.xaxis.set_minor_formatter(NullFormatter())
+    ax.set_xlabel("time per frame (ms)")

@@ -68,6 +68,51 @@ def plane_basis(normal) -> np.ndarray:
     return np.vstack([u, v, n])
 
 
+def skin_frame(layout) -> np.ndarray:
+    """Pose (4x4) of the frame the detectors work in, in the layout's frame (metres).
+
+    Eq. 8 projects the edges on the plane normal to the end-effector's approach
+    axis at the reference point x_R. Origin at x_R: ``layout.meta["reference_taxel"]``
+    (a taxel index) or ``layout.meta["reference_point"]`` (3,), else the taxel nearest
+    the centroid. z: the outward normal at x_R. x: for a skin curved about one axis
+    (seed 002's non-planar patch) the axis of the curvature, the only direction along
+    which a straight edge can lie on the contact line; for a flat skin, the layout's
+    x axis (projected). ``vtcore.control.control_frame`` is this frame.
+    """
+    pos = np.asarray(layout.positions, dtype=np.float64)
+    nrm = np.asarray(layout.normals, dtype=np.float64)
+    meta = getattr(layout, "meta", {}) or {}
+    if "reference_taxel" in meta:
+        i = int(meta["reference_taxel"])
+        origin = pos[i]
+    else:
+        origin = np.asarray(meta.get("reference_point", pos.mean(axis=0)), dtype=np.float64)
+        i = int(np.argmin(np.linalg.norm(pos - origin, axis=1)))
+    z = nrm[i] / np.linalg.norm(nrm[i])
+    dev = nrm - nrm.mean(axis=0)
+    if np.abs(dev).max() < 0.05:
+        # flat skin: keep the layout's own x axis (the patch's long side for seed 002)
+        x = np.array([1.0, 0.0, 0.0]) - z * z[0]
+        if np.linalg.norm(x) < 1e-9:
+            x = np.array([0.0, 1.0, 0.0]) - z * z[1]
+    else:
+        # curved skin: the normals turn about the curvature axis, which is
+        # perpendicular to the direction in which they vary most
+        _, _, vt = np.linalg.svd(dev, full_matrices=False)
+        x = np.cross(z, vt[0])
+        if np.linalg.norm(x) < 1e-9:
+            x = np.array([1.0, 0.0, 0.0]) - z * z[0]
+        if x @ np.array([1.0, 1.0, 1e-3]) < 0:  # deterministic sign
+            x = -x
+    x = x - z * (x @ z)
+    x /= np.linalg.norm(x)
+    y = np.cross(z, x)
+    out = np.eye(4)
+    out[:3, :3] = np.column_stack([x, y, z])
+    out[:3, 3] = origin
+    return out
+
+
 def project_plane(points, normal=(0.0, 0.0, 1.0)) -> np.ndarray:
     """Eq. 8: ``(I - n n^T) t`` expressed in the plane basis; (M, 3) -> (M, 2) metres."""
     b = plane_basis(normal)

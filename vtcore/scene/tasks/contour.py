@@ -87,15 +87,9 @@ PARAMS = Section({
 
 def control_skin(name):
     """``(end-effector mesh, layout in the control frame, control frame pose in the layout frame)``."""
-    from ... import layout as L
-    from ...control import control_frame
+    from ...control.contour import control_skin as make
 
-    mesh, lay = getattr(L, name)()
-    frame = control_frame(lay)
-    inv = np.linalg.inv(frame)
-    moved = lay.transformed(inv, frame="control")
-    moved.meta = dict(lay.meta)
-    return mesh, moved, frame
+    return make(name)
 
 
 def _detectors(p, mesh, layout):
@@ -116,52 +110,14 @@ def _detectors(p, mesh, layout):
     return out
 
 
-def _contour_and_object(p):
-    """World contour (top face at z = 0) and, for ``press``, the object mesh and its world pose."""
-    from ...control import CircleContour, LineContour
-
-    if p["object"] == "ruler":
-        half = p["ruler_length"] / 2
-        contour = LineContour(0.0, -half, half, p["ruler_thickness"])
-        extents, height = (p["ruler_length"], p["ruler_thickness"], p["ruler_height"]), p["ruler_height"]
-        spec = ("box", {"extents": extents})
-    else:
-        ro, ri = p["mug_outer_diameter"] / 2, p["mug_inner_diameter"] / 2
-        contour = CircleContour((0.0, 0.0), ri, ro, p["reference_radius"])
-        height = p["mug_height"]
-        spec = ("mug", {"radius": ro, "wall": ro - ri, "height": height})
-    world = np.eye(4)
-    world[2, 3] = -height  # the object stands on a table; its top face is the plane z = 0
-    return contour, spec, world
-
-
-def _starts(p, contour, rng):
-    """Seeded initial control-frame poses in the world, the same for every method."""
-    from ...control import facing_down
-
-    out = []
-    for _ in range(p["runs"]):
-        off = rng.uniform(-p["start_offset"], p["start_offset"])
-        hd = rng.uniform(-p["start_heading"], p["start_heading"])
-        if p["object"] == "ruler":
-            x0 = contour.x_start + p["ruler_margin"] + rng.uniform(0, p["step"])
-            out.append(facing_down([x0, contour.offset + off], hd))
-        else:
-            a0 = rng.uniform(0, 2 * np.pi)
-            r = contour.reference + off
-            c = np.asarray(contour.centre)
-            # clockwise, as in seed 002 Fig. 8: heading = angle - pi/2
-            out.append(facing_down(c + r * np.array([np.cos(a0), np.sin(a0)]), a0 - np.pi / 2 + hd))
-    return out
-
-
 def run(scene, ctx) -> TaskResult:
     from ...control import AnalyticContact, ContourFollower, summarize
-    from ...errors import UnreachableTargetError
+    from ...control.contour import PressContact, random_starts, seed002_object
     from ...layout import skin_mesh
+    from ..sections.contact import build_layer, layer_options
 
     p = scene["task"]
-    if p["object"] == "mug" and p["mug_inner_diameter"] >= p["mug_outer_diameter"]:
+    if p["object"] == "mug" and not p["mug_inner_diameter"] < p["mug_outer_diameter"]:
         raise scene.error("task.mug_inner_diameter", "must be smaller than mug_outer_diameter")
     if not p["methods"]:
         raise scene.error("task.methods", "list at least one of mesh, image, subtaxel")
@@ -174,61 +130,31 @@ def run(scene, ctx) -> TaskResult:
         belief.positions = layout.positions + err
     mesh = skin_mesh(belief)
     detectors = _detectors(p, mesh, belief)
-    contour, spec, obj_world = _contour_and_object(p)
-    starts = _starts(p, contour, ctx.child_rng("contour-starts"))
-    from ..sections.contact import build_layer, layer_options
+    keys = ("ruler_length", "ruler_thickness", "ruler_height", "mug_outer_diameter", "mug_inner_diameter",
+            "mug_height", "reference_radius")
+    contour, spec, obj_world = seed002_object(p["object"], **{k: p[k] for k in keys})
+    starts = random_starts(contour, p["runs"], ctx.child_rng("contour-starts"), offset=p["start_offset"],
+                           heading=p["start_heading"], step=p["step"], margin=p["ruler_margin"])
 
     layer = build_layer(scene)  # the scene's [layer] table, the same for every task
-    height = layer.thickness + p["lift"]  # skin's outer surface 'lift' above the object's top
-
     if p["contact"] == "press":
-        from ...contact import make_object, press
+        from ...contact import make_object
 
         if layer.thickness <= 0:
             raise scene.error("layer.thickness", "the contour task presses through a soft layer: must be > 0 m")
-        options = layer_options(scene)
-        obj = make_object(spec[0], **spec[1])
-        # skin further than active_depth behind the tangent plane at x_R cannot reach the
-        # object's flat top within the layer's travel; pressing only the rest is 3-5x faster
-        active = np.flatnonzero(layout.positions[:, 2] >= -p["active_depth"])
-        sub = layout.subset(active)
-
-        def sense(world_pose):
-            w = world_pose.copy()
-            w[2, 3] = height
-            pose = np.linalg.inv(w) @ obj_world
-            kw = dict(direction=[0.0, 0.0, -1.0], open_mesh="envelope", **options)
-            try:
-                res = press(sub, obj, pose, layer, force=p["force"], **kw)
-            except UnreachableTargetError:
-                # either the object misses the skin, or the layer would bottom out before the
-                # target force (a short contact across the curved patch): a real force loop
-                # then stops at the hard stop, so press as deep as the layer allows
-                try:
-                    res = press(sub, obj, pose, layer, indentation=0.8 * layer.thickness, **kw)
-                except UnreachableTargetError:
-                    return None
-                if not np.any(res.pressure > 0):
-                    return None
-                sensed.saturated += 1
-            sensed.force.append(float(res.force))
-            full = np.zeros(len(layout))
-            full[active] = res.pressure
-            return full
+        sense = PressContact(layout, make_object(spec[0], **spec[1]), obj_world, layer, force=p["force"],
+                             lift=p["lift"], active_depth=p["active_depth"], **layer_options(scene))
+        n_active = len(sense.active)
     else:
-        analytic = AnalyticContact(layout.positions, contour, force=p["force"], depth=layer.thickness)
-
-        def sense(world_pose):
-            q = analytic(world_pose)
-            if q is not None:
-                sensed.force.append(float(p["force"]))  # scaled to the target exactly
-            return q
+        sense = AnalyticContact(layout.positions, contour, force=p["force"], depth=layer.thickness)
+        n_active = len(layout)
 
     def sensed(world_pose):
         """The taxel pressure after the listed sensor effects (what the detectors see)."""
         q = sense(world_pose)
         if q is None:
             return None
+        sensed.force.append(float(sense.forces[-1]) if p["contact"] == "press" else float(p["force"]))
         sensed.raw.append(np.asarray(q, dtype=np.float64))
         return np.asarray(ctx.pipeline.apply("sensor", np.asarray(q, float)[None, :].copy(), ctx))[0]
 
@@ -238,14 +164,14 @@ def run(scene, ctx) -> TaskResult:
         stop = contour.explored(p["explore_angle"])
 
     metrics = {"taxels": len(layout), "force_n": p["force"], "step_mm": p["step"] * 1e3,
-               "active_taxels": len(active) if p["contact"] == "press" else len(layout)}
+               "active_taxels": n_active}
     arrays = {"positions": layout.positions, "normals": layout.normals, "control_frame": frame}
     runs_by_method = {}
     for m, det in detectors.items():
         follower = ContourFollower(det, step=p["step"], lift=p["lift"], max_taps=p["max_taps"])
         runs, dists = [], []
         t0 = time.perf_counter()
-        sensed.saturated = 0
+        saturated0 = getattr(sense, "saturated", 0)
         for start in ctx.progress(starts, desc=f"contour {m}", total=len(starts)):
             sensed.raw, sensed.force = [], []
             r = follower.run(sensed, start, stop)
@@ -261,7 +187,7 @@ def run(scene, ctx) -> TaskResult:
             f"{m}_runs_explored": sum(r.stop_reason == "explored" for r in runs),
             f"{m}_detect_ms": 1e3 * sum(r.seconds_detect for r in runs) / max(n_frames, 1),
             f"{m}_seconds": time.perf_counter() - t0,
-            f"{m}_taps_below_force": sensed.saturated,
+            f"{m}_taps_below_force": getattr(sense, "saturated", 0) - saturated0,
         })
         runs_by_method[m] = (runs, dists)
         arrays[f"{m}_x_ref"] = np.concatenate([r.x_ref for r in runs])
