@@ -110,7 +110,7 @@ def read_mesh(ob, depsgraph=None, world=True):
     finally:
         ev.to_mesh_clear()
     if world:
-        m = np.array(ob.matrix_world, dtype=np.float64)
+        m = matrix(ob)
         co = co @ m[:3, :3].T + m[:3, 3]
     return co, tri
 
@@ -130,8 +130,20 @@ def selected_faces(mesh) -> np.ndarray:
 
 
 def matrix(ob) -> np.ndarray:
-    """``ob.matrix_world`` as a (4, 4) float64 array."""
-    return np.array(ob.matrix_world, dtype=np.float64)
+    """``ob.matrix_world`` as a (4, 4) float64 array (row-major: ``m[:3, 3]`` is the translation).
+
+    Not ``np.array(matrix)``: a mathutils Matrix exposes its column-major buffer, so
+    that gives the transpose.
+    """
+    return np.array([tuple(row) for row in ob.matrix_world], dtype=np.float64)
+
+
+def to_matrix(m):
+    """A (4, 4) row-major array as a ``mathutils.Matrix`` (assigning a nested list to
+    ``matrix_world`` would be read column-major)."""
+    from mathutils import Matrix
+
+    return Matrix([tuple(float(v) for v in row) for row in np.asarray(m, dtype=np.float64).reshape(4, 4)])
 
 
 def rigid(m) -> np.ndarray:

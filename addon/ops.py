@@ -8,8 +8,9 @@ import tempfile
 from pathlib import Path
 
 import bpy
+import numpy as np
 
-from . import display, skin
+from . import bake, bridge, display, skin
 
 
 def _fail(op, message: str):
@@ -62,4 +63,474 @@ class VTSKIN_OT_run_scene(bpy.types.Operator):
         return {"FINISHED"}
 
 
-CLASSES = (VTSKIN_OT_run_scene,)
+# ---------------------------------------------------------------------------
+# helpers: gather input (no writes)
+
+
+def _errors():
+    from vtcore.errors import VtError
+
+    return (VtError, ValueError, OSError)
+
+
+def _frame(ob):
+    """Skin frame of an end-effector object: its world matrix without scale."""
+    return bridge.rigid(bridge.matrix(ob))
+
+
+def _ee_input(ee, frame):
+    """End-effector vertices in ``frame`` (metres), triangles and triangle -> face index."""
+    if ee.mode == "EDIT":
+        ee.update_from_editmode()
+    world, tri = bridge.read_mesh(ee)
+    inv = np.linalg.inv(frame)
+    verts = world @ inv[:3, :3].T + inv[:3, 3]
+    return verts, tri
+
+
+def _tri_faces(ee):
+    me = ee.data
+    me.calc_loop_triangles()
+    idx = np.empty(len(me.loop_triangles), np.int32)
+    me.loop_triangles.foreach_get("polygon_index", idx)
+    return idx
+
+
+def _selected_face_centre(ee, frame):
+    """Centre (skin frame) and (F,) polygon selection of the selected faces of ``ee``."""
+    if ee.mode == "EDIT":
+        ee.update_from_editmode()
+    me = ee.data
+    sel = bridge.selected_faces(me)
+    if len(sel) == 0:
+        return None, sel
+    centres = np.empty(3 * len(me.polygons), np.float32)
+    me.polygons.foreach_get("center", centres)
+    areas = np.empty(len(me.polygons), np.float32)
+    me.polygons.foreach_get("area", areas)
+    c = centres.reshape(-1, 3)[sel].astype(np.float64)
+    w = areas[sel].astype(np.float64) + 1e-30
+    local = (c * w[:, None]).sum(0) / w.sum()
+    m = bridge.matrix(ee)
+    world = m[:3, :3] @ local + m[:3, 3]
+    inv = np.linalg.inv(frame)
+    return inv[:3, :3] @ world + inv[:3, 3], sel
+
+
+def _to_frame(frame, world_point):
+    inv = np.linalg.inv(frame)
+    return inv[:3, :3] @ np.asarray(world_point, float) + inv[:3, 3]
+
+
+def _direction(rotation):
+    # In-plane x axis of the patch: world x turned about the skin frame's z. vtcore
+    # projects it onto the tangent plane at the placement point.
+    return np.array([np.cos(rotation), np.sin(rotation), 0.0])
+
+
+def _skin_of(context):
+    """The taxel object the user means: the active one, or the skin on the active end-effector."""
+    ob = context.active_object
+    if skin.is_taxels(ob):
+        return ob
+    if ob is not None:
+        for other in context.scene.objects:
+            if skin.is_taxels(other) and other.vtskin.end_effector == ob:
+                return other
+    return None
+
+
+def _apply_report(ob, report):
+    s = ob.vtskin
+    s.strain_max = 100.0 * float(report.get("strain_max") or 0.0)
+    s.strain_mean = 100.0 * float(report.get("strain_mean") or 0.0)
+    s.overlaps = int(report.get("overlaps") or 0)
+    cov = report.get("coverage")
+    s.coverage = -1.0 if cov is None else 100.0 * float(cov)
+
+
+def _write_edit(context, ee, skin_ob, frame, edit, module):
+    """Write a LayoutEdit to ``skin_ob`` (created on ``ee`` if None). Returns the object."""
+    if skin_ob is None:
+        skin_ob = skin.new_object(context, f"{ee.name} skin", matrix=frame)
+        skin_ob.vtskin.end_effector = ee
+        skin_ob.vtskin.module_type = module
+    skin.write_layout(skin_ob, edit.layout, edit.triangles)
+    if skin_ob.vtskin.cache is not None:
+        bake.clear(skin_ob)  # the baked frames belong to the old taxels
+    _apply_report(skin_ob, edit.report)
+    display.ensure_display(skin_ob)
+    return skin_ob
+
+
+# ---------------------------------------------------------------------------
+# Skin layout
+
+
+class VTSKIN_OT_lay_patch(bpy.types.Operator):
+    """Conform a patch of modules onto the active mesh at the 3D cursor or the selected faces"""
+
+    bl_idname = "vtskin.lay_patch"
+    bl_label = "Lay Patch"
+    bl_options = {"REGISTER", "UNDO"}
+
+    fill: bpy.props.BoolProperty(name="Fill region", default=False,
+                                 description="Tile the selected faces with whole modules")
+
+    def execute(self, context):
+        from vtcore.scene import interactive
+
+        s = context.scene.vtskin
+        ee = context.active_object
+        if ee is None or ee.type != "MESH" or skin.is_taxels(ee):
+            return _fail(self, "Select the end-effector mesh to lay the skin on (the active object)")
+        existing = _skin_of(context)
+        frame = _frame(existing) if existing is not None else _frame(ee)
+        verts, tri = _ee_input(ee, frame)
+        if len(tri) == 0:
+            return _fail(self, f"{ee.name!r} has no faces: a skin needs a surface")
+        region = None
+        if self.fill or s.place_at == "SELECTED":
+            at, sel = _selected_face_centre(ee, frame)
+            if at is None:
+                return _fail(self, f"No faces of {ee.name!r} are selected")
+            if self.fill:
+                region = np.isin(_tri_faces(ee), sel)
+        else:
+            at = _to_frame(frame, context.scene.cursor.location)
+        patch = f"strip:{s.strip_modules}" if s.patch == "strip" else s.patch
+        base = skin.read_layout(existing) if existing is not None and len(existing.data.vertices) else None
+        try:
+            edit = interactive.lay_patch(verts, tri, at, existing=base, patch=patch, module=s.module,
+                                         direction=_direction(s.rotation), offset=s.offset, method=s.method,
+                                         fill_region=region)
+        except _errors() as exc:
+            return _fail(self, f"Cannot lay the patch: {exc}")
+        ob = _write_edit(context, ee, existing, frame, edit, s.module)
+        self.report({"INFO"}, f"{ob.name}: {len(edit.layout)} taxels, max strain "
+                    f"{ob.vtskin.strain_max:.1f} %, {ob.vtskin.overlaps} overlaps")
+        return {"FINISHED"}
+
+
+def _selected_modules(ob):
+    if ob.mode == "EDIT":
+        ob.update_from_editmode()
+    sel = bridge.selected_vertices(ob.data)
+    if not len(sel) or "module_id" not in ob.data.attributes:
+        return np.zeros(0, np.int64)
+    return np.unique(bridge.get_attribute(ob.data, "module_id")[sel])
+
+
+class VTSKIN_OT_remove_module(bpy.types.Operator):
+    """Remove the modules of the selected taxels (or the given module) from the skin"""
+
+    bl_idname = "vtskin.remove_module"
+    bl_label = "Remove Module"
+    bl_options = {"REGISTER", "UNDO"}
+
+    module: bpy.props.IntProperty(name="Module", default=-1, min=-1,
+                                  description="Module id to remove (-1: those of the selected taxels)")
+
+    def execute(self, context):
+        from vtcore.scene import interactive
+
+        ob = _skin_of(context)
+        if ob is None:
+            return _fail(self, "Select a skin (taxel object)")
+        mods = [self.module] if self.module >= 0 else _selected_modules(ob)
+        try:
+            edit = interactive.remove_modules(skin.read_layout(ob), mods)
+        except _errors() as exc:
+            return _fail(self, f"Cannot remove: {exc}")
+        edit.layout.meta.clear()
+        _write_edit(context, ob.vtskin.end_effector, ob, None, edit, ob.vtskin.module_type)
+        return {"FINISHED"}
+
+
+class VTSKIN_OT_move_module(bpy.types.Operator):
+    """Move a module of the skin to the 3D cursor (re-conformed to the surface there)"""
+
+    bl_idname = "vtskin.move_module"
+    bl_label = "Move Module to Cursor"
+    bl_options = {"REGISTER", "UNDO"}
+
+    module: bpy.props.IntProperty(name="Module", default=-1, min=-1,
+                                  description="Module id to move (-1: the one of the selected taxels)")
+
+    def execute(self, context):
+        from vtcore.scene import interactive
+
+        ob = _skin_of(context)
+        if ob is None:
+            return _fail(self, "Select a skin (taxel object)")
+        ee = ob.vtskin.end_effector
+        if ee is None or ee.type != "MESH":
+            return _fail(self, f"{ob.name!r} has no end-effector mesh to move on")
+        mods = [self.module] if self.module >= 0 else _selected_modules(ob)
+        if len(mods) != 1:
+            return _fail(self, f"Select the taxels of exactly one module (got {len(mods)} modules)")
+        frame = bridge.matrix(ob)
+        verts, tri = _ee_input(ee, frame)
+        layout = skin.read_layout(ob)
+        layout.meta["module"] = ob.vtskin.module_type
+        s = context.scene.vtskin
+        try:
+            edit = interactive.move_module(layout, int(mods[0]), verts, tri,
+                                           _to_frame(frame, context.scene.cursor.location),
+                                           _direction(s.rotation), s.offset)
+        except _errors() as exc:
+            return _fail(self, f"Cannot move: {exc}")
+        _write_edit(context, ee, ob, frame, edit, ob.vtskin.module_type)
+        return {"FINISHED"}
+
+
+# ---------------------------------------------------------------------------
+# Contact
+
+
+def _contact_input(op, context):
+    """(skin object, layout, triangles, indenter verts (own frame), faces, pose in skin frame) or an error string."""
+    s = context.scene.vtskin
+    ob = _skin_of(context)
+    if ob is None or len(ob.data.vertices) == 0:
+        return "Select a skin with taxels (lay a patch first)"
+    ind = s.indenter
+    if ind is None or ind.type != "MESH":
+        return "Choose an indenter mesh object in the Contact panel"
+    if s.thickness <= 0:
+        return "The soft layer has zero thickness: set a thickness > 0 in the Soft layer panel"
+    world, tri = bridge.read_mesh(ind)
+    if len(tri) == 0:
+        return f"The indenter {ind.name!r} has no faces"
+    m_ind = bridge.rigid(bridge.matrix(ind))
+    inv_ind = np.linalg.inv(m_ind)
+    verts = world @ inv_ind[:3, :3].T + inv_ind[:3, 3]
+    pose = np.linalg.inv(bridge.matrix(ob)) @ m_ind
+    return ob, skin.read_layout(ob), skin.triangles(ob), verts, tri, pose
+
+
+class VTSKIN_OT_simulate(bpy.types.Operator):
+    """Press the indenter onto the skin at the target force (current frame) and show the response"""
+
+    bl_idname = "vtskin.simulate"
+    bl_label = "Simulate Frame"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def execute(self, context):
+        from vtcore.scene import interactive
+
+        s = context.scene.vtskin
+        got = _contact_input(self, context)
+        if isinstance(got, str):
+            return _fail(self, got)
+        ob, layout, tri, verts, faces, pose = got
+        try:
+            c = interactive.simulate(layout, tri, verts, faces, pose, thickness=s.thickness, material=s.material,
+                                     force=s.force if s.use_force else None, counts_per_pa=s.counts_per_pa,
+                                     edge_fraction=s.edge_fraction)
+        except _errors() as exc:
+            return _fail(self, f"Contact failed: {exc}")
+        me = ob.data
+        bridge.set_attribute(me, "pressure", c.pressure)
+        bridge.set_attribute(me, "response", c.response)
+        bridge.set_attribute(me, "edge_response", c.edge_response, "FLOAT")
+        bridge.set_attribute(me, "edge", c.edge)
+        ob.vtskin.force = c.force
+        display.ensure_display(ob)
+        self.report({"INFO"}, f"{c.force:.3g} N, indentation {c.indentation * 1e3:.2f} mm, "
+                    f"{int(c.edge.sum())} edge taxels")
+        return {"FINISHED"}
+
+
+class VTSKIN_OT_bake(bpy.types.Operator):
+    """Simulate every frame of the range (indenter animation, animated force) and store it for playback"""
+
+    bl_idname = "vtskin.bake"
+    bl_label = "Bake Contact"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def execute(self, context):
+        from vtcore.scene import interactive
+
+        scene = context.scene
+        s = scene.vtskin
+        if s.frame_end < s.frame_start:
+            return _fail(self, f"Empty frame range {s.frame_start}..{s.frame_end}")
+        frames = np.arange(s.frame_start, s.frame_end + 1)
+        current = scene.frame_current
+        poses, forces = [], []
+        got = None
+        try:
+            # Gather the animated input (poses, forces): frame_set evaluates the animation.
+            for f in frames:
+                scene.frame_set(int(f))
+                got = _contact_input(self, context)
+                if isinstance(got, str):
+                    break
+                poses.append(got[5])
+                forces.append(s.force)
+        finally:
+            scene.frame_set(current)
+        if isinstance(got, str):
+            return _fail(self, got)
+        ob, layout, tri, verts, faces, _ = got
+        wm = context.window_manager
+        wm.progress_begin(0, len(frames))
+        try:
+            res = interactive.bake(layout, tri, verts, faces, np.stack(poses), thickness=s.thickness,
+                                   material=s.material, forces=np.array(forces) if s.use_force else None,
+                                   counts_per_pa=s.counts_per_pa, edge_fraction=s.edge_fraction,
+                                   callback=lambda i, t: wm.progress_update(i + 1))
+        except _errors() as exc:
+            return _fail(self, f"Bake failed: {exc}")
+        finally:
+            wm.progress_end()
+        if "edge" not in ob.data.attributes:
+            bridge.set_attribute(ob.data, "edge", np.zeros(len(layout), bool))
+        bake.store(ob, frames, pressure=res["pressure"], response=res["response"], edge=res["edge"])
+        display.ensure_display(ob)
+        bake.apply(ob, current)
+        self.report({"INFO"}, f"Baked {len(frames)} frames on {ob.name}")
+        return {"FINISHED"}
+
+
+class VTSKIN_OT_clear_bake(bpy.types.Operator):
+    """Remove the baked contact of the skin"""
+
+    bl_idname = "vtskin.clear_bake"
+    bl_label = "Clear Bake"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def execute(self, context):
+        ob = _skin_of(context)
+        if ob is None or ob.vtskin.cache is None:
+            return _fail(self, "The selected skin has no baked contact")
+        bake.clear(ob)
+        return {"FINISHED"}
+
+
+# ---------------------------------------------------------------------------
+# Filters
+
+
+class VTSKIN_OT_edges(bpy.types.Operator):
+    """Run the edge filter on the skin's response and show the edge taxels"""
+
+    bl_idname = "vtskin.edges"
+    bl_label = "Detect Edges"
+    bl_options = {"REGISTER", "UNDO"}
+
+    show: bpy.props.BoolProperty(name="Show edges", default=True, description="Colour the taxels by edge")
+
+    def execute(self, context):
+        from vtcore.scene import interactive
+
+        ob = _skin_of(context)
+        if ob is None or "response" not in ob.data.attributes or len(ob.data.vertices) == 0:
+            return _fail(self, "Select a skin with a response (simulate a contact first)")
+        response = bridge.get_attribute(ob.data, "response").astype(np.float64)
+        try:
+            er, edge = interactive.edges(skin.read_layout(ob), skin.triangles(ob), response,
+                                         context.scene.vtskin.edge_fraction)
+        except _errors() as exc:
+            return _fail(self, f"Edge filter failed: {exc}")
+        bridge.set_attribute(ob.data, "edge_response", er, "FLOAT")
+        bridge.set_attribute(ob.data, "edge", edge)
+        if self.show:
+            ob.vtskin.color_by = "edge"
+        display.ensure_display(ob)
+        self.report({"INFO"}, f"{int(edge.sum())} edge taxels")
+        return {"FINISHED"}
+
+
+# ---------------------------------------------------------------------------
+# Augmented point cloud
+
+
+class VTSKIN_OT_augment(bpy.types.Operator):
+    """Propagate probe values over the point cloud (cluster or smooth) and colour it"""
+
+    bl_idname = "vtskin.augment"
+    bl_label = "Augment Point Cloud"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def execute(self, context):
+        from vtcore.scene import interactive
+
+        s = context.scene.vtskin
+        cloud = s.cloud
+        if cloud is None or cloud.type != "MESH" or len(cloud.data.vertices) == 0:
+            return _fail(self, "Choose a point-cloud object (a mesh with vertices) in the panel")
+        if cloud.mode == "EDIT":
+            cloud.update_from_editmode()
+        me = cloud.data
+        n = len(me.vertices)
+        co = np.empty(3 * n, np.float32)
+        me.vertices.foreach_get("co", co)
+        m = bridge.matrix(cloud)
+        pts = co.reshape(-1, 3).astype(np.float64) @ m[:3, :3].T + m[:3, 3]
+        try:
+            if s.probe_source == "FILE":
+                probes, values = interactive.probes_from_file(bpy.path.abspath(s.probe_file))
+            else:
+                sel = bridge.selected_vertices(me)
+                if len(sel) == 0:
+                    return _fail(self, f"No vertices of {cloud.name!r} are selected as probes")
+                if s.probe_attribute not in me.attributes:
+                    return _fail(self, f"{cloud.name!r} has no attribute {s.probe_attribute!r} with probe values")
+                probes = pts[sel]
+                values = bridge.get_attribute(me, s.probe_attribute).astype(np.float64)
+                if values.ndim != 1:
+                    return _fail(self, f"Attribute {s.probe_attribute!r} must be a float attribute")
+                values = values[sel]
+            vals, rgb = interactive.augment(pts, probes, values, method=s.propagation, beta=s.beta)
+        except _errors() as exc:
+            return _fail(self, f"Augmentation failed: {exc}")
+        bridge.set_attribute(me, "tactile_value", vals, "FLOAT")
+        bridge.set_attribute(me, "tactile_color", rgb, "FLOAT_COLOR")
+        me.color_attributes.active_color_name = "tactile_color"
+        cloud.vtskin.role = "CLOUD"
+        cloud.vtskin.color_by = "tactile_color"
+        display.ensure_display(cloud)
+        self.report({"INFO"}, f"Coloured {n} points from {len(probes)} probes")
+        return {"FINISHED"}
+
+
+# ---------------------------------------------------------------------------
+# Export
+
+
+class VTSKIN_OT_export(bpy.types.Operator):
+    """Write the skin layout in a calibrated layout format"""
+
+    bl_idname = "vtskin.export"
+    bl_label = "Export Layout"
+    bl_options = {"REGISTER"}
+
+    filepath: bpy.props.StringProperty(name="File", subtype="FILE_PATH")
+
+    def execute(self, context):
+        from vtcore.scene import interactive
+
+        s = context.scene.vtskin
+        ob = _skin_of(context)
+        if ob is None or len(ob.data.vertices) == 0:
+            return _fail(self, "Select a skin with taxels to export")
+        path = bpy.path.abspath(self.filepath or s.export_path)
+        if not path:
+            return _fail(self, "No export file given")
+        transform = None
+        if s.export_frame is not None and s.export_frame != ob:
+            transform = np.linalg.inv(bridge.rigid(bridge.matrix(s.export_frame))) @ bridge.matrix(ob)
+        try:
+            out = interactive.export_layout(skin.read_layout(ob), skin.triangles(ob), path, s.export_format,
+                                            transform)
+        except _errors() as exc:
+            return _fail(self, f"Export failed: {exc}")
+        self.report({"INFO"}, f"Wrote {out}")
+        return {"FINISHED"}
+
+
+CLASSES = (VTSKIN_OT_run_scene, VTSKIN_OT_lay_patch, VTSKIN_OT_remove_module, VTSKIN_OT_move_module,
+           VTSKIN_OT_simulate, VTSKIN_OT_bake, VTSKIN_OT_clear_bake, VTSKIN_OT_edges, VTSKIN_OT_augment,
+           VTSKIN_OT_export)

@@ -19,6 +19,14 @@ COLOR_BY = [
 ]
 
 
+def _color_by_changed(settings, context):
+    from . import display
+
+    ob = settings.id_data
+    if isinstance(ob, bpy.types.Object):
+        display.set_color_by(ob, settings.color_by)
+
+
 class VTSKIN_PG_object(bpy.types.PropertyGroup):
     """Per-object data: what this object is to the add-on and its baked cache."""
 
@@ -31,23 +39,102 @@ class VTSKIN_PG_object(bpy.types.PropertyGroup):
     end_effector: PointerProperty(name="End-effector", type=bpy.types.Object,
                                   description="The mesh the skin lies on")
     color_by: EnumProperty(name="Colour by", items=COLOR_BY, default="response",
-                           update=lambda self, ctx: _color_by_changed(self, ctx))
+                           update=_color_by_changed)
     cache: PointerProperty(name="Bake cache", type=bpy.types.Mesh,
                            description="Mesh datablock holding one attribute per baked frame")
     bake_start: IntProperty(name="Baked from", default=0)
     bake_end: IntProperty(name="Baked to", default=-1)
+    module_type: StringProperty(name="Module type", default="cyskin10")
+    # Placement report of the last layout edit (shown in the Skin layout panel).
+    strain_max: FloatProperty(name="Max strain", default=0.0, subtype="PERCENTAGE",
+                              description="Largest |stretch| of a module edge (percent)")
+    strain_mean: FloatProperty(name="Mean strain", default=0.0, subtype="PERCENTAGE")
+    overlaps: IntProperty(name="Overlaps", default=0, description="Pairs of modules that overlap")
+    coverage: FloatProperty(name="Coverage", default=-1.0, subtype="PERCENTAGE",
+                            description="Share of the region under module outlines (-1: unknown)")
+    force: FloatProperty(name="Force", default=0.0, unit="NONE", description="Force of the last contact (N)")
+    edge_threshold: FloatProperty(name="Edge threshold", default=0.0,
+                                  description="Edge response threshold used (counts^2/m)")
 
 
-def _color_by_changed(settings, context):
-    from . import display
+def _modules():
+    return [("cyskin10", "CySkin (10 taxels)", "CySkin triangular module, 10 taxels"),
+            ("cyskin11", "CySkin (11 taxels)", "CySkin module with the shared hexagon centre"),
+            ("icub12", "iCub (12 taxels)", "iCub triangular module, 12 taxels")]
 
-    ob = settings.id_data
-    if isinstance(ob, bpy.types.Object):
-        display.set_color_by(ob, settings.color_by)
+
+def _materials():
+    from vtcore.contact import MATERIALS
+
+    return [(k, k.replace("_", " ").title(), f"E = {v['young_modulus'] / 1e3:.0f} kPa")
+            for k, v in MATERIALS.items()]
+
+
+def _formats():
+    from vtcore.layout import FORMATS
+
+    return [(f, f, f"vtcore layout format {f}") for f in FORMATS]
+
+
+_MATERIALS = _materials()
+_FORMATS = _formats()
+
+
+def _mesh_poll(self, ob):
+    return ob.type == "MESH"
 
 
 class VTSKIN_PG_scene(bpy.types.PropertyGroup):
     """Tool settings of the sidebar panels."""
+
+    # Skin layout
+    patch: EnumProperty(name="Patch", items=[("hexagon", "Hexagon", "Six modules round a centre"),
+                                              ("triangle", "Triangle", "One module"),
+                                              ("strip", "Strip", "A row of modules")], default="hexagon")
+    strip_modules: IntProperty(name="Modules", default=4, min=1, max=64)
+    module: EnumProperty(name="Module", items=_modules(), default="cyskin10")
+    place_at: EnumProperty(name="At", items=[("CURSOR", "3D cursor", "Centre the patch at the 3D cursor"),
+                                             ("SELECTED", "Selected faces", "Centre at the selected faces")],
+                           default="CURSOR")
+    rotation: FloatProperty(name="Orientation", default=0.0, subtype="ANGLE",
+                            description="Turn of the patch about the surface normal")
+    offset: FloatProperty(name="Offset", default=0.0, subtype="DISTANCE", unit="LENGTH",
+                          description="Height of the taxels above the surface (e.g. PCB thickness)")
+    method: EnumProperty(name="Method", items=[("logmap", "Log map", "Geodesic (discrete exponential map)"),
+                                               ("project", "Project", "Project the flat patch")],
+                         default="logmap")
+    # Soft layer
+    thickness: FloatProperty(name="Thickness", default=0.003, min=0.0, subtype="DISTANCE", unit="LENGTH",
+                             precision=4)
+    material: EnumProperty(name="Material", items=_MATERIALS)
+    # Contact
+    indenter: PointerProperty(name="Indenter", type=bpy.types.Object, poll=_mesh_poll)
+    use_force: BoolProperty(name="Target force", default=True,
+                            description="Press to the target force (off: use the indenter's pose as it is)")
+    force: FloatProperty(name="Force (N)", default=2.0, min=0.0, description="Target normal force, newtons")
+    counts_per_pa: FloatProperty(name="Gain (counts/Pa)", default=0.1, min=1e-6)
+    frame_start: IntProperty(name="Start", default=1)
+    frame_end: IntProperty(name="End", default=24)
+    # Filters
+    edge_fraction: FloatProperty(name="Edge threshold", default=0.3, min=0.0, max=1.0, subtype="FACTOR",
+                                 description="Threshold as a fraction of the frame's largest edge response")
+    # Augmented point cloud
+    cloud: PointerProperty(name="Point cloud", type=bpy.types.Object, poll=_mesh_poll)
+    probe_source: EnumProperty(name="Probes", items=[
+        ("SELECTED", "Selected vertices", "Selected cloud vertices, values from the probe attribute"),
+        ("FILE", "File", "A recorded probe file (CSV/NPZ)")], default="SELECTED")
+    probe_file: StringProperty(name="Probe file", subtype="FILE_PATH")
+    probe_attribute: StringProperty(name="Probe values", default="compliance",
+                                    description="Float attribute of the cloud holding the probe values")
+    propagation: EnumProperty(name="Method", items=[("cluster", "Cluster", "Nearest probe (Eq. 2)"),
+                                                    ("smooth", "Smooth", "Softmax of distance (Eqs. 3-4)")],
+                              default="smooth")
+    beta: FloatProperty(name="Beta (1/m)", default=-300.0, max=0.0)
+    # Export
+    export_path: StringProperty(name="File", subtype="FILE_PATH")
+    export_format: EnumProperty(name="Format", items=_FORMATS)
+    export_frame: PointerProperty(name="In frame of", type=bpy.types.Object,
+                                  description="Write positions in this object's frame (empty: the skin's own)")
 
     scene_file: StringProperty(name="Scene file", subtype="FILE_PATH",
                                description="A vtcore scene (TOML) to run")

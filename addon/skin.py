@@ -20,7 +20,7 @@ def new_object(context, name: str, role: str = "TAXELS", matrix=None):
     coll = context.collection or context.scene.collection
     coll.objects.link(ob)
     if matrix is not None:
-        ob.matrix_world = [list(r) for r in np.asarray(matrix)]
+        ob.matrix_world = bridge.to_matrix(matrix)
     ob.vtskin.role = role
     return ob
 

@@ -53,3 +53,41 @@ def scene_state():
     state["_meshes"] = sorted(m.name for m in bpy.data.meshes)
     state["_objects"] = sorted(o.name for o in bpy.data.objects)
     return state
+
+
+def build_scene(indenter_radius=0.015, gap=0.002):
+    """A curved end-effector (seed 002's) and a sphere indenter above its middle.
+
+    Returns (end_effector object, indenter object, centre (3,) world point on the surface).
+    The end-effector object has a non-trivial pose so frames matter.
+    """
+    import bpy
+    import numpy as np
+    from vtcore.contact import make_object, placement_pose
+    from vtcore.layout import seed002_curved
+
+    from addon import bridge
+
+    mesh, lay = seed002_curved()
+    centre = lay.positions[np.argmin(np.linalg.norm(lay.positions - lay.positions.mean(0), axis=1))]
+    me = bpy.data.meshes.new("end_effector")
+    bridge.write_mesh(me, mesh.vertices, mesh.faces)
+    ee = bpy.data.objects.new("end_effector", me)
+    bpy.context.scene.collection.objects.link(ee)
+    pose_ee = np.eye(4)
+    pose_ee[:3, 3] = [0.1, -0.05, 0.2]
+    c, s = np.cos(0.3), np.sin(0.3)
+    pose_ee[:3, :3] = [[c, -s, 0], [s, c, 0], [0, 0, 1]]
+    ee.matrix_world = bridge.to_matrix(pose_ee)
+    sphere = make_object("sphere", radius=indenter_radius)
+    me2 = bpy.data.meshes.new("indenter")
+    bridge.write_mesh(me2, sphere.vertices, sphere.faces)
+    ind = bpy.data.objects.new("indenter", me2)
+    bpy.context.scene.collection.objects.link(ind)
+    pose = placement_pose(sphere, xy=centre[:2], top=centre[2] + 0.003, gap=gap)
+    ind.matrix_world = bridge.to_matrix(pose_ee @ pose)
+    world_centre = pose_ee[:3, :3] @ centre + pose_ee[:3, 3]
+    bpy.context.view_layer.objects.active = ee
+    ee.select_set(True)
+    bpy.context.view_layer.update()
+    return ee, ind, world_centre

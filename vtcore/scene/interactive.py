@@ -93,3 +93,339 @@ def _mean_frames(a, n):
     if a.ndim == 1 and a.shape[0] == n:
         return a
     return None
+
+
+# ---------------------------------------------------------------------------
+# Skin layout
+
+
+def _trimesh(vertices, triangles):
+    import trimesh
+
+    v = np.asarray(vertices, dtype=np.float64).reshape(-1, 3)
+    f = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
+    if len(f) == 0:
+        raise InputError("has no faces: a skin can only be laid on (and pressed by) a surface", key="mesh")
+    if not np.isfinite(v).all():
+        raise InputError("has non-finite vertex coordinates", key="mesh")
+    return trimesh.Trimesh(v, f, process=False)
+
+
+def renumber(layout: Layout, first_module: int) -> Layout:
+    """``layout`` with module ids shifted to start at ``first_module`` and CySkin taxel
+    ids ``(module + 1) << 4 | sensor`` rebuilt to match (sensor = old id & 15)."""
+    out = layout.subset(slice(None))
+    if len(out) == 0:
+        return out
+    _, inv = np.unique(out.module_ids, return_inverse=True)
+    out.module_ids = inv.astype(np.int64) + int(first_module)
+    out.taxel_ids = (out.module_ids + 1) * 16 + (layout.taxel_ids & 15)
+    return out
+
+
+def merge(base: Layout | None, extra: Layout) -> Layout:
+    """Taxels of ``base`` followed by ``extra`` renumbered after base's modules."""
+    if base is None or len(base) == 0:
+        return renumber(extra, 0)
+    extra = renumber(extra, int(base.module_ids.max()) + 1)
+    flat = None
+    return Layout(np.vstack([base.positions, extra.positions]), np.vstack([base.normals, extra.normals]),
+                  np.concatenate([base.taxel_ids, extra.taxel_ids]),
+                  np.concatenate([base.module_ids, extra.module_ids]), flat,
+                  np.concatenate([base.roles, extra.roles]), base.frame, base.transform, dict(base.meta))
+
+
+@dataclass
+class LayoutEdit:
+    """A layout after an edit, with what to show.
+
+    layout : all taxels (skin frame, metres). triangles : (F, 3) skin mesh.
+    report : dict of the placement report (strain_max, strain_mean, overlaps,
+    coverage, notes) of the edit, or {}.
+    """
+
+    layout: Layout
+    triangles: np.ndarray
+    report: dict
+
+
+def _edit(layout: Layout, report: dict) -> LayoutEdit:
+    if len(layout) >= 3:
+        try:
+            tri = skin_mesh(layout).triangles
+        except ValueError:
+            tri = np.zeros((0, 3), np.int64)
+    else:
+        tri = np.zeros((0, 3), np.int64)
+    return LayoutEdit(layout, np.asarray(tri, np.int64), report)
+
+
+def lay_patch(vertices, triangles, at, *, existing: Layout | None = None, patch: str = "hexagon",
+              module: str = "cyskin10", direction=None, offset: float = 0.0, method: str = "logmap",
+              fill_region=None) -> LayoutEdit:
+    """Conform a patch (or fill a face region with modules) onto a mesh, added to ``existing``.
+
+    vertices : (V, 3) metres and triangles : (F, 3) of the end-effector surface, in
+    the skin frame. at : (3,) metres, the point the patch is centred on (snapped to
+    the surface). patch : "hexagon", "triangle" or "strip:N"; module : module type.
+    direction : (3,) in-plane x axis or None. offset : metres along the normal.
+    fill_region : (F,) bool face mask: tile that region with whole modules instead.
+    Returns the merged layout, its skin mesh and the placement report.
+    """
+    from ..layout import fill, place
+
+    mesh = _trimesh(vertices, triangles)
+    at = np.asarray(at, dtype=np.float64).reshape(3)
+    if fill_region is not None:
+        region = np.asarray(fill_region, dtype=bool).reshape(-1)
+        if len(region) != len(mesh.faces) or not region.any():
+            raise InputError("select at least one face of the end-effector to fill", key="region")
+        new, rep = fill(mesh, at, direction, module=module, region=region, offset=offset)
+    else:
+        new, rep = place(mesh, patch, at, direction, module=module, offset=offset, method=method)
+    if len(new) == 0:
+        raise InputError("no module fits there", key="at")
+    report = rep.as_dict()
+    return _edit(merge(existing, new), report)
+
+
+def remove_modules(layout: Layout, modules) -> LayoutEdit:
+    """``layout`` without the taxels of ``modules`` (module ids)."""
+    modules = np.unique(np.asarray(modules, dtype=np.int64).reshape(-1))
+    if len(modules) == 0:
+        raise InputError("select a taxel of the module to remove", key="modules")
+    keep = ~np.isin(layout.module_ids, modules)
+    if keep.all():
+        raise InputError(f"no module {modules.tolist()} in this skin", key="modules")
+    return _edit(layout.subset(keep), {})
+
+
+def move_module(layout: Layout, module: int, vertices, triangles, at, direction=None,
+                offset: float = 0.0) -> LayoutEdit:
+    """Move one module of ``layout`` to ``at`` on the mesh (re-conformed there).
+
+    Keeps the module's id and its taxel ids; the other modules are untouched.
+    """
+    from ..layout import place
+
+    mask = layout.module_ids == int(module)
+    if not mask.any():
+        raise InputError(f"no module {module} in this skin", key="module")
+    mesh = _trimesh(vertices, triangles)
+    mod_type = str(layout.meta.get("module", "cyskin10"))
+    new, rep = place(mesh, "triangle", np.asarray(at, float).reshape(3), direction,
+                     module=mod_type if mod_type in _module_names() else "cyskin10", offset=offset)
+    old = layout.subset(mask)
+    if len(new) != len(old):
+        raise InputError(f"module {module} has {len(old)} taxels, a placed module {len(new)}", key="module")
+    new.module_ids[:] = int(module)
+    new.taxel_ids = old.taxel_ids.copy()
+    rest = layout.subset(~mask)
+    moved = Layout(np.vstack([rest.positions, new.positions]), np.vstack([rest.normals, new.normals]),
+                   np.concatenate([rest.taxel_ids, new.taxel_ids]),
+                   np.concatenate([rest.module_ids, new.module_ids]), None,
+                   np.concatenate([rest.roles, new.roles]), layout.frame, layout.transform, dict(layout.meta))
+    return _edit(moved, rep.as_dict())
+
+
+def _module_names():
+    from ..layout import MODULES
+
+    return MODULES
+
+
+# ---------------------------------------------------------------------------
+# Contact
+
+
+@dataclass
+class Contact:
+    """One simulated contact as the add-on shows it.
+
+    pressure : (N,) Pa at the taxels. response : (N,) counts (gain, then 16-bit clip).
+    edge_response : (N,) Eq. 6 of seed 002 on the response. edge : (N,) bool.
+    force : N. indentation : m. contact_area : m^2.
+    """
+
+    pressure: np.ndarray
+    response: np.ndarray
+    edge_response: np.ndarray
+    edge: np.ndarray
+    force: float
+    indentation: float
+    contact_area: float
+
+
+def soft_layer(thickness: float, material: str = "ecoflex_00_20"):
+    """A :class:`vtcore.contact.SoftLayer`; a zero thickness is refused here (the
+    designer forgot to set the layer), although vtcore models a bare skin."""
+    from ..contact import SoftLayer
+
+    if not np.isfinite(thickness) or thickness <= 0:
+        raise InputError(f"must be > 0 m, got {thickness}", key="thickness")
+    return SoftLayer(thickness=float(thickness), material=material)
+
+
+def _response(pressure, counts_per_pa):
+    from ..contact import sensor
+
+    return sensor.saturate(sensor.gain(pressure, counts_per_pa))
+
+
+def _edges(layout, triangles, response, edge_fraction):
+    from ..filters import edge_filter, relative_threshold, threshold
+    from ..layout import mesh_from_triangles
+
+    tri = np.asarray(triangles, np.int64).reshape(-1, 3)
+    if len(tri) == 0:
+        z = np.zeros_like(response, dtype=np.float64)
+        return z, np.zeros(response.shape, bool)
+    mesh = mesh_from_triangles(layout.positions, layout.normals, tri)
+    er = edge_filter(mesh, response)
+    # A frame without contact has no edge: the floor keeps rounding residue out.
+    eps = relative_threshold(er, edge_fraction, floor=1e-9)
+    return er, threshold(er, eps)
+
+
+def simulate(layout: Layout, triangles, indenter_vertices, indenter_triangles, pose, *, thickness: float,
+             material: str = "ecoflex_00_20", force: float | None = 5.0, counts_per_pa: float = 0.1,
+             edge_fraction: float = 0.3) -> Contact:
+    """Press an indenter onto the skin at a target force and read taxels and edges.
+
+    layout : the skin (skin frame, metres); triangles : (F, 3) its skin mesh.
+    indenter_vertices (V, 3) metres and indenter_triangles (G, 3): the indenter
+    in its own frame; pose : (4, 4) its pose in the skin frame before pressing
+    (it moves towards the skin until ``force`` newtons; ``force=None`` uses the
+    pose as it is). thickness : m; material : a vtcore.contact.MATERIALS key.
+    counts_per_pa : sensor gain. edge_fraction : edge threshold as a fraction of
+    the frame's largest edge response (Eq. 7 with a relative epsilon).
+    """
+    from ..contact import press
+
+    if len(layout) == 0:
+        raise InputError("the skin has no taxels", key="layout")
+    layer = soft_layer(thickness, material)
+    mesh = _trimesh(indenter_vertices, indenter_triangles)
+    res = press(layout, mesh, np.asarray(pose, float), layer, force=force if force else None)
+    response = _response(res.pressure, counts_per_pa)
+    er, edge = _edges(layout, triangles, response, edge_fraction)
+    return Contact(res.pressure, response, er, edge, float(res.force), float(res.indentation),
+                   float(res.contact_area))
+
+
+def bake(layout: Layout, triangles, indenter_vertices, indenter_triangles, poses, *, thickness: float,
+         material: str = "ecoflex_00_20", forces=None, counts_per_pa: float = 0.1,
+         edge_fraction: float = 0.3, callback=None) -> dict:
+    """Simulate a trajectory: one press per pose, warm-started from the previous frame.
+
+    poses : (T, 4, 4) indenter poses in the skin frame. forces : None (each pose
+    as it is: the animation decides the indentation) or (T,) newtons (target
+    force per frame, 0 for no contact). callback(i, T) is called after each frame.
+    Returns ``pressure``, ``response``, ``edge_response`` (T, N) float, ``edge``
+    (T, N) bool and ``force`` (T,) newtons.
+    """
+    from ..contact import press
+    from ..errors import UnreachableTargetError
+
+    poses = np.asarray(poses, dtype=np.float64).reshape(-1, 4, 4)
+    t, n = len(poses), len(layout)
+    if n == 0:
+        raise InputError("the skin has no taxels", key="layout")
+    layer = soft_layer(thickness, material)
+    mesh = _trimesh(indenter_vertices, indenter_triangles)
+    f = None if forces is None else np.broadcast_to(np.asarray(forces, float), (t,))
+    pressure = np.zeros((t, n))
+    force = np.zeros(t)
+    prev = None
+    for i in range(t):  # frames depend on each other through the warm start
+        target = None if f is None else float(f[i])
+        if target is not None and target <= 0:
+            prev = None  # no contact asked for this frame
+        else:
+            try:
+                res = press(layout, mesh, poses[i], layer, force=target, warm_start=prev)
+            except UnreachableTargetError as exc:
+                raise InputError(f"frame {i}: {exc}", key="force") from exc
+            pressure[i], force[i], prev = res.pressure, res.force, res
+        if callback is not None:
+            callback(i, t)
+    response = _response(pressure, counts_per_pa)
+    er, edge = _edges(layout, triangles, response, edge_fraction)
+    return {"pressure": pressure, "response": response, "edge_response": er, "edge": edge, "force": force}
+
+
+def edges(layout: Layout, triangles, response, edge_fraction: float = 0.3):
+    """Eq. 6 edge response and Eq. 7 edge flags of a (N,) or (T, N) response."""
+    return _edges(layout, triangles, np.asarray(response, dtype=np.float64), edge_fraction)
+
+
+# ---------------------------------------------------------------------------
+# Augmented point clouds
+
+
+def augment(cloud_points, probe_points, probe_values, *, method: str = "smooth", beta: float = -300.0,
+            c_min: float | None = None, c_max: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Propagate tactile values from probes to a visual point cloud (seed 000).
+
+    cloud_points : (M, 3) metres. probe_points : (n, 3) metres; probe_values : (n,).
+    method : "cluster" (Eq. 2) or "smooth" (Eqs. 3-4, ``beta`` per metre, <= 0).
+    Returns ``values (M,)`` and ``colours (M, 3)`` float in [0, 1] (viridis_r
+    between c_min and c_max, default the probes' range).
+    """
+    from ..augment import ClusterPropagation, SmoothPropagation, colour_map
+
+    pts = np.asarray(cloud_points, dtype=np.float64).reshape(-1, 3)
+    probes = np.asarray(probe_points, dtype=np.float64).reshape(-1, 3)
+    vals = np.asarray(probe_values, dtype=np.float64).reshape(-1)
+    if len(pts) == 0:
+        raise InputError("the point cloud has no points", key="cloud")
+    if len(probes) == 0 or len(vals) != len(probes):
+        raise InputError("need at least one probe with a value", key="probes")
+    if method == "cluster":
+        model = ClusterPropagation()
+    elif method == "smooth":
+        model = SmoothPropagation(beta=beta)
+    else:
+        raise InputError(f"unknown method {method!r}; use 'cluster' or 'smooth'", key="method")
+    values = model.fit(probes, vals).predict(pts)
+    lo = float(np.nanmin(vals)) if c_min is None else c_min
+    hi = float(np.nanmax(vals)) if c_max is None else c_max
+    if hi <= lo:
+        hi = lo + 1.0  # one probe value: every point gets the same (lowest) colour
+    rgb = colour_map(values, lo, hi).astype(np.float64) / 255.0
+    return values, rgb
+
+
+def probes_from_file(path) -> tuple[np.ndarray, np.ndarray]:
+    """Probe points (n, 3) metres and compliance values (n,) from a recorded probe file."""
+    from ..augment import load_probes
+
+    path = Path(path)
+    if not path.is_file():
+        raise InputError("is not a readable probe file", file=path)
+    tpc = load_probes(path)
+    vals = np.asarray(tpc.values, float)
+    return np.asarray(tpc.points, float), vals[:, 0] if vals.ndim == 2 else vals
+
+
+# ---------------------------------------------------------------------------
+# Export
+
+
+def export_layout(layout: Layout, triangles, path, format: str | None = None, transform=None) -> Path:
+    """Write ``layout`` (with its skin mesh faces) to ``path`` in a layout format.
+
+    transform : optional (4, 4) rigid transform from the skin frame to the
+    frame the file should use (another object's frame).
+    """
+    from ..layout import save
+
+    tri = np.asarray(triangles, np.int64).reshape(-1, 3)
+    out = layout.subset(slice(None))
+    if len(tri):
+        out.meta["faces"] = tri
+    if len(out) == 0:
+        raise InputError("the skin has no taxels", key="layout")
+    path = Path(path)
+    save(out, path, format, transform=transform)
+    return path
