@@ -115,3 +115,53 @@ def test_no_contact_and_no_edge_end_a_run_cleanly():
     assert len(run) == 3 and run.stop_reason == "max taps"
     with pytest.raises(InputError):
         ContourFollower(det, step=0.0)
+
+
+@pytest.mark.parametrize("model", ["module", "taxel"])
+def test_position_error_has_the_requested_rms(model):
+    from vtcore.control.contour import control_skin, taxel_position_error
+
+    _, lay, _ = control_skin("seed002_curved")
+    e = np.concatenate([taxel_position_error(lay, 1e-3, np.random.default_rng(s), model) for s in range(40)])
+    assert np.sqrt(np.mean(np.sum(e**2, axis=1))) == pytest.approx(1e-3, rel=0.06)
+    assert np.all(np.isfinite(e))
+
+
+def test_module_error_keeps_the_distances_on_each_module():
+    """CySkin taxels sit on rigid PCBs: hand placement moves whole modules, not single taxels."""
+    from vtcore.control.contour import control_skin, taxel_position_error
+
+    _, lay, _ = control_skin("seed002_curved")
+    rng = np.random.default_rng(3)
+    mod = taxel_position_error(lay, 1e-3, rng, "module")
+    ind = taxel_position_error(lay, 1e-3, rng, "taxel")
+    m = lay.module_ids == lay.module_ids[0]
+    assert m.sum() >= 3
+
+    def dists(p):
+        return np.linalg.norm(p[:, None] - p[None], axis=-1)
+
+    d0 = dists(lay.positions[m])
+    assert np.abs(dists(lay.positions[m] + mod[m]) - d0).max() < 1e-12  # rigid
+
+    assert np.abs(dists(lay.positions[m] + ind[m]) - d0).max() > 2e-4
+    # the translation lies in the module's tangent plane (the module is glued onto the surface)
+    n = lay.normals[m].mean(axis=0)
+    n /= np.linalg.norm(n)
+    assert abs(mod[m].mean(axis=0) @ n) < 0.1 * np.linalg.norm(mod[m].mean(axis=0))
+    with pytest.raises(InputError, match="model"):
+        taxel_position_error(lay, 1e-3, rng, "gaussian")
+
+
+def test_believed_control_frame_sits_on_the_believed_reference_taxel():
+    from vtcore.control.contour import believed_skin, control_skin, taxel_position_error
+
+    _, lay, _ = control_skin("seed002_curved")
+    err = taxel_position_error(lay, 1e-3, np.random.default_rng(1))
+    true, belief, f = believed_skin(lay, err)
+    ref = lay.meta["reference_taxel"]
+    assert np.allclose(belief.positions[ref], 0.0, atol=1e-12)  # x_R is where the robot thinks it is
+    assert np.linalg.norm(true.positions[ref]) == pytest.approx(np.linalg.norm(err[ref]), rel=0.05)
+    # both skins move together: the believed minus the true positions is the error, rotated into F
+    assert np.allclose(belief.positions - true.positions, err @ f[:3, :3], atol=1e-12)
+    assert np.allclose(true.normals, lay.normals @ f[:3, :3], atol=1e-12)

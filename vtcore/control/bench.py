@@ -49,21 +49,22 @@ def follow(end_effector: str, obj: str, method: str, *, seed: int = 0, max_taps:
            force: float = 15.0, step: float = 5e-3) -> dict:
     """One seeded contour-following run; returns d-bar, d_M (mm), taps, ms per tap, stop reason.
 
-    position_error : std (m) of the taxel positions the filters use; None: 1 mm on the
-    curved skin (seed 002), 0 on the planar one.
+    position_error : RMS error (m) of the taxel positions the robot believes (module
+    model, ``taxel_position_error``); None: 1 mm on the curved skin (seed 002), 0 on
+    the planar one.
     """
     from ..contact import SoftLayer, make_object, sensor
     from ..layout import skin_mesh
-    from .contour import ContourFollower, PressContact, control_skin, random_starts, seed002_object, summarize
+    from .contour import (ContourFollower, PressContact, believed_skin, control_skin, random_starts,
+                          seed002_object, summarize, taxel_position_error)
 
     rng = np.random.default_rng(seed)
     _, layout, _ = control_skin(end_effector)
     if position_error is None:
         position_error = 1e-3 if end_effector == "seed002_curved" else 0.0
     belief = layout
-    if position_error > 0:
-        belief = layout.subset(slice(None))
-        belief.positions = layout.positions + rng.normal(0.0, position_error, layout.positions.shape)
+    if position_error > 0:  # as the contour scenes: module misplacement, control frame from the belief
+        layout, belief, _ = believed_skin(layout, taxel_position_error(layout, position_error, rng))
     mesh = skin_mesh(belief)
     det = _detector(method, mesh, belief.flat)
     contour, spec, world = seed002_object(obj)

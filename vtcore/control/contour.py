@@ -428,3 +428,61 @@ class PressContact:
         full = np.zeros(self.n)
         full[self.active] = res.pressure
         return full
+
+
+POSITION_ERROR_MODELS = ("module", "taxel")
+
+
+def taxel_position_error(layout, rms: float, rng, model: str = "module") -> np.ndarray:
+    """(N, 3) metres: the error of a robot's estimate of its taxel positions.
+
+    rms : root-mean-square length of the per-taxel error (m); seed 002 gives "an
+    uncertainty of 1 mm" for its hand-built curved patch.
+    model : ``"module"`` (default) a rigid misplacement of each module
+    (``layout.module_ids``): a translation in the module's tangent plane and a
+    rotation about its mean normal, equal in mean square. CySkin taxels sit on
+    rigid triangular PCBs whose layout is known from CAD (seed 002: the flat
+    patch's positions are exact); the error comes from placing the modules by
+    hand, so neighbours on one module keep their exact distance.
+    ``"taxel"``: an independent isotropic error per taxel (std ``rms / sqrt(3)``
+    per axis), a worst case that also changes distances within a module.
+    """
+    pos = np.asarray(layout.positions, dtype=np.float64)
+    if model == "taxel":
+        return rng.normal(0.0, rms / np.sqrt(3.0), pos.shape)
+    if model != "module":
+        raise InputError(f"unknown model {model!r}; use {' or '.join(POSITION_ERROR_MODELS)}", key="model")
+    nrm = np.asarray(layout.normals, dtype=np.float64)
+    mids, inv = np.unique(np.asarray(layout.module_ids), return_inverse=True)
+    k = len(mids)
+    count = np.bincount(inv, minlength=k)[:, None]
+    centre = np.column_stack([np.bincount(inv, pos[:, j], k) for j in range(3)]) / count
+    normal = np.column_stack([np.bincount(inv, nrm[:, j], k) for j in range(3)])
+    normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-12)
+    r = pos - centre[inv]
+    r_rms = np.sqrt(np.bincount(inv, np.sum(r**2, axis=1), k) / count[:, 0])
+    t = rng.normal(0.0, 1.0, (k, 3))
+    t -= normal * np.sum(t * normal, axis=1, keepdims=True)  # in the tangent plane: E|t|^2 = 2
+    # rotation about the module normal by an angle whose arc is rms/sqrt(2) on average;
+    # Rodrigues' formula, so the module stays exactly rigid
+    a = rng.normal(0.0, 1.0, k) * (rms / np.sqrt(2.0)) / np.maximum(r_rms, 1e-12)
+    ai, ni = a[inv, None], normal[inv]
+    rot = (r * (np.cos(ai) - 1.0) + np.cross(ni, r) * np.sin(ai)
+           + ni * np.sum(ni * r, axis=1, keepdims=True) * (1.0 - np.cos(ai)))
+    return t[inv] * (rms / 2.0) + rot                           # E|t|^2 = 2: translation rms/sqrt(2)
+
+
+def believed_skin(layout, error):
+    """The skin as the robot believes it, and the true skin, both in the believed control frame.
+
+    layout : Layout in the (true) control frame. error : (N, 3) m, the position error.
+    The robot builds its control frame (x_R, approach axis, x along the curvature) from
+    what it believes, so x_R is the believed reference taxel; the contact sees the true
+    taxels. Returns ``(true layout, believed layout, F)`` with F (4x4) the believed
+    control frame in the true one.
+    """
+    belief = layout.subset(slice(None))
+    belief.positions = np.asarray(layout.positions, dtype=np.float64) + error
+    f = control_frame(belief)
+    inv = np.linalg.inv(f)
+    return layout.transformed(inv), belief.transformed(inv), f

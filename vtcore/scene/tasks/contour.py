@@ -45,8 +45,12 @@ PARAMS = Section({
     "contact": Field("str", default="press", choices=("press", "analytic"),
                      doc="press: vtcore.contact.press; analytic: AnalyticContact (testing)"),
     "position_error": Field("float", default=0.0, ge=0, unit="m",
-                            doc="std of the error of the taxel positions the filters use (the physics "
-                                "uses the true ones); seed 002: ~1 mm on its curved patch"),
+                            doc="RMS length of the error of the taxel positions the robot believes (its "
+                                "control frame and filters use them, the physics the true ones); seed 002: "
+                                "~1 mm on its curved patch"),
+    "position_error_model": Field("str", default="module", choices=("module", "taxel"),
+                                  doc="module: each CySkin module misplaced rigidly (taxels on one PCB keep "
+                                      "their CAD distances); taxel: independent per taxel (worst case)"),
     "active_depth": Field("float", default=0.012, gt=0, unit="m",
                           doc="press only taxels within this depth of the tangent plane at x_R "
                               "(the rest cannot touch a flat-topped object; <1% change, 3-5x faster)"),
@@ -112,7 +116,8 @@ def _detectors(p, mesh, layout):
 
 def run(scene, ctx) -> TaskResult:
     from ...control import AnalyticContact, ContourFollower, summarize
-    from ...control.contour import PressContact, random_starts, seed002_object
+    from ...control.contour import (PressContact, believed_skin, random_starts, seed002_object,
+                                    taxel_position_error)
     from ...layout import skin_mesh
     from ..sections.contact import build_layer, layer_options
 
@@ -124,10 +129,12 @@ def run(scene, ctx) -> TaskResult:
     _, layout, frame = control_skin(p["end_effector"])
     belief = layout
     if p["position_error"] > 0:
-        # the robot's model of its skin: seed 002 estimated its curved patch's taxels to ~1 mm
-        err = ctx.child_rng("taxel-position-error").normal(0.0, p["position_error"], layout.positions.shape)
-        belief = layout.subset(slice(None))
-        belief.positions = layout.positions + err
+        # the robot's model of its skin: seed 002 estimated its curved patch's taxels to ~1 mm.
+        # The robot's control frame comes from that model too (x_R is the believed reference taxel)
+        err = taxel_position_error(layout, p["position_error"], ctx.child_rng("taxel-position-error"),
+                                   p["position_error_model"])
+        layout, belief, believed_frame = believed_skin(layout, err)
+        frame = frame @ believed_frame
     mesh = skin_mesh(belief)
     detectors = _detectors(p, mesh, belief)
     keys = ("ruler_length", "ruler_thickness", "ruler_height", "mug_outer_diameter", "mug_inner_diameter",
@@ -262,8 +269,9 @@ def _table(p, layer, metrics, runs_by_method) -> str:
                          f"{metrics[f'{m}_detect_ms']:.3f} ms per tap to find the edges vs "
                          f"{metrics['mesh_detect_ms']:.3f} ms.")
     reasons = {m: [r.stop_reason for r in rs] for m, (rs, _) in runs_by_method.items()}
-    err = (f"the filters use taxel positions with a {p['position_error'] * 1e3:.1f} mm error (seed 002: "
-           "~1 mm on its curved patch)" if p["position_error"] > 0 else "the filters know the taxel positions exactly")
+    err = (f"the robot's control frame and filters use taxel positions with a {p['position_error'] * 1e3:.1f} mm "
+           f"RMS error ({p['position_error_model']} model; seed 002: ~1 mm on its curved patch)"
+           if p["position_error"] > 0 else "the filters know the taxel positions exactly")
     lines += ["", "Run endings: " + "; ".join(f"{m}: {', '.join(v)}" for m, v in reasons.items()) + ".",
               f"Setup: {p['force']:.0f} N per tap through {layer.thickness * 1e3:g} mm of {layer.material} "
               f"(E = {layer.young_modulus / 1e3:.0f} kPa, the scene's [layer]), "
@@ -271,8 +279,9 @@ def _table(p, layer, metrics, runs_by_method) -> str:
               "", f"Deviation from seed 002: the cover ({layer.thickness * 1e3:g} mm of {layer.material}) is "
               "this simulation's assumption, not the paper's, which does not describe the cover of its CySkin "
               "patches. The shipped contour scenes use 6 mm of Ecoflex 00-50 because a thinner, softer cover "
-              "(3 mm of Ecoflex 00-20, the [layer] default) bottoms out before 15 N on a 1 mm edge; the cover "
-              "changes d̄ by up to ~1.5 mm (docs/filters.md, sensitivity table)."]
+              "(3 mm of Ecoflex 00-20, the [layer] default) bottoms out before 15 N on a 1 mm edge. The cover "
+              "matters: on the curved patch a thinner one makes the mesh filter settle outside the mug rim "
+              "(docs/filters.md, sensitivity table)."]
     return "\n".join(lines)
 
 
