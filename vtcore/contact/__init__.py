@@ -9,16 +9,17 @@ to a target, seed 000), the proximity back-ends (:func:`lower_envelope`,
 
 from . import sensor
 from .elastic import MODELS, layer_factor, solve_pk
+from .analytic import footprint_pressure
 from .force import ProbeResult, probe, solve_monotone
 from .materials import MATERIALS, SoftLayer
 from .objects import make_object, placement_pose
 from .press import (ContactField, ContactGrid, PressResult, boussinesq_kernel, median_taxel_area, press,
-                    press_sequence, press_sphere, spread_field, spread_through_layer, taxel_means)
+                    press_sequence, spread_field, spread_through_layer, taxel_means)
 from .proximity import lower_envelope, prepare_mesh, signed_distance
 
 __all__ = [
-    "SoftLayer", "MATERIALS", "make_object", "placement_pose", "press", "press_sequence", "PressResult",
+    "SoftLayer", "MATERIALS", "footprint_pressure", "make_object", "placement_pose", "press", "press_sequence", "PressResult",
     "ContactGrid", "ContactField", "probe", "ProbeResult", "solve_monotone", "MODELS", "layer_factor",
     "solve_pk", "lower_envelope", "signed_distance", "prepare_mesh", "spread_field", "taxel_means", "sensor",
-    "press_sphere", "spread_through_layer", "boussinesq_kernel", "median_taxel_area",
+    "spread_through_layer", "boussinesq_kernel", "median_taxel_area",
 ]

@@ -695,37 +695,3 @@ def median_taxel_area(positions) -> float:
 
     d, _ = cKDTree(positions).query(positions, k=2)
     return float(np.sqrt(3) / 2 * np.median(d[:, 1]) ** 2)
-
-
-def press_sphere(positions, normals, centre_xy, radius, force, thickness, young_modulus,
-                 poisson=0.49, taxel_area=None):
-    """Deprecated foundation model: a sphere on a local (Winkler) layer sampled at the taxels only.
-
-    Use :func:`press` with ``make_object("sphere")``. Returns (surface_pressure (N,) Pa, indentation m).
-    """
-    from scipy.optimize import brentq
-
-    p = np.asarray(positions, float)
-    n = np.asarray(normals, float)
-    h = max(float(thickness), 1e-6)
-    outer = p + h * n
-    if taxel_area is None:
-        taxel_area = median_taxel_area(p)
-    e_star = young_modulus / (1.0 - poisson**2)
-    cxy = np.asarray(centre_xy, float)
-    top = outer[:, 2].max()
-
-    def surface_pressure(depth):
-        c = np.array([cxy[0], cxy[1], top + radius - depth])
-        pen = np.clip(radius - np.linalg.norm(outer - c, axis=1), 0.0, h)
-        return e_star * pen / h
-
-    def total(depth):
-        return surface_pressure(depth).sum() * taxel_area - force
-
-    if total(h) < 0:
-        raise UnreachableTargetError(
-            f"a force of {force} N is not reached before the sphere bottoms out the "
-            f"{h * 1e3:.1f} mm layer (at most {total(h) + force:.3g} N)")
-    depth = brentq(total, 0.0, h, xtol=1e-12) if force > 0 else 0.0
-    return surface_pressure(depth), depth

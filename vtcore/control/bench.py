@@ -19,13 +19,12 @@ and straight-edge accuracy are ``vtcore bench filters``. The scenes
 
 from __future__ import annotations
 
-import csv
 import time
 from pathlib import Path
 
 import numpy as np
 
-from .._io import atomic_write
+from .._bench import save_png, write_table
 
 SETUPS = (("seed002_planar", "ruler"), ("seed002_planar", "mug"),
           ("seed002_curved", "ruler"), ("seed002_curved", "mug"))
@@ -105,24 +104,11 @@ def run(out: Path, quick: bool = False) -> list[dict]:
     return rows
 
 
-def _fmt(v):
-    return f"{v:.4g}" if isinstance(v, float) else str(v)
-
-
 def _write(out: Path, rows: list[dict]) -> None:
-    keys = list(rows[0])
-    with atomic_write(out / "table.csv", "w", newline="", encoding="utf-8") as fh:
-        w = csv.DictWriter(fh, fieldnames=keys)
-        w.writeheader()
-        w.writerows(rows)
-    lines = ["# Contour following: each method's error next to its time", "",
-             "One seeded run per setup and method (seed 002 §5.2: 15 N, s = 5 mm; 6 mm Ecoflex 00-50 cover, "
-             "an assumption: the paper gives none). ms_per_tap: edge detection only. Seed 002 Tables 1-2: "
-             "d̄ 0.89-1.86 mm; Eq. 6 0.075 ms, tactile image 3.7 ms per frame.", "",
-             "| " + " | ".join(keys) + " |", "|" + "---|" * len(keys)]
-    lines += ["| " + " | ".join(_fmt(r[k]) for k in keys) + " |" for r in rows]
-    with atomic_write(out / "table.md", "w", encoding="utf-8") as fh:
-        fh.write("\n".join(lines) + "\n")
+    write_table(out, rows, title="Contour following: each method's error next to its time", notes=[
+        "One seeded run per setup and method (seed 002 §5.2: 15 N, s = 5 mm; 6 mm Ecoflex 00-50 cover, "
+        "an assumption: the paper gives none). ms_per_tap: edge detection only. Seed 002 Tables 1-2: "
+        "d̄ 0.89-1.86 mm; Eq. 6 0.075 ms, tactile image 3.7 ms per frame."])
 
     import matplotlib
 
@@ -146,6 +132,4 @@ def _write(out: Path, rows: list[dict]) -> None:
     ax.set_xlabel("edge detection per tap (ms)")
     ax.set_ylabel("contour error d-bar, closed loop (mm)")
     ax.set_title("contour following: accuracy vs time (one run per setup)")
-    with atomic_write(out / "accuracy_vs_time.png", "wb") as fh:
-        fig.savefig(fh, format="png", dpi=120, bbox_inches="tight")
-    plt.close(fig)
+    save_png(fig, out / "accuracy_vs_time.png")

@@ -24,6 +24,7 @@ from typing import Callable
 
 import numpy as np
 
+from ..contact.analytic import footprint_pressure
 from ..errors import InputError
 
 
@@ -292,15 +293,7 @@ class AnalyticContact:
     def __call__(self, world_pose):
         q = self.positions @ np.asarray(world_pose)[:3, :3].T + np.asarray(world_pose)[:3, 3]
         dist = self.contour.footprint_distance(q[:, :2])
-        near = dist < 3 * self.spread
-        if not near.any():
-            return None
-        zmin = q[near, 2].min()
-        p = np.exp(-0.5 * (dist / self.spread) ** 2) * np.clip(1 - (q[:, 2] - zmin) / self.depth, 0, 1)
-        total = p.sum() * self.area
-        if total <= 0:
-            return None
-        return p * (self.force / total)
+        return footprint_pressure(dist, q[:, 2], self.force, self.spread, self.depth, self.area)
 
 
 # --------------------------------------------------------------------------------------

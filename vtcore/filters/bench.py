@@ -20,13 +20,13 @@ closed-loop contour error of each method next to its time is
 
 from __future__ import annotations
 
-import csv
 import time
 from pathlib import Path
 
 import numpy as np
 
-from .._io import atomic_write
+from .._bench import save_png, write_table
+from ..contact.analytic import footprint_pressure
 
 
 def _best(fn, repeat=5, number=None):
@@ -88,19 +88,14 @@ def line_pressure(positions, offset, angle, width=1e-3, force=15.0, spread=2e-3,
     ``exp(-d^2 / (2 spread^2)) * clip(1 - (z_max - z) / depth, 0, 1)``, with ``d``
     the distance to the edge's top face and ``z_max`` the highest skin point near it
     (where a curved skin touches first), scaled to ``force`` over ``area`` per taxel.
-    The same field as ``vtcore.control.AnalyticContact`` for a straight edge, written
-    out here because the filters may not import control (layering).
+    The same field as ``vtcore.control.AnalyticContact`` for a straight edge
+    (both use :func:`vtcore.contact.footprint_pressure`).
     """
     q = np.asarray(positions, dtype=np.float64)
     y_t = np.sin(angle) * q[:, 0] - np.cos(angle) * q[:, 1]
     dist = np.maximum(np.abs(y_t - offset) - width / 2, 0.0)
-    near = dist < 3 * spread
-    if not near.any():
-        return None
-    zmax = q[near, 2].max()
-    p = np.exp(-0.5 * (dist / spread) ** 2) * np.clip(1 - (zmax - q[:, 2]) / depth, 0, 1)
-    total = p.sum() * area
-    return None if total <= 0 else p * (force / total)
+    # z points towards the object, so the highest taxel touches first: gap = -z
+    return footprint_pressure(dist, -q[:, 2], force, spread, depth, area)
 
 
 def _accuracy(det, lay, cases):
@@ -204,36 +199,19 @@ def run(out: Path, quick: bool = False) -> list[dict]:
     return rows
 
 
-def _fmt(v):
-    if isinstance(v, float):
-        return f"{v:.4g}"
-    return str(v)
-
-
 def _write(out: Path, rows: list[dict]) -> None:
-    keys = list(rows[0])
-    with atomic_write(out / "table.csv", "w", newline="", encoding="utf-8") as fh:
-        w = csv.DictWriter(fh, fieldnames=keys)
-        w.writeheader()
-        w.writerows(rows)
-    lines = ["# Edge filters: time and accuracy", "",
-             "Seed 002: Eq. 6 on its 211-taxel patch 0.075 ms; tactile-image pipeline 3.7 ms "
+    notes = ["Seed 002: Eq. 6 on its 211-taxel patch 0.075 ms; tactile-image pipeline 3.7 ms "
              "(7.2 ms with every pixel back-projected). Goals: <= 0.02 ms per frame on 211 taxels, "
              ">= 50 M taxel-frames/s batched. Accuracy: straight-edge contacts (analytic pressure), "
-             "error of the detected edge position and orientation.", "",
-             "| " + " | ".join(keys) + " |", "|" + "---|" * len(keys)]
-    lines += ["| " + " | ".join(_fmt(r[k]) for k in keys) + " |" for r in rows]
+             "error of the detected edge position and orientation."]
     img = [r for r in rows if r["row"] == "detect_image" and r["knob"] == "grid 1 mm"]
-    mesh = [r for r in rows if r["row"] == "detect_mesh"]
-    for m in mesh:
+    for m in (r for r in rows if r["row"] == "detect_mesh"):
         i = [r for r in img if r["skin"] == m["skin"]]
         if i:
-            lines.append("")
-            lines.append(f"{m['skin']}: mesh pipeline {m['ms_per_frame']:.3f} ms vs tactile image "
+            notes.append(f"{m['skin']}: mesh pipeline {m['ms_per_frame']:.3f} ms vs tactile image "
                          f"{i[0]['ms_per_frame']:.3f} ms per frame (x{i[0]['ms_per_frame'] / m['ms_per_frame']:.1f}); "
                          f"position error {m['pos_err_mm']:.2f} vs {i[0]['pos_err_mm']:.2f} mm.")
-    with atomic_write(out / "table.md", "w", encoding="utf-8") as fh:
-        fh.write("\n".join(lines) + "\n")
+    write_table(out, rows, title="Edge filters: time and accuracy", notes=notes)
 
     import matplotlib
 
@@ -258,9 +236,7 @@ def _write(out: Path, rows: list[dict]) -> None:
     log_time_axis(ax)
     ax.set_ylabel("edge position error, straight edges (mm)")
     ax.set_title("single frames: accuracy vs time (closed loop: vtcore bench control)")
-    with atomic_write(out / "accuracy_vs_time.png", "wb") as fh:
-        fig.savefig(fh, format="png", dpi=120, bbox_inches="tight")
-    plt.close(fig)
+    save_png(fig, out / "accuracy_vs_time.png")
 
 
 def log_time_axis(ax) -> None:
