@@ -108,11 +108,45 @@ def merge_duplicates(points: np.ndarray, values: np.ndarray) -> tuple[np.ndarray
     return points[np.sort(first)], merged
 
 
+class _TouchEstimator:
+    """``fit`` / ``partial_fit`` over touches, shared by the propagation estimators.
+
+    Subclasses learn from all touches so far in ``_learn(points (n, 3), values (n,) or (n, k))``;
+    ``partial_fit`` costs the new touches plus that re-learning (small: contacts, not the cloud).
+    """
+
+    def _validate_params(self):
+        pass
+
+    def fit(self, contact_points, values):
+        """Learn the tactile cloud. contact_points : (n, 3); values : (n,) or (n, k)."""
+        self._validate_params()
+        p = _points(contact_points, "contact_points", allow_empty=False)
+        v = _values(values, len(p))
+        self._touch_points, self._touch_values = p, v
+        self._learn(p, v)
+        return self
+
+    def partial_fit(self, contact_points, values):
+        """Add touches to a fitted (or empty) estimator."""
+        if getattr(self, "_touch_points", None) is None:
+            return self.fit(contact_points, values)
+        p = _points(contact_points, "contact_points", allow_empty=False)
+        v = _values(values, len(p))
+        if v.shape[1:] != self._touch_values.shape[1:]:
+            raise InputError(f"has {v.shape[1:]} channels per touch but the fitted ones have "
+                             f"{self._touch_values.shape[1:]}", key="values")
+        self._touch_points = np.concatenate([self._touch_points, p])
+        self._touch_values = np.concatenate([self._touch_values, v])
+        self._learn(self._touch_points, self._touch_values)
+        return self
+
+
 # ---------------------------------------------------------------------------
 # cluster-based (Eq. 2)
 # ---------------------------------------------------------------------------
 
-class ClusterPropagation:
+class ClusterPropagation(_TouchEstimator):
     """Nearest-contact colours (seed 000, Eq. 2): a sharp, Voronoi-like augmented cloud.
 
     Parameters
@@ -130,29 +164,7 @@ class ClusterPropagation:
     def __init__(self, workers: int = 1):
         self.workers = workers
 
-    def fit(self, contact_points, values):
-        """Learn the tactile cloud. contact_points : (n, 3); values : (n,) or (n, k)."""
-        p = _points(contact_points, "contact_points", allow_empty=False)
-        v = _values(values, len(p))
-        self._raw_points, self._raw_values = p, v
-        self._set(p, v)
-        return self
-
-    def partial_fit(self, contact_points, values):
-        """Add touches to a fitted (or empty) estimator; rebuilds only the small KD-tree over contacts."""
-        p = _points(contact_points, "contact_points", allow_empty=False)
-        if getattr(self, "contact_points_", None) is None:
-            return self.fit(p, values)
-        v = _values(values, len(p))
-        if v.shape[1:] != self._raw_values.shape[1:]:
-            raise InputError(f"has {v.shape[1:]} channels per touch but the fitted ones have "
-                             f"{self._raw_values.shape[1:]}", key="values")
-        self._raw_points = np.concatenate([self._raw_points, p])
-        self._raw_values = np.concatenate([self._raw_values, v])
-        self._set(self._raw_points, self._raw_values)
-        return self
-
-    def _set(self, p, v):
+    def _learn(self, p, v):
         self.contact_points_, self.values_ = merge_duplicates(p, v)
         self.tree_ = cKDTree(self.contact_points_)
 
@@ -211,7 +223,7 @@ def softmax_weights(distances: np.ndarray, beta: float) -> np.ndarray:
     return w
 
 
-class SmoothPropagation:
+class SmoothPropagation(_TouchEstimator):
     """Softmax-of-distance colours (seed 000, Eqs. 3-4): a smooth augmented cloud.
 
     Parameters
@@ -246,28 +258,12 @@ class SmoothPropagation:
             raise InputError(f"must be a positive integer or None, got {self.k_nearest}", key="k_nearest")
         return b
 
-    def fit(self, contact_points, values):
-        """Learn the tactile cloud. contact_points : (n, 3); values : (n,) or (n, k)."""
+    def _validate_params(self):
         self._check_params()
-        p = _points(contact_points, "contact_points", allow_empty=False)
-        v = _values(values, len(p))
+
+    def _learn(self, p, v):
         self.contact_points_, self.values_ = p, v
         self._prepare()
-        return self
-
-    def partial_fit(self, contact_points, values):
-        """Add touches; the cost is that of the new touches (no cloud is stored)."""
-        p = _points(contact_points, "contact_points", allow_empty=False)
-        if getattr(self, "contact_points_", None) is None:
-            return self.fit(p, values)
-        v = _values(values, len(p))
-        if v.shape[1:] != self.values_.shape[1:]:
-            raise InputError(f"has {v.shape[1:]} channels per touch but the fitted ones have "
-                             f"{self.values_.shape[1:]}", key="values")
-        self.contact_points_ = np.concatenate([self.contact_points_, p])
-        self.values_ = np.concatenate([self.values_, v])
-        self._prepare()
-        return self
 
     def _prepare(self):
         self.origin_ = self.contact_points_.mean(axis=0)

@@ -87,7 +87,7 @@ def unrolled_skin(layout, h, layer_extent, grid, taxel_radius):
     """The contact grid on the layout's flat coordinates, cached per layout: cell centres ``x, y``,
     outer-surface points ``pts (mx, my, 3)``, normals ``nrm (mx, my, 3)``, outer-surface area per
     flat area ``area_factor (mx, my)`` and the ``skin`` mask (inside the layer's extent)."""
-    from .press import _digest
+    from .press import _digest, grid_cells
 
     if layout.flat is None:
         raise InputError("geometry = \"unrolled\" needs the layout's flat coordinates (Layout.flat)",
@@ -107,13 +107,8 @@ def unrolled_skin(layout, h, layer_extent, grid, taxel_radius):
     extent = grid.extent if grid.extent is not None else layer_extent
     if extent is not None:
         lo, hi = np.minimum(lo, centre - extent), np.maximum(hi, centre + extent)
-    mx, my = 2 * np.ceil((hi - lo) / (2 * dx)).astype(int)
-    if mx * my > 4_000_000:
-        raise InputError(f"grid of {mx} x {my} cells is too large; increase grid.spacing", key="grid.spacing")
-    cx, cy = (lo + hi) / 2
-    xs = cx + dx * (np.arange(mx) - (mx - 1) / 2)
-    ys = cy + dx * (np.arange(my) - (my - 1) / 2)
-    X, Y = np.meshgrid(xs, ys, indexing="ij")
+    X, Y = grid_cells(lo, hi, dx)
+    mx, my = X.shape
     base, nr = _surface_map(flat, pos, nrm, X, Y)
     pts = (base + h * nr).reshape(mx, my, 3)
     nr = nr.reshape(mx, my, 3)
@@ -127,7 +122,7 @@ def unrolled_skin(layout, h, layer_extent, grid, taxel_radius):
     skin = np.ones((mx, my), bool)
     if extent is not None:
         skin &= np.hypot(X - centre[0], Y - centre[1]) <= extent
-    hit = {"x": xs, "y": ys, "X": X, "Y": Y, "pts": pts, "nrm": nr, "area_factor": area, "skin": skin}
+    hit = {"x": X[:, 0], "y": Y[0], "X": X, "Y": Y, "pts": pts, "nrm": nr, "area_factor": area, "skin": skin}
     if len(_CACHE) > 8:
         _CACHE.clear()
     _CACHE[key] = hit

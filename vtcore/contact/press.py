@@ -418,6 +418,21 @@ def _envelope_open3d(pts, n, local, holder):
     return out
 
 
+def grid_cells(lo, hi, dx):
+    """Cell centres ``X, Y`` (mx, my) metres of a grid of spacing ``dx`` covering [lo, hi] (2,).
+
+    An even number of cells centred on the box: cell centres sit half a cell off the
+    box's axes, so the edges of objects centred on the patch fall between cells.
+    """
+    mx, my = 2 * np.ceil((np.asarray(hi) - np.asarray(lo)) / (2 * dx)).astype(int)
+    if mx * my > 4_000_000:
+        raise InputError(f"grid of {mx} x {my} cells is too large; increase grid.spacing", key="grid.spacing")
+    cx, cy = (np.asarray(lo) + np.asarray(hi)) / 2
+    xs = cx + dx * (np.arange(mx) - (mx - 1) / 2)
+    ys = cy + dx * (np.arange(my) - (my - 1) / 2)
+    return np.meshgrid(xs, ys, indexing="ij")
+
+
 def _skin_grid(layout, h, layer_extent, direction, grid, taxel_radius):
     """The grid on the layer's outer surface (frame, cells, surface heights), cached per layout."""
     key = (_digest(np.asarray(layout.positions, float), np.asarray(layout.normals, float)), float(h),
@@ -443,21 +458,14 @@ def _skin_grid(layout, h, layer_extent, direction, grid, taxel_radius):
     if extent is not None:
         lo = np.minimum(lo, -extent)
         hi = np.maximum(hi, extent)
-    # an even number of cells centred on the patch: cell centres sit half a cell off the
-    # patch axes, so the edges of objects centred on the patch fall between cells
-    mx, my = 2 * np.ceil((hi - lo) / (2 * dx)).astype(int)
-    if mx * my > 4_000_000:
-        raise InputError(f"grid of {mx} x {my} cells is too large; increase grid.spacing", key="grid.spacing")
-    cx, cy = (lo + hi) / 2
-    xs = cx + dx * (np.arange(mx) - (mx - 1) / 2)
-    ys = cy + dx * (np.arange(my) - (my - 1) / 2)
-    X, Y = np.meshgrid(xs, ys, indexing="ij")
+    X, Y = grid_cells(lo, hi, dx)
+    mx, my = X.shape
     S = _surface_height(xy, z, X, Y)
     skin = np.ones_like(X, dtype=bool)
     if extent is not None:
         skin &= np.hypot(X, Y) <= extent
     pts = origin + X[..., None] * e1 + Y[..., None] * e2 + S[..., None] * n
-    hit = {"u": u, "n": n, "e1": e1, "e2": e2, "origin": origin, "x": xs, "y": ys, "X": X, "Y": Y, "S": S,
+    hit = {"u": u, "n": n, "e1": e1, "e2": e2, "origin": origin, "x": X[:, 0], "y": Y[0], "X": X, "Y": Y, "S": S,
            "skin": skin, "pts": pts}
     if len(_SKIN_CACHE) > 16:
         _SKIN_CACHE.clear()
