@@ -48,3 +48,47 @@ def taxel_map(flat, values, *, title="", label="", ax=None, cmap="viridis", vmin
     ax.set_title(title)
     fig.colorbar(coll, ax=ax, label=label, shrink=0.85)
     return fig
+
+
+def skin_3d(positions, values, *, mesh=None, title="", label="", cmap="viridis", elev=22, azim=-60):
+    """The taxels in 3-D on their end-effector, coloured by ``values``.
+
+    positions : (N, 3) metres (drawn in millimetres). values : (N,).
+    mesh : optional end-effector (anything with ``vertices`` (V, 3) and ``faces`` (F, 3)),
+        drawn as a light surface clipped to the patch's neighbourhood.
+    Returns the matplotlib Figure.
+    """
+    plt = _plt()
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    pos = np.asarray(positions, float) * 1e3
+    values = np.asarray(values, float)
+    fig = plt.figure(figsize=(6, 5))
+    # draw the taxels over the surface they sit on (matplotlib's depth sort puts them behind)
+    ax = fig.add_subplot(projection="3d", computed_zorder=False)
+    lo, hi = pos.min(axis=0), pos.max(axis=0)
+    pad = 0.15 * max(float((hi - lo).max()), 1.0)
+    if mesh is not None:
+        v = np.asarray(mesh.vertices, float) * 1e3
+        f = np.asarray(mesh.faces)
+        tri = v[f]
+        centre = tri.mean(axis=1)
+        keep = np.all((centre >= lo - pad) & (centre <= hi + pad), axis=1)
+        if keep.any():
+            ax.add_collection3d(Poly3DCollection(tri[keep], facecolor="0.8", edgecolor="0.6", linewidths=0.15, alpha=0.4,
+                                                 zorder=1))
+    sc = ax.scatter(pos[:, 0], pos[:, 1], pos[:, 2], c=values, cmap=cmap, s=30, depthshade=False,
+                    edgecolors="0.3", linewidths=0.3, zorder=2)
+    span = float((hi - lo).max()) / 2 + pad
+    mid = (lo + hi) / 2
+    ax.set_xlim(mid[0] - span, mid[0] + span)
+    ax.set_ylim(mid[1] - span, mid[1] + span)
+    ax.set_zlim(mid[2] - span, mid[2] + span)
+    ax.set_box_aspect((1, 1, 1))
+    ax.view_init(elev=elev, azim=azim)
+    ax.set_xlabel("x (mm)")
+    ax.set_ylabel("y (mm)")
+    ax.set_zlabel("z (mm)")
+    ax.set_title(title)
+    fig.colorbar(sc, ax=ax, label=label, shrink=0.7, pad=0.1)
+    return fig

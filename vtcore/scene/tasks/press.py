@@ -24,13 +24,13 @@ from __future__ import annotations
 import numpy as np
 
 from ...contact import press, press_sequence, probe
-from ...plots import taxel_map
+from ...plots import skin_3d, taxel_map
 from ..registry import TaskSpec, register_task
 from ..runner import TaskResult
 from ..schema import Field, Section
 from ..sections.contact import (build_layer, keyframe_poses, layer_options, object_compliance, object_mesh,
                                 object_pose)
-from ..sections.layout import build_layout
+from ..sections.layout import build_end_effector, build_layout
 
 PARAMS = Section({
     "force": Field("float", default=10.0, gt=0, unit="N", doc="target total normal force"),
@@ -291,6 +291,8 @@ def run(scene, ctx) -> TaskResult:
     if scene["output"]["plots"]:  # the runner closes only the figures it saves
         figures = {
             "response": taxel_map(flat, mean, title=f"{scene.name}: mean response, {obj['name']}", label=unit),
+            "skin_3d": skin_3d(layout.positions, mean, mesh=build_end_effector(scene),
+                               title=f"{scene.name}: the skin on its end-effector", label=unit),
             "pressure_field": _field_figure(fld, layout, title, cut),
             "profile": _profile_figure(cut, title),
         }
