@@ -5,7 +5,7 @@ chosen attribute through a colour ramp (normalised by the attribute's min/max on
 the object); a colour attribute such as ``tactile_color`` is used as is. The
 colour is stored on the points as ``vtskin_display`` and read by the material
 through an Attribute node of type *Instancer*. The skin mesh itself is kept and
-drawn as well, so its edges stay visible.
+drawn as thin tubes along its edges.
 """
 
 from __future__ import annotations
@@ -17,6 +17,9 @@ MATERIAL = "vtskin taxel"
 MODIFIER = "vtskin discs"
 DISPLAY_ATTR = "vtskin_display"
 DISC_RADIUS = 2e-3  # m: 4 mm discs, the CySkin taxel size
+DISC_LIFT = 3e-4  # m: discs drawn this far above the taxel along its normal
+EDGE_RADIUS = 2e-4  # m: skin-mesh edges drawn as tubes of this radius
+EDGE_MATERIAL = "vtskin skin edge"
 
 
 def _socket(group, name, in_out, socket_type, default=None):
@@ -31,6 +34,100 @@ def node_group():
     ng = bpy.data.node_groups.get(GROUP)
     if ng is not None:
         return ng
+    ng = bpy.data.node_groups.new(GROUP, "GeometryNodeTree")
+    _socket(ng, "Geometry", "INPUT", "NodeSocketGeometry")
+    _socket(ng, "Attribute", "INPUT", "NodeSocketString", "response")
+    _socket(ng, "Is colour", "INPUT", "NodeSocketBool", False)
+    _socket(ng, "Radius", "INPUT", "NodeSocketFloat", DISC_RADIUS)
+    _socket(ng, "Geometry", "OUTPUT", "NodeSocketGeometry")
+    n, link = ng.nodes, ng.links.new
+    gin = n.new("NodeGroupInput")
+    gout = n.new("NodeGroupOutput")
+
+    value = n.new("GeometryNodeInputNamedAttribute")
+    value.data_type = "FLOAT"
+    link(gin.outputs["Attribute"], value.inputs["Name"])
+    stats = n.new("GeometryNodeAttributeStatistic")
+    stats.data_type = "FLOAT"
+    stats.domain = "POINT"
+    link(gin.outputs["Geometry"], stats.inputs["Geometry"])
+    link(value.outputs["Attribute"], stats.inputs["Attribute"])
+    norm = n.new("ShaderNodeMapRange")
+    link(value.outputs["Attribute"], norm.inputs["Value"])
+    link(stats.outputs["Min"], norm.inputs["From Min"])
+    link(stats.outputs["Max"], norm.inputs["From Max"])
+    ramp = n.new("ShaderNodeValToRGB")
+    ramp.name = "Ramp"
+    _viridis(ramp.color_ramp)
+    link(norm.outputs["Result"], ramp.inputs["Fac"])
+
+    colour = n.new("GeometryNodeInputNamedAttribute")
+    colour.data_type = "FLOAT_COLOR"
+    link(gin.outputs["Attribute"], colour.inputs["Name"])
+    switch = n.new("GeometryNodeSwitch")
+    switch.input_type = "RGBA"
+    link(gin.outputs["Is colour"], switch.inputs["Switch"])
+    link(ramp.outputs["Color"], switch.inputs["False"])
+    link(colour.outputs["Attribute"], switch.inputs["True"])
+
+    store = n.new("GeometryNodeStoreNamedAttribute")
+    store.data_type = "FLOAT_COLOR"
+    store.domain = "POINT"
+    store.inputs["Name"].default_value = DISPLAY_ATTR
+    link(gin.outputs["Geometry"], store.inputs["Geometry"])
+    link(switch.outputs["Output"], store.inputs["Value"])
+
+    circle = n.new("GeometryNodeMeshCircle")
+    circle.fill_type = "NGON"
+    circle.inputs["Vertices"].default_value = 16
+    link(gin.outputs["Radius"], circle.inputs["Radius"])
+    setmat = n.new("GeometryNodeSetMaterial")
+    setmat.inputs["Material"].default_value = material()
+    link(circle.outputs["Mesh"], setmat.inputs["Geometry"])
+
+    normal = n.new("GeometryNodeInputNamedAttribute")
+    normal.data_type = "FLOAT_VECTOR"
+    normal.inputs["Name"].default_value = "normal"
+    align = n.new("FunctionNodeAlignEulerToVector")
+    align.axis = "Z"
+    link(normal.outputs["Attribute"], align.inputs["Vector"])
+
+    # Discs float a little above the surface so they do not z-fight with it.
+    lift = n.new("ShaderNodeVectorMath")
+    lift.operation = "SCALE"
+    link(normal.outputs["Attribute"], lift.inputs[0])
+    lift.inputs["Scale"].default_value = DISC_LIFT
+    setpos = n.new("GeometryNodeSetPosition")
+    link(store.outputs["Geometry"], setpos.inputs["Geometry"])
+    link(lift.outputs["Vector"], setpos.inputs["Offset"])
+
+    # Only taxel points get discs: the skin mesh's vertices ARE the taxels.
+    inst = n.new("GeometryNodeInstanceOnPoints")
+    link(setpos.outputs["Geometry"], inst.inputs["Points"])
+    link(setmat.outputs["Geometry"], inst.inputs["Instance"])
+    link(align.outputs["Rotation"], inst.inputs["Rotation"])
+
+    # The skin mesh's edges as thin dark tubes (faces would z-fight with the surface).
+    to_curve = n.new("GeometryNodeMeshToCurve")
+    link(setpos.outputs["Geometry"], to_curve.inputs["Mesh"])
+    profile = n.new("GeometryNodeCurvePrimitiveCircle")
+    profile.inputs["Resolution"].default_value = 6
+    profile.inputs["Radius"].default_value = EDGE_RADIUS
+    tube = n.new("GeometryNodeCurveToMesh")
+    link(to_curve.outputs["Curve"], tube.inputs["Curve"])
+    link(profile.outputs["Curve"], tube.inputs["Profile Curve"])
+    wire_mat = n.new("GeometryNodeSetMaterial")
+    wire_mat.inputs["Material"].default_value = edge_material()
+    link(tube.outputs["Mesh"], wire_mat.inputs["Geometry"])
+
+    join = n.new("GeometryNodeJoinGeometry")
+    link(inst.outputs["Instances"], join.inputs["Geometry"])
+    link(wire_mat.outputs["Geometry"], join.inputs["Geometry"])
+    link(join.outputs["Geometry"], gout.inputs["Geometry"])
+    for i, node in enumerate((gin, value, stats, norm, ramp, colour, switch, store, circle, setmat,
+                              normal, align, lift, setpos, inst, to_curve, profile, tube, wire_mat, join, gout)):
+        node.location = (200 * i, 0)
+    return ng
     ng = bpy.data.node_groups.new(GROUP, "GeometryNodeTree")
     _socket(ng, "Geometry", "INPUT", "NodeSocketGeometry")
     _socket(ng, "Attribute", "INPUT", "NodeSocketString", "response")
@@ -134,6 +231,18 @@ def material():
     nt.links.new(attr.outputs["Color"], bsdf.inputs["Emission Color"])
     bsdf.inputs["Emission Strength"].default_value = 0.3
     mat.diffuse_color = (0.8, 0.8, 0.8, 1.0)
+    return mat
+
+
+def edge_material():
+    """Dark material of the skin-mesh edge tubes."""
+    mat = bpy.data.materials.get(EDGE_MATERIAL)
+    if mat is None:
+        mat = bpy.data.materials.new(EDGE_MATERIAL)
+        mat.use_nodes = True
+        bsdf = mat.node_tree.nodes.get("Principled BSDF")
+        bsdf.inputs["Base Color"].default_value = (0.05, 0.05, 0.06, 1.0)
+        mat.diffuse_color = (0.05, 0.05, 0.06, 1.0)
     return mat
 
 

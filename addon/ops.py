@@ -70,7 +70,8 @@ class VTSKIN_OT_run_scene(bpy.types.Operator):
 def _errors():
     from vtcore.errors import VtError
 
-    return (VtError, ValueError, OSError)
+    # ImportError: an optional library a vtcore path needs is missing from this Blender.
+    return (VtError, ValueError, OSError, ImportError)
 
 
 def _frame(ob):
@@ -203,7 +204,7 @@ class VTSKIN_OT_lay_patch(bpy.types.Operator):
         try:
             edit = interactive.lay_patch(verts, tri, at, existing=base, patch=patch, module=s.module,
                                          direction=_direction(s.rotation), offset=s.offset, method=s.method,
-                                         fill_region=region)
+                                         fill_region=region, max_faces=s.solve_faces or None)
         except _errors() as exc:
             return _fail(self, f"Cannot lay the patch: {exc}")
         ob = _write_edit(context, ee, existing, frame, edit, s.module)

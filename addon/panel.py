@@ -33,6 +33,7 @@ class VTSKIN_PT_layout(_Panel, bpy.types.Panel):
         col.prop(s, "rotation")
         col.prop(s, "offset")
         col.prop(s, "method")
+        col.prop(s, "solve_faces")
         col.operator("vtskin.lay_patch", icon="MESH_ICOSPHERE").fill = False
         col.operator("vtskin.lay_patch", text="Fill Selected Faces", icon="MOD_TRIANGULATE").fill = True
         row = col.row(align=True)

@@ -103,6 +103,9 @@ class VTSKIN_PG_scene(bpy.types.PropertyGroup):
     method: EnumProperty(name="Method", items=[("logmap", "Log map", "Geodesic (discrete exponential map)"),
                                                ("project", "Project", "Project the flat patch")],
                          default="logmap")
+    solve_faces: IntProperty(name="Solve faces", default=20000, min=0,
+                             description="Solve the log map on a copy simplified to about this many faces "
+                                         "(0: the full mesh); fewer is faster and less accurate")
     # Soft layer
     thickness: FloatProperty(name="Thickness", default=0.003, min=0.0, subtype="DISTANCE", unit="LENGTH",
                              precision=4)

@@ -221,6 +221,11 @@ def check_bundle(wheels: list[Path], python: str):
             f"assert vtcore.__file__.startswith({str(site)!r}), vtcore.__file__\n"
             "from vtcore.scene.interactive import run_scene_file\n"
             f"r = run_scene_file({str(ROOT / 'scenes' / 'demo.toml')!r}, {str(Path(tmp) / 'out')!r})\n"
+            "import trimesh\n"
+            "from vtcore.scene.interactive import lay_patch\n"
+            "ball = trimesh.creation.icosphere(subdivisions=5, radius=0.06)\n"
+            "e = lay_patch(ball.vertices, ball.faces, [0, 0, 0.06])\n"
+            "assert len(e.layout) == 60, len(e.layout)\n"
             "print('bundle ok:', len(r.layout), 'taxels,', sorted(sys.modules.keys() & "
             "{'scipy', 'trimesh', 'sklearn', 'matplotlib', 'tqdm'}))\n")
         env = {k: v for k, v in os.environ.items() if not k.startswith("PYTHON")}

@@ -162,7 +162,7 @@ def _edit(layout: Layout, report: dict) -> LayoutEdit:
 
 def lay_patch(vertices, triangles, at, *, existing: Layout | None = None, patch: str = "hexagon",
               module: str = "cyskin10", direction=None, offset: float = 0.0, method: str = "logmap",
-              fill_region=None) -> LayoutEdit:
+              fill_region=None, max_faces: int | None = 20_000) -> LayoutEdit:
     """Conform a patch (or fill a face region with modules) onto a mesh, added to ``existing``.
 
     vertices : (V, 3) metres and triangles : (F, 3) of the end-effector surface, in
@@ -170,23 +170,36 @@ def lay_patch(vertices, triangles, at, *, existing: Layout | None = None, patch:
     the surface). patch : "hexagon", "triangle" or "strip:N"; module : module type.
     direction : (3,) in-plane x axis or None. offset : metres along the normal.
     fill_region : (F,) bool face mask: tile that region with whole modules instead.
+    max_faces : the log map is solved on a copy simplified to about this many faces
+        (vtcore.layout.place's speed/accuracy knob; None: the full mesh).
     Returns the merged layout, its skin mesh and the placement report.
     """
     from ..layout import fill, place
 
     mesh = _trimesh(vertices, triangles)
     at = np.asarray(at, dtype=np.float64).reshape(3)
+    if max_faces is not None and not _has_open3d():
+        # vtcore.layout simplifies big meshes with open3d, which the Blender extension does not
+        # bundle (hundreds of MB): solve on the full mesh instead (slower, as accurate or more).
+        max_faces = None
     if fill_region is not None:
         region = np.asarray(fill_region, dtype=bool).reshape(-1)
         if len(region) != len(mesh.faces) or not region.any():
             raise InputError("select at least one face of the end-effector to fill", key="region")
-        new, rep = fill(mesh, at, direction, module=module, region=region, offset=offset)
+        new, rep = fill(mesh, at, direction, module=module, region=region, offset=offset, max_faces=max_faces)
     else:
-        new, rep = place(mesh, patch, at, direction, module=module, offset=offset, method=method)
+        new, rep = place(mesh, patch, at, direction, module=module, offset=offset, method=method,
+                         max_faces=max_faces)
     if len(new) == 0:
         raise InputError("no module fits there", key="at")
     report = rep.as_dict()
     return _edit(merge(existing, new), report)
+
+
+def _has_open3d() -> bool:
+    import importlib.util
+
+    return importlib.util.find_spec("open3d") is not None
 
 
 def remove_modules(layout: Layout, modules) -> LayoutEdit:

@@ -1,0 +1,202 @@
+"""Performance of the Blender add-on (bpy 4.5 wheel, headless), with the check that
+each timed step produced the right data, side by side.
+
+    .venv/bin/python benchmarks/bench_blender.py --out benchmarks/out/blender [--quick]
+
+Writes ``table.md``, ``table.csv`` and ``accuracy_vs_time.png``. Goals (issue 7):
+writing a 4,000-taxel frame to attributes <= 20 ms; laying a hexagonal patch on a
+50k-face mesh <= 0.5 s; playback of a baked 1,000-frame contact >= 60 frames/s.
+Measured, not asserted.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import io
+import os
+import sys
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+
+def _median_time(fn, reps):
+    ts = []
+    for _ in range(reps):
+        t = time.perf_counter()
+        fn()
+        ts.append(time.perf_counter() - t)
+    return float(np.median(ts))
+
+
+def bench_frame_write(n, reps):
+    import bpy
+
+    from addon import bridge, display, skin
+    from vtcore.layout import Layout
+
+    rng = np.random.default_rng(0)
+    ob = skin.new_object(bpy.context, f"bench {n}")
+    pos = rng.normal(size=(n, 3)) * 0.05
+    skin.write_layout(ob, Layout(pos, np.tile([0, 0, 1.0], (n, 1)), np.arange(n), np.zeros(n)))
+    display.ensure_display(ob)
+    frame = rng.uniform(0, 65535, n)
+    t = _median_time(lambda: bridge.set_attribute(ob.data, "response", frame), reps)
+    err = float(np.abs(bridge.get_attribute(ob.data, "response") - frame.astype(np.float32)).max())
+    rows = [{"case": f"write a {n}-taxel frame (response attribute)", "seconds": t, "goal": "<= 0.020 s",
+             "met": t <= 0.020, "accuracy": f"max |read - written| = {err:g} (float32)"}]
+    # With the disc display re-evaluated (what the viewport does after the write).
+    dg = bpy.context.evaluated_depsgraph_get()
+
+    def write_and_eval():
+        bridge.set_attribute(ob.data, "response", frame)
+        dg.update()
+
+    t2 = _median_time(write_and_eval, max(3, reps // 5))
+    rows.append({"case": f"write a {n}-taxel frame + evaluate the disc display", "seconds": t2,
+                 "goal": "(context)", "met": None, "accuracy": "same data"})
+    return rows, ob
+
+
+def bench_lay_patch(segments, rings, solve_faces=20000):
+    import bpy
+
+    from addon import skin
+
+    bpy.context.scene.vtskin.solve_faces = solve_faces
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=segments, ring_count=rings, radius=0.06)
+    ee = bpy.context.active_object
+    faces = len(ee.data.polygons)
+    ee.data.calc_loop_triangles()
+    faces = f"{faces}-face ({len(ee.data.loop_triangles)} triangles)"
+    bpy.context.scene.cursor.location = (0.0, 0.0, 0.06)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        t = time.perf_counter()
+        res = bpy.ops.vtskin.lay_patch()
+        seconds = time.perf_counter() - t
+    assert res == {"FINISHED"}
+    ob = next(o for o in bpy.data.objects if skin.is_taxels(o) and o.vtskin.end_effector == ee)
+    co = np.empty(3 * len(ob.data.vertices), np.float32)
+    ob.data.vertices.foreach_get("co", co)
+    r = np.linalg.norm(co.reshape(-1, 3), axis=1)
+    acc = (f"{len(r)} taxels, max strain {ob.vtskin.strain_max:.2f} %, "
+           f"max |distance to sphere| {np.abs(r - 0.06).max() * 1e3:.3f} mm")
+    return [{"case": f"lay a hexagonal patch on a {faces} mesh (operator, end to end; solve faces {solve_faces})",
+             "seconds": seconds, "goal": "<= 0.5 s", "met": seconds <= 0.5, "accuracy": acc}]
+
+
+def bench_playback(n, frames, with_display):
+    import bpy
+
+    from addon import bake, bridge, display, skin
+    from vtcore.layout import Layout
+
+    rng = np.random.default_rng(1)
+    ob = skin.new_object(bpy.context, f"playback {n}")
+    skin.write_layout(ob, Layout(rng.normal(size=(n, 3)) * 0.05, np.tile([0, 0, 1.0], (n, 1)), np.arange(n),
+                                 np.zeros(n)))
+    if with_display:
+        display.ensure_display(ob)
+    # Synthetic baked values: playback cost does not depend on them.
+    resp = rng.uniform(0, 1000, (frames, n)).astype(np.float32)
+    t = time.perf_counter()
+    bake.store(ob, np.arange(1, frames + 1), pressure=resp * 10, response=resp, edge=resp > 900)
+    store_s = time.perf_counter() - t
+    scene = bpy.context.scene
+    scene.frame_start, scene.frame_end = 1, frames
+    scene.frame_set(1)
+    t = time.perf_counter()
+    for f in range(1, frames + 1):
+        scene.frame_set(f)
+    seconds = time.perf_counter() - t
+    fps = frames / seconds
+    got = bridge.get_attribute(ob.data, "response")
+    err = float(np.abs(got - resp[-1]).max())
+    ob.hide_viewport = True
+    label = "with disc display" if with_display else "attributes only"
+    return [{"case": f"play back {frames} baked frames of {n} taxels ({label})", "seconds": seconds,
+             "goal": ">= 60 frames/s", "met": fps >= 60,
+             "accuracy": f"{fps:.0f} frames/s; last frame max error {err:g}; bake store {store_s:.2f} s"}]
+
+
+def run(out: Path, quick: bool = False) -> list[dict]:
+    import bpy
+
+    from tests.blender.bl_helpers import register_addon
+
+    addon = register_addon()
+    try:
+        bpy.ops.wm.read_factory_settings(use_empty=True)
+        rows = []
+        r, _ = bench_frame_write(4000, 20 if quick else 100)
+        rows += r
+        bench_lay_patch(32, 16)  # warm-up: first-use imports are not part of a placement
+        for solve in (20000, 5000, 2000, 0):  # 0: full mesh, what the extension does without open3d
+            rows += bench_lay_patch(256, 100, solve) if not quick else bench_lay_patch(64, 32, solve)
+        frames = 100 if quick else 1000
+        rows += bench_playback(60, frames, True)
+        rows += bench_playback(4000, frames, False)
+        rows += bench_playback(4000, frames, True)
+        write(out, rows)
+        return rows
+    finally:
+        addon.unregister()
+
+
+def write(out: Path, rows):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from vtcore._io import atomic_write
+
+    out.mkdir(parents=True, exist_ok=True)
+    lines = ["| case | seconds | goal | met | check |", "|---|---|---|---|---|"]
+    for r in rows:
+        met = "" if r["met"] is None else ("yes" if r["met"] else "**no**")
+        lines.append(f"| {r['case']} | {r['seconds']:.3g} | {r['goal']} | {met} | {r['accuracy']} |")
+    with atomic_write(out / "table.md", "w", encoding="utf-8") as fh:
+        fh.write("\n".join(lines) + "\n")
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=["case", "seconds", "goal", "met", "accuracy"])
+    w.writeheader()
+    w.writerows(rows)
+    with atomic_write(out / "table.csv", "w", encoding="utf-8") as fh:
+        fh.write(buf.getvalue())
+    fig, ax = plt.subplots(figsize=(8, 3.8))
+    labels = [r["case"].replace(" (", "\n(") for r in rows]
+    colours = ["tab:green" if r["met"] else ("0.6" if r["met"] is None else "tab:red") for r in rows]
+    ax.barh(range(len(rows)), [r["seconds"] for r in rows], color=colours)
+    ax.set_yticks(range(len(rows)), labels, fontsize=7)
+    ax.set_xscale("log")
+    ax.set_xlabel("seconds (log); green: goal met, red: missed, grey: context")
+    ax.invert_yaxis()
+    ax.set_title("vtskin add-on, bpy 4.5 headless (each bar: time; checks in table.md)")
+    fig.tight_layout()
+    with atomic_write(out / "accuracy_vs_time.png", "wb") as fh:
+        fig.savefig(fh, format="png", dpi=120)
+    plt.close(fig)
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "out" / "blender"))
+    ap.add_argument("--quick", action="store_true")
+    args = ap.parse_args()
+    rows = run(Path(args.out), args.quick)
+    for r in rows:
+        print(f"{r['seconds']:9.3g} s  {r['case']}  [{r['goal']}]  {r['accuracy']}")
+    sys.stdout.flush()
+    os._exit(0)  # skip bpy's slow teardown
+
+
+if __name__ == "__main__":
+    main()
