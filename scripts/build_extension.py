@@ -43,15 +43,16 @@ STAGE = ROOT / "build" / "extension"
 CACHE = ROOT / "build" / "wheelcache"
 DIST = ROOT / "dist"
 
-#: What the add-on imports that Blender does not ship, and why. Only these are
+#: What the add-on imports that Blender does not ship, and why (scikit-learn is not
+#: here: the add-on's augment path, cluster/smooth propagation, uses scipy's KD-tree only;
+#: the isolated check in step 4 proves it). Only these are
 #: bundled (plus their own dependencies listed here); ``numpy`` comes with Blender.
 BUNDLE = {
     "scipy": "vtcore.layout (sparse skin mesh, Delaunay), vtcore.contact (solvers), filters",
     "tqdm": "vtcore._progress (scene runs)",
+    "potpourri3d": "vtcore.layout log-map placement (heat-method log map): Lay Patch, Fill, Move",
     "trimesh": "vtcore.contact objects and proximity, vtcore.layout placement on meshes",
-    "scikit-learn": "vtcore.augment propagation (neighbour search, clustering)",
-    "joblib": "dependency of scikit-learn",
-    "threadpoolctl": "dependency of scikit-learn",
+    "rtree": "trimesh's closest-point queries (vtcore.layout placement without open3d)",
     "matplotlib": "scene runs write their PNG plots (vtcore.plots)",
     "contourpy": "dependency of matplotlib",
     "cycler": "dependency of matplotlib",
@@ -226,6 +227,13 @@ def check_bundle(wheels: list[Path], python: str):
             "ball = trimesh.creation.icosphere(subdivisions=5, radius=0.06)\n"
             "e = lay_patch(ball.vertices, ball.faces, [0, 0, 0.06])\n"
             "assert len(e.layout) == 60, len(e.layout)\n"
+            "from vtcore.contact import make_object, placement_pose\n"
+            "from vtcore.scene.interactive import augment, simulate\n"
+            "s = make_object('sphere', radius=0.015)\n"
+            "pose = placement_pose(s, xy=[0.0, 0.0], top=0.063, gap=0.001)\n"
+            "c = simulate(e.layout, e.triangles, s.vertices, s.faces, pose, thickness=0.003, force=1.0)\n"
+            "assert abs(c.force - 1.0) < 1e-3 and c.edge.any(), (c.force, c.edge.sum())\n"
+            "v, rgb = augment(e.layout.positions, e.layout.positions[:5], [1.0, 2, 3, 4, 5])\n"
             "print('bundle ok:', len(r.layout), 'taxels,', sorted(sys.modules.keys() & "
             "{'scipy', 'trimesh', 'sklearn', 'matplotlib', 'tqdm'}))\n")
         env = {k: v for k, v in os.environ.items() if not k.startswith("PYTHON")}
