@@ -88,7 +88,8 @@ def node_group():
     normal = n.new("GeometryNodeInputNamedAttribute")
     normal.data_type = "FLOAT_VECTOR"
     normal.inputs["Name"].default_value = "normal"
-    align = n.new("FunctionNodeAlignEulerToVector")
+    # Rotation-socket node (Blender 4.2+); the Euler variant is deprecated.
+    align = n.new("FunctionNodeAlignRotationToVector")
     align.axis = "Z"
     link(normal.outputs["Attribute"], align.inputs["Vector"])
 
@@ -182,7 +183,8 @@ def node_group():
     normal = n.new("GeometryNodeInputNamedAttribute")
     normal.data_type = "FLOAT_VECTOR"
     normal.inputs["Name"].default_value = "normal"
-    align = n.new("FunctionNodeAlignEulerToVector")
+    # Rotation-socket node (Blender 4.2+); the Euler variant is deprecated.
+    align = n.new("FunctionNodeAlignRotationToVector")
     align.axis = "Z"
     link(normal.outputs["Attribute"], align.inputs["Vector"])
 
