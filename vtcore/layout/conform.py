@@ -355,8 +355,11 @@ class LogMap:
         self.info = []  # how it was solved (no warning)
         sub = mesh
         if radius is not None and np.isfinite(radius):
-            keep_v = np.linalg.norm(np.asarray(mesh.vertices) - cp[0], axis=1) <= radius
-            keep_f = keep_v[np.asarray(mesh.faces)].any(axis=1)
+            # a face is kept when any point of it is within reach, not only a vertex: CAD meshes
+            # have long faces (a cylinder's side from cap to cap) whose vertices are all far away
+            tri = np.asarray(mesh.triangles)
+            near = closest_point_on_triangles(tri, np.broadcast_to(cp[0], (len(tri), 3)).copy())
+            keep_f = np.linalg.norm(near - cp[0], axis=1) <= radius
             keep_f[face[0]] = True
             if not keep_f.all():
                 part = mesh.submesh([np.flatnonzero(keep_f)], append=True, repair=False)
@@ -364,7 +367,7 @@ class LogMap:
                 comp = trimesh.graph.connected_components(part.face_adjacency, nodes=np.arange(len(part.faces)))
                 cpp, fpp, _ = _closest(part, cp)
                 for c in comp:
-                    if fpp[0] in set(c.tolist()):
+                    if fpp[0] in set(np.asarray(c).ravel().tolist()):
                         part = part.submesh([np.asarray(c)], append=True, repair=False)
                         break
                 sub = part
