@@ -35,3 +35,49 @@ def test_long_cad_faces_are_kept_when_cropping(cad_cylinder):
     assert len(np.unique(lay.positions.round(7), axis=0)) == 60
     assert np.abs(np.hypot(*lay.positions[:, :2].T) - R).max() < 1e-4
     assert rep.strain_max < 0.01
+
+
+def merged(a: Layout, b: Layout) -> Layout:
+    return Layout(np.vstack([a.positions, b.positions]), np.vstack([a.normals, b.normals]),
+                  np.arange(len(a) + len(b)), np.concatenate([a.module_ids, b.module_ids + a.module_ids.max() + 1]))
+
+
+def test_render_docs_overlap_is_reported():
+    """scripts/render_docs.py lays two hexagons 60 mm apart on seed 002's curved end-effector; they
+    overlap (taxels ~2.5 mm apart) and each placement said 'overlaps 0'. The second placement must
+    report the overlap with the skin already there, with the pairs a check of the merged skin finds."""
+    from vtcore.scene import interactive
+
+    mesh, lay = seed002_curved()
+    centre = lay.positions[np.argmin(np.linalg.norm(lay.positions - lay.positions.mean(0), axis=1))]
+    e1 = quiet(interactive.lay_patch, mesh.vertices, mesh.faces, centre)
+    e2 = quiet(interactive.lay_patch, mesh.vertices, mesh.faces, centre + [0.06, 0, 0], existing=e1.layout)
+    assert e1.report["overlaps"] == 0
+    truth = find_overlaps(e2.layout.positions, e2.layout.module_ids, OVERLAP_FRACTION * PITCH)
+    assert truth, "the render's two patches overlap"
+    assert e2.report["overlaps_within"] == 0
+    assert e2.report["overlaps_existing"] == len(truth) == e2.report["overlaps"]
+    assert sorted(map(tuple, e2.report["existing_overlap_pairs"])) == truth
+    assert any("already on the skin" in n for n in e2.report["notes"])
+
+
+def test_place_existing_warns_and_counts(cad_cylinder):
+    a, _ = quiet(place, cad_cylinder, "hexagon", (R, 0, 0), (0, 1, 0))
+    w = np.ptp(make_patch("hexagon").flat[:, 1])
+    with pytest.warns(LayoutWarning, match="already on the skin"):
+        b, rep = place(cad_cylinder, "hexagon", (R, 0, w / 2), (0, 1, 0), existing=a)
+    assert rep.overlaps == [] and len(rep.existing_overlaps) > 0
+    assert all(0 <= n < 6 and 0 <= e < 6 for e, n in rep.existing_overlaps)
+    # far enough apart: nothing reported
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", LayoutWarning)
+        _, rep2 = place(cad_cylinder, "hexagon", (R, 0, w + 2 * PITCH), (0, 1, 0), existing=a)
+    assert rep2.existing_overlaps == [] and rep2.as_dict()["overlaps"] == 0
+
+
+def test_fill_leaves_out_modules_over_the_existing_skin(cad_cylinder):
+    a, _ = quiet(place, cad_cylinder, "hexagon", (R, 0, 0), (0, 1, 0))
+    f, rep = quiet(fill, cad_cylinder, (R, 0, 0), (0, 1, 0), radius=0.07, existing=a)
+    assert len(f) > 0 and rep.existing_overlaps == []
+    assert not find_overlaps(merged(a, f).positions, merged(a, f).module_ids, OVERLAP_FRACTION * PITCH)
+    assert any("already on the skin" in n for n in rep.notes)

@@ -52,7 +52,10 @@ class PlacementReport:
     strain : (E,) float, per module edge, (length on the surface / flat length) - 1.
     strain_max : float, max |strain|. strain_mean : float, mean |strain|.
     module_strain : (M,) float, per module max |strain|.
-    overlaps : list of (module_a, module_b) pairs that overlap.
+    overlaps : list of (module_a, module_b) pairs of this patch that overlap each other.
+    existing_overlaps : list of (existing_module, new_module) pairs: a module of this patch
+        overlapping one already on the skin (``place(..., existing=layout)``); new module ids
+        are the patch's own (0-based), existing ones as in ``existing.module_ids``.
     off_boundary : (K,) int, taxel indices that fell outside the mapped surface (off an open boundary,
         or past the cut locus of a closed surface where the log map is unreliable).
     coverage : float in [0, 1] or nan, fraction of the region under module outlines.
@@ -69,6 +72,7 @@ class PlacementReport:
     method: str = "logmap"
     seconds: float = 0.0
     notes: list = field(default_factory=list)
+    existing_overlaps: list = field(default_factory=list)
 
     @property
     def strain_max(self) -> float:
@@ -80,7 +84,12 @@ class PlacementReport:
 
     def as_dict(self) -> dict:
         return {"method": self.method, "strain_max": self.strain_max, "strain_mean": self.strain_mean,
-                "overlaps": len(self.overlaps), "overlap_pairs": [list(map(int, p)) for p in self.overlaps],
+                # every overlapping pair an integrator has to act on: within the patch and with
+                # modules already on the skin (the add-on shows this one number)
+                "overlaps": len(self.overlaps) + len(self.existing_overlaps),
+                "overlaps_within": len(self.overlaps), "overlaps_existing": len(self.existing_overlaps),
+                "overlap_pairs": [list(map(int, p)) for p in self.overlaps],
+                "existing_overlap_pairs": [list(map(int, p)) for p in self.existing_overlaps],
                 "off_boundary": [int(i) for i in self.off_boundary], "coverage": _f(self.coverage),
                 "surface_distance_max_m": float(self.surface_distance_max), "seconds": float(self.seconds),
                 "notes": list(self.notes)}
@@ -309,6 +318,32 @@ def find_overlaps(positions: np.ndarray, module_ids: np.ndarray, min_distance: f
     cross = a != b
     mp = np.unique(np.sort(np.column_stack([a[cross], b[cross]]), axis=1), axis=0)
     return [tuple(map(int, r)) for r in mp]
+
+
+def find_overlaps_between(existing: Layout, positions: np.ndarray, module_ids: np.ndarray,
+                          min_distance: float) -> list:
+    """(existing_module, new_module) pairs with taxels closer than ``min_distance`` metres.
+
+    existing : the layout already on the skin. positions : (n, 3) metres and module_ids :
+    (n,) of the new taxels, in the same frame. A pair appears once.
+    """
+    if existing is None or len(existing) == 0 or len(positions) == 0:
+        return []
+    hits = cKDTree(np.asarray(existing.positions)).query_ball_point(np.asarray(positions), min_distance)
+    counts = np.array([len(h) for h in hits])
+    if not counts.sum():
+        return []
+    new = np.repeat(np.asarray(module_ids), counts)
+    old = np.asarray(existing.module_ids)[np.concatenate([np.asarray(h, np.int64) for h in hits if len(h)])]
+    mp = np.unique(np.column_stack([old, new]), axis=0)
+    return [tuple(map(int, r)) for r in mp]
+
+
+def _overlap_note(pairs: list) -> str:
+    a = len({p[1] for p in pairs})
+    b = len({p[0] for p in pairs})
+    return (f"{a} module(s) of this patch overlap {b} module(s) already on the skin "
+            f"({len(pairs)} pairs; taxels closer than {OVERLAP_FRACTION} pitch)")
 
 
 def _tangent_basis(normal: np.ndarray, direction) -> tuple[np.ndarray, np.ndarray]:
@@ -584,7 +619,8 @@ def _as_patch(patch, module) -> Patch:
 
 def place(mesh, patch="hexagon", at=(0.0, 0.0, 0.0), direction=None, *, module: str = "cyskin10",
           offset: float = 0.0, method: str = "logmap", region=None,
-          logmap: "LogMap | None" = None, max_faces: int | None = 20_000) -> tuple[Layout, PlacementReport]:
+          logmap: "LogMap | None" = None, max_faces: int | None = 20_000,
+          existing: Layout | None = None) -> tuple[Layout, PlacementReport]:
     """Conform ``patch`` to ``mesh`` around the surface point nearest ``at``.
 
     mesh : trimesh.Trimesh, metres (open, non-manifold or with degenerate faces is fine;
@@ -598,6 +634,10 @@ def place(mesh, patch="hexagon", at=(0.0, 0.0, 0.0), direction=None, *, module: 
     max_faces : when the (cropped) mesh has more faces, solve the log map on a copy simplified
         to about this many faces by vertex clustering, then snap the taxels to the full mesh
         (None: always the full mesh). The benchmark shows what it costs in accuracy.
+    existing : the skin already on this mesh (same frame). Modules of the new patch with
+        taxels closer than ``OVERLAP_FRACTION`` pitch to its taxels are reported in
+        ``report.existing_overlaps`` (and counted in ``as_dict()["overlaps"]``) with a warning;
+        the new layout itself never contains the existing taxels (merge it yourself).
 
     Returns ``(layout, report)``; ``layout.meta["placement"]`` holds ``report.as_dict()``.
     """
@@ -647,6 +687,10 @@ def place(mesh, patch="hexagon", at=(0.0, 0.0, 0.0), direction=None, *, module: 
     if len(strain):
         np.maximum.at(mstrain, p.module_ids[p.module_edges[:, 0]], np.abs(np.nan_to_num(strain)))
     overlaps = find_overlaps(layout.positions, layout.module_ids, OVERLAP_FRACTION * p.module.pitch)
+    ex_overlaps = find_overlaps_between(existing, layout.positions, layout.module_ids,
+                                        OVERLAP_FRACTION * p.module.pitch)
+    if ex_overlaps:
+        notes.append(_overlap_note(ex_overlaps))
     off = np.flatnonzero(~found)
     if len(off):
         notes.append(f"{len(off)} taxels fall outside the mapped surface (off an open boundary, or past "
@@ -654,7 +698,7 @@ def place(mesh, patch="hexagon", at=(0.0, 0.0, 0.0), direction=None, *, module: 
     cov = _coverage(clean, p, uvmap, region, extent)
     info = list(uvmap.info) if uvmap is not None else []
     report = PlacementReport(strain, mstrain, overlaps, off, cov, float(dist.max()), method,
-                             time.perf_counter() - t0, notes + info)
+                             time.perf_counter() - t0, notes + info, ex_overlaps)
     layout.meta["placement"] = report.as_dict()
     for msg in notes:
         warnings.warn(f"place: {msg}", LayoutWarning, stacklevel=2)
@@ -724,13 +768,14 @@ def points_in_outlines(points: np.ndarray, patch: Patch) -> np.ndarray:
 
 def fill(mesh, at, direction=None, *, module: str = "cyskin10", region=None, radius: float | None = None,
          offset: float = 0.0, max_strain: float = 0.05,
-         max_faces: int | None = 20_000) -> tuple[Layout, PlacementReport]:
+         max_faces: int | None = 20_000, existing: Layout | None = None) -> tuple[Layout, PlacementReport]:
     """Tile a region of ``mesh`` with whole modules, without overlap, by the log map at ``at``.
 
     region : (F,) bool face mask of ``mesh`` (default: every face). radius :
         metres, limit the fill to this geodesic radius around ``at`` (default:
         the whole region). Modules that would fall off the region, strain more
-        than ``max_strain`` or overlap a module nearer to ``at`` are left out.
+        than ``max_strain``, overlap a module nearer to ``at`` or overlap a module of
+        ``existing`` (the skin already there, same frame) are left out.
     """
     from .modules import get_module
 
@@ -773,11 +818,21 @@ def fill(mesh, at, direction=None, *, module: str = "cyskin10", region=None, rad
     for a, b in sorted(pairs, key=lambda ab: min(dist_src[ab[0]], dist_src[ab[1]])):
         if keep[a] and keep[b]:
             keep[b if dist_src[b] >= dist_src[a] else a] = False
+    n_existing = 0
+    if existing is not None and len(existing):
+        clash = find_overlaps_between(existing, pos, p.module_ids, OVERLAP_FRACTION * mod.pitch)
+        hit = np.unique(np.asarray([c[1] for c in clash], np.int64))
+        n_existing = int(keep[hit].sum()) if len(hit) else 0
+        keep[hit] = False
     p = p.select_modules(keep)
     p.kind = "fill"
-    layout, report = place(clean, p, lm.at, direction, offset=offset, method="logmap", logmap=lm)
+    if not p.n_modules:
+        raise InputError("no whole module fits in the region (beside the modules already there)", key="region")
+    layout, report = place(clean, p, lm.at, direction, offset=offset, method="logmap", logmap=lm,
+                           existing=existing)
     report.notes = notes + report.notes + [f"fill: {int((~keep).sum())} candidate modules left out "
-                                           f"(strain > {max_strain} or overlap)"]
+                                           f"(strain > {max_strain} or overlap; {n_existing} of them "
+                                           "overlap modules already on the skin)"]
     # coverage of the requested region
     F = np.asarray(lm.mesh.faces)
     cent = lm.uv[F].mean(axis=1)

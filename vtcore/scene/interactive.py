@@ -186,13 +186,20 @@ def lay_patch(vertices, triangles, at, *, existing: Layout | None = None, patch:
         region = np.asarray(fill_region, dtype=bool).reshape(-1)
         if len(region) != len(mesh.faces) or not region.any():
             raise InputError("select at least one face of the end-effector to fill", key="region")
-        new, rep = fill(mesh, at, direction, module=module, region=region, offset=offset, max_faces=max_faces)
+        new, rep = fill(mesh, at, direction, module=module, region=region, offset=offset, max_faces=max_faces,
+                        existing=existing)
     else:
         new, rep = place(mesh, patch, at, direction, module=module, offset=offset, method=method,
-                         max_faces=max_faces)
+                         max_faces=max_faces, existing=existing)
     if len(new) == 0:
         raise InputError("no module fits there", key="at")
     report = rep.as_dict()
+    if existing is not None and len(existing) and report["existing_overlap_pairs"]:
+        # name the new modules by their ids in the merged skin (merge renumbers them)
+        ids = np.unique(new.module_ids)
+        first = int(existing.module_ids.max()) + 1
+        report["existing_overlap_pairs"] = [[a, first + int(np.searchsorted(ids, b))]
+                                            for a, b in report["existing_overlap_pairs"]]
     return _edit(merge(existing, new), report)
 
 
