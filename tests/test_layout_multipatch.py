@@ -81,3 +81,55 @@ def test_fill_leaves_out_modules_over_the_existing_skin(cad_cylinder):
     assert len(f) > 0 and rep.existing_overlaps == []
     assert not find_overlaps(merged(a, f).positions, merged(a, f).module_ids, OVERLAP_FRACTION * PITCH)
     assert any("already on the skin" in n for n in rep.notes)
+
+
+def _cross_edges(layout, n_first):
+    sm = skin_mesh(layout)
+    e = sm.edges
+    cross = (e[:, 0] < n_first) != (e[:, 1] < n_first)
+    length = np.linalg.norm(layout.positions[e[:, 0]] - layout.positions[e[:, 1]], axis=1)
+    return sm, length[cross]
+
+
+@pytest.mark.parametrize("gap", ["two_pitches", "abutting"])
+def test_two_patches_on_a_cylinder(cad_cylinder, gap):
+    """Two hexagons placed separately and merged (no flat coordinates): 2 pitches apart they share no
+    edge; abutting (the second continues the first's lattice) they are joined at the seam at the pitch."""
+    a, _ = quiet(place, cad_cylinder, "hexagon", (R, 0, 0), (0, 1, 0))
+    w = np.ptp(make_patch("hexagon").flat[:, 1])  # flat sides face +-y, i.e. along the axis here
+    dz, ds = (w + 2 * PITCH, 0.0) if gap == "two_pitches" else (w + np.sqrt(3) / 2 * PITCH, PITCH / 2)
+    th = ds / R
+    b, _ = quiet(place, cad_cylinder, "hexagon", (R * np.cos(th), R * np.sin(th), dz), (-np.sin(th), np.cos(th), 0))
+    lay = merged(a, b)
+    sm, cross = _cross_edges(lay, len(a))
+    if gap == "two_pitches":
+        assert cdist(a.positions, b.positions).min() == pytest.approx(2 * PITCH, rel=0.02)
+        assert len(cross) == 0 or cross.max() < 1.5 * PITCH
+    else:
+        assert len(cross) >= 5 and cross.max() < 1.05 * PITCH
+
+
+def test_enclosed_gap_between_patches_is_not_bridged():
+    """A patch inside a ring of modules with a 2-pitch gap all round: the gap's Delaunay triangles are
+    interior, so peeling from the border never reached them (36 edges of up to 3.6 pitches)."""
+    from vtcore.layout.modules import MODULES
+    from vtcore.layout.patches import patch_from_poses, tile_poses
+
+    mod = MODULES["cyskin10"]
+    p = patch_from_poses(mod, tile_poses(mod, [-0.08, -0.08], [0.08, 0.08]))
+    f = np.unique(p.flat.round(9), axis=0)
+    r = np.hypot(*f.T)
+    f = f[(r < 2.6 * PITCH) | ((r > 4.6 * PITCH) & (r < 8 * PITCH))]
+    outer = np.hypot(*f.T) > 3 * PITCH
+    order = np.argsort(outer, kind="stable")
+    f, n_in = f[order], int((~outer).sum())
+    pos = np.column_stack([f, np.zeros(len(f))])
+    nrm = np.tile([0.0, 0.0, 1.0], (len(f), 1))
+    ids = np.arange(len(f))
+    for lay in (Layout(pos, nrm, ids, outer[order].astype(int)),
+                Layout(pos, nrm, ids, outer[order].astype(int), flat=f)):
+        sm, cross = _cross_edges(lay, n_in)
+        assert len(cross) == 0 and sm.meta["bridges_removed"] > 0
+        # each group keeps its own lattice
+        assert np.count_nonzero(np.abs(np.linalg.norm(pos[sm.edges[:, 0]] - pos[sm.edges[:, 1]], axis=1) - PITCH)
+                                < 1e-6) > 300

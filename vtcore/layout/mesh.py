@@ -201,6 +201,39 @@ def peel(tri: np.ndarray, pts: np.ndarray, spacing: np.ndarray, max_edge: float 
     return tri[keep], n0 - int(keep.sum())
 
 
+def drop_bridges(tri: np.ndarray, chain: np.ndarray, pts: np.ndarray, spacing: np.ndarray,
+                 max_edge: float = 1.5) -> tuple[np.ndarray, np.ndarray, int]:
+    """Remove triangles and chain edges that bridge between separate groups of taxels.
+
+    Groups are the connected components of the graph of short edges (no longer than
+    ``max_edge`` times the local spacing, ``max(spacing[i], spacing[j])``) of ``tri`` and
+    ``chain``. An edge joining two groups is long by construction and is no neighbour
+    relation: two patches laid side by side with a gap, whose Delaunay fills the gap with
+    triangles that peeling cannot reach once they are interior (a merged skin made of
+    separately placed patches). Long edges inside one group are kept (the hole where a
+    hexagon's central taxel is left out, an iCub module's thermal-pad slots), and so is a
+    seam between abutting patches, which is at about the pitch and joins them into one group.
+    Returns ``(triangles, chain_edges, removed)``.
+    """
+    tri = np.asarray(tri, dtype=np.int64).reshape(-1, 3)
+    chain = np.asarray(chain, dtype=np.int64).reshape(-1, 2)
+    n = len(pts)
+    e = np.concatenate([_edges_of(tri), chain]) if len(tri) else chain
+    if not len(e):
+        return tri, chain, 0
+    from scipy.sparse.csgraph import connected_components
+
+    length = np.linalg.norm(pts[e[:, 0]] - pts[e[:, 1]], axis=1)
+    short = length <= max_edge * np.maximum(spacing[e[:, 0]], spacing[e[:, 1]])
+    g = sp.csr_matrix((np.ones(int(short.sum())), (e[short, 0], e[short, 1])), shape=(n, n))
+    _, lab = connected_components(g, directed=False)
+    lt = lab[tri] if len(tri) else np.zeros((0, 3), np.int64)
+    keep_t = (lt[:, 0] == lt[:, 1]) & (lt[:, 1] == lt[:, 2])
+    keep_c = lab[chain[:, 0]] == lab[chain[:, 1]] if len(chain) else np.zeros(0, bool)
+    removed = int((~keep_t).sum() + (~keep_c).sum())
+    return tri[keep_t], chain[keep_c], removed
+
+
 def _nn_spacing_oriented(pts: np.ndarray, nrm: np.ndarray, cos_limit: float = 0.5) -> np.ndarray:
     """Nearest-neighbour distance among taxels whose normals agree (not across a thin part)."""
     n = len(pts)
@@ -367,6 +400,7 @@ def skin_mesh(layout: Layout, *, method: str = "auto", duplicates: str = "merge"
         raise InputError("method='flat' needs flat coordinates; use method='surface'", key="flat")
     chain = np.zeros((0, 2), np.int64)
     n_lonely = 0
+    bridges = 0
     if use_flat:
         uv = layout.flat[uniq]
         # flat duplicates (distinct 3-D positions, same flat point) cannot both be Delaunay vertices
@@ -377,6 +411,7 @@ def skin_mesh(layout: Layout, *, method: str = "auto", duplicates: str = "merge"
             tri, chain = delaunay_2d(uv)
             spacing = _nn_spacing(uv)
             tri, peeled = peel(tri, uv, spacing, max_edge)
+            tri, chain, bridges = drop_bridges(tri, chain, uv, spacing, max_edge)
     if not use_flat:
         p = pos[uniq]
         nrm = layout.normals[uniq]
@@ -399,6 +434,7 @@ def skin_mesh(layout: Layout, *, method: str = "auto", duplicates: str = "merge"
                 chain = _chain(p)
         spacing = _nn_spacing_oriented(p, nrm)
         tri, peeled = peel(tri, p, spacing, max_edge)
+        tri, chain, bridges = drop_bridges(tri, chain, p, spacing, max_edge)
         # safety net: a taxel that no chart gave a triangle is joined to its close, like-facing
         # neighbours by plain edges rather than left out of the graph
         lonely = np.setdiff1d(np.arange(len(p)), np.concatenate([tri.ravel(), chain.ravel()]))
@@ -421,6 +457,7 @@ def skin_mesh(layout: Layout, *, method: str = "auto", duplicates: str = "merge"
         # (not to the representative itself: a zero distance would break D-weighted filters)
         extra.append(np.column_stack([dup[rows.row], rows.col]))
     meta = {"method": "flat" if use_flat else "surface", "peeled": int(peeled), "lonely_linked": n_lonely,
+            "bridges_removed": bridges,
             "duplicates": [[int(d), int(rep[d])] for d in dup]}
     return mesh_from_triangles(pos, layout.normals, tri, np.concatenate(extra) if extra else None, meta)
 
