@@ -669,8 +669,10 @@ def press_sequence(layout, mesh, poses, layer: SoftLayer, *, force=None, indenta
     t = len(poses)
     fs = [None] * t if force is None else list(np.broadcast_to(np.asarray(force, float), (t,)))
     ds = [None] * t if indentation is None else list(np.broadcast_to(np.asarray(indentation, float), (t,)))
+    from .._progress import progress
+
     out, prev = [], None
-    for i in range(t):
+    for i in progress(range(t), desc="pressing frames", total=t, unit="frame"):
         prev = press(layout, mesh, poses[i], layer, force=fs[i], indentation=ds[i], warm_start=prev, **kw)
         out.append(prev)
     return out
