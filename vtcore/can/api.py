@@ -70,7 +70,10 @@ def decode_log(path, codec: str | Codec = "icub", layout=None, taxel_ids=None, p
     elif boards is not None and len(boards):
         raise InputError("board addresses (--boards) need a layout (--layout) to apply to", key="boards")
     summary = Summary()
-    batches = iter_batches(path, chunk=chunk, summary=summary)
+    from .._progress import progress
+
+    batches = progress(iter_batches(path, chunk=chunk, summary=summary), desc=f"decoding {path}",
+                       unit=f"x{chunk} frames")
     blocks = iter_decode(batches, codec, taxel_ids, period, window, summary)
     try:
         res = collect(blocks, codec, summary, taxel_ids)
