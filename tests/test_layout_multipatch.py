@@ -133,3 +133,34 @@ def test_enclosed_gap_between_patches_is_not_bridged():
         # each group keeps its own lattice
         assert np.count_nonzero(np.abs(np.linalg.norm(pos[sm.edges[:, 0]] - pos[sm.edges[:, 1]], axis=1) - PITCH)
                                 < 1e-6) > 300
+
+
+def _place_hash(mesh, at, **kw):
+    lay, rep = quiet(place, mesh, "hexagon", at, **kw)
+    return lay.positions.copy(), rep
+
+
+def test_placement_is_deterministic_and_backend_independent(monkeypatch):
+    """The Blender benchmark reported 3.22 % strain in one run and 3.51 % in later ones: after its
+    first run the 3D cursor sat at the centre of each new sphere, and the patch went wherever the
+    proximity back-end's tie-break put the nearest surface point. 'at' is now snapped exactly with a
+    fixed tie-break (lowest face), warned about, and two runs - with or without open3d - agree."""
+    sphere = trimesh.creation.uv_sphere(radius=0.06, count=[32, 64])
+    p1, r1 = _place_hash(sphere, (0, 0, 0), max_faces=None)
+    p2, r2 = _place_hash(sphere, (0, 0, 0), max_faces=None)
+    assert np.array_equal(p1, p2) and r1.strain_max == r2.strain_max
+    assert any("equally near several parts" in n for n in r1.notes)
+    monkeypatch.setitem(__import__("sys").modules, "open3d", None)  # the Blender extension's case
+    p3, _ = _place_hash(sphere, (0, 0, 0), max_faces=None)
+    assert np.abs(p3 - p1).max() < 1e-9
+    # on the surface, no warning and the same answer every run
+    p4, r4 = _place_hash(sphere, (0, 0.06, 0), max_faces=None)
+    p5, _ = _place_hash(sphere, (0, 0.06, 0), max_faces=None)
+    assert np.array_equal(p4, p5) and not any("'at'" in n for n in r4.notes)
+
+
+def test_at_off_the_surface_is_reported():
+    sphere = trimesh.creation.icosphere(3, radius=0.04)
+    with pytest.warns(LayoutWarning, match="10.0 mm off the surface"):
+        lay, rep = place(sphere, "triangle", (0, 0, 0.05), max_faces=None)
+    assert np.abs(np.linalg.norm(lay.positions, axis=1) - 0.04).max() < 1e-3
