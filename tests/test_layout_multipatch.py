@@ -164,3 +164,44 @@ def test_at_off_the_surface_is_reported():
     with pytest.warns(LayoutWarning, match="10.0 mm off the surface"):
         lay, rep = place(sphere, "triangle", (0, 0, 0.05), max_faces=None)
     assert np.abs(np.linalg.norm(lay.positions, axis=1) - 0.04).max() < 1e-3
+
+
+@pytest.mark.parametrize("open3d", [True, False])
+def test_simplified_solve_with_and_without_open3d(monkeypatch, open3d):
+    """Inside Blender open3d is not bundled and _decimate imported it unconditionally. Without it
+    (and without trimesh's fast-simplification) the full cropped mesh is solved and the report says so."""
+    import sys
+
+    from vtcore.layout import conform
+
+    sphere = trimesh.creation.icosphere(5, radius=0.04)  # 20k faces
+    if not open3d:
+        monkeypatch.setitem(sys.modules, "open3d", None)
+        monkeypatch.setitem(sys.modules, "fast_simplification", None)
+    small, note = conform._decimate(sphere, 2000)
+    if open3d:
+        assert small is not sphere and 500 < len(small.faces) < 6000 and "simplified by open3d" in note
+        assert np.abs(np.linalg.norm(small.vertices, axis=1) - 0.04).max() < 1e-3
+    else:
+        assert small is sphere and "neither open3d nor fast-simplification" in note
+    lay, rep = quiet(place, sphere, "hexagon", (0, 0, 0.04), max_faces=2000)
+    assert any(("simplified by" if open3d else "full cropped mesh") in n for n in rep.notes)
+    _, full = quiet(place, sphere, "hexagon", (0, 0, 0.04), max_faces=None)
+    assert np.abs(np.linalg.norm(lay.positions, axis=1) - 0.04).max() < 1e-4
+    assert abs(rep.strain_max - full.strain_max) < 0.02  # ~8 % either way (curvature); 2k faces cost ~1 %
+    if open3d:  # a copy that is not faithful is refused and the full cropped mesh is solved, with a note
+        monkeypatch.setattr(conform, "_aspect", lambda m: np.full(len(m.faces), 10.0))
+        same, note = conform._decimate(sphere, 2000)
+        assert same is sphere and "full cropped mesh" in note
+
+
+def test_lay_patch_without_open3d_says_so(monkeypatch):
+    import sys
+
+    from vtcore.scene import interactive
+
+    monkeypatch.setitem(sys.modules, "open3d", None)
+    monkeypatch.setattr(interactive, "_has_open3d", lambda: False)
+    sphere = trimesh.creation.icosphere(3, radius=0.04)
+    e = quiet(interactive.lay_patch, sphere.vertices, sphere.faces, (0, 0, 0.04), patch="triangle")
+    assert any("open3d not installed" in n for n in e.report["notes"])
