@@ -111,7 +111,10 @@ def _selected_face_centre(ee, frame):
     me.polygons.foreach_get("area", areas)
     c = centres.reshape(-1, 3)[sel].astype(np.float64)
     w = areas[sel].astype(np.float64) + 1e-30
-    local = (c * w[:, None]).sum(0) / w.sum()
+    mean = (c * w[:, None]).sum(0) / w.sum()
+    # The area-weighted mean of a curved selection lies inside the body and may snap to a face
+    # outside the selection (then a fill finds no room): anchor on the selected face nearest it.
+    local = c[np.argmin(((c - mean) ** 2).sum(1))]
     m = bridge.matrix(ee)
     world = m[:3, :3] @ local + m[:3, 3]
     inv = np.linalg.inv(frame)

@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import traceback
 import warnings
 from pathlib import Path
 
@@ -28,58 +29,93 @@ sys.path.insert(0, str(ROOT / "tests" / "blender"))
 
 
 def build(context):
-    import bpy
+    """A skin as a designer lays it: the end-effector's top and curved flank filled with whole
+    modules (the Fill operator on a face selection), a sphere pressed on it.
 
-    from addon import bridge
+    Filling tiles the selected faces with modules on one lattice, so no two modules share
+    taxels; the script checks that (closest taxels at least 0.8 pitch apart, no overlaps
+    reported) and stops if not, instead of rendering a skin nobody would build.
+    """
+    import bpy
+    from scipy.spatial import cKDTree
+
+    from addon import skin as skin_mod
     from bl_helpers import build_scene
 
-    ee, ind, centre = build_scene(indenter_radius=0.03)
+    ee, ind, centre = build_scene(indenter_radius=0.02)
     grey = bpy.data.materials.new("end effector")
     grey.use_nodes = True
-    grey.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = (0.55, 0.57, 0.6, 1)
-    grey.node_tree.nodes["Principled BSDF"].inputs["Roughness"].default_value = 0.6
+    bsdf = grey.node_tree.nodes["Principled BSDF"]
+    bsdf.inputs["Base Color"].default_value = (0.42, 0.45, 0.5, 1)
+    bsdf.inputs["Roughness"].default_value = 0.55
     ee.data.materials.append(grey)
-    for p in ee.data.polygons:  # smooth shading; small mesh, once
-        p.use_smooth = True
+    me = ee.data
+    nf = len(me.polygons)
+    me.polygons.foreach_set("use_smooth", np.ones(nf, bool))
+    # Select the faces to cover: everything from 40 mm behind the middle to the end, over the
+    # curved flank, that does not face away (the underside stays bare). Local frame, metres.
+    c = np.empty(3 * nf, np.float32)
+    me.polygons.foreach_get("center", c)
+    nrm = np.empty(3 * nf, np.float32)
+    me.polygons.foreach_get("normal", nrm)
+    c, nrm = c.reshape(-1, 3), nrm.reshape(-1, 3)
+    region = (c[:, 0] > -0.04) & (nrm[:, 2] > -0.2)
+    me.polygons.foreach_set("select", region)
     s = context.scene.vtskin
-    context.scene.cursor.location = centre
+    s.module, s.place_at = "cyskin10", "SELECTED"
     context.view_layer.objects.active = ee
-    assert bpy.ops.vtskin.lay_patch() == {"FINISHED"}
-    m = bridge.matrix(ee)
-    context.scene.cursor.location = centre + m[:3, 0] * 0.06
-    context.view_layer.objects.active = ee
-    assert bpy.ops.vtskin.lay_patch() == {"FINISHED"}
+    assert bpy.ops.vtskin.lay_patch(fill=True) == {"FINISHED"}
+    me.polygons.foreach_set("select", np.zeros(nf, bool))
     skin = next(o for o in bpy.data.objects if o.vtskin.role == "TAXELS")
-    s.indenter, s.thickness, s.force = ind, 0.003, 3.0
+    lay = skin_mod.read_layout(skin)
+    d, _ = cKDTree(lay.positions).query(lay.positions, k=2)
+    pitch, closest = float(np.median(d[:, 1])), float(d[:, 1].min())
+    print(f"skin: {len(lay)} taxels in {len(np.unique(lay.module_ids))} modules, pitch "
+          f"{pitch * 1e3:.2f} mm, closest taxels {closest * 1e3:.2f} mm apart, "
+          f"{skin.vtskin.overlaps} overlaps")
+    if closest < 0.8 * pitch or skin.vtskin.overlaps:
+        raise RuntimeError(f"render_docs: modules overlap (closest taxels {closest * 1e3:.2f} mm apart)")
+    s.indenter, s.thickness, s.force = ind, 0.003, 4.0
     context.view_layer.objects.active = skin
     assert bpy.ops.vtskin.simulate() == {"FINISHED"}
     s.edge_fraction = 0.3
     assert bpy.ops.vtskin.edges(show=False) == {"FINISHED"}
     ind.hide_render = True
-    return ee, skin, centre
+    mw = np.array(skin.matrix_world)
+    middle = mw[:3, :3] @ lay.positions.mean(0) + mw[:3, 3]  # world point the camera aims at
+    return ee, skin, middle
 
 
-def camera_and_light(context, target, normal):
+def camera_and_light(context, target, m):
+    """Camera three-quarters above the skin, looking over the curved flank; soft sun, grey sky.
+
+    target : (3,) world point aimed at; m : (4, 4) end-effector pose (its z is the top's normal,
+    its +x points to the curved flank).
+    """
     import bpy
     from mathutils import Vector
 
+    n = Vector(m[:3, 2]).normalized()
+    x = Vector(m[:3, 0]).normalized()
+    y = n.cross(x)
     cam_data = bpy.data.cameras.new("camera")
-    cam_data.lens = 50
+    cam_data.lens = 55
     cam = bpy.data.objects.new("camera", cam_data)
     context.scene.collection.objects.link(cam)
-    cam.location = Vector(target) + Vector(normal) * 0.16 + Vector((0.06, -0.12, 0.0))
+    cam.location = Vector(target) + n * 0.20 + x * 0.13 - y * 0.12
     direction = Vector(target) - cam.location
     cam.rotation_euler = direction.to_track_quat("-Z", "Y").to_euler()
     context.scene.camera = cam
     sun_data = bpy.data.lights.new("sun", "SUN")
-    sun_data.energy = 3.0
+    sun_data.energy = 2.2
+    sun_data.angle = 0.3  # soft shadows
     sun = bpy.data.objects.new("sun", sun_data)
-    sun.rotation_euler = (0.6, 0.2, 0.8)
+    sun.rotation_euler = (-(n * 1.0 - x * 0.4 - y * 0.5)).to_track_quat("-Z", "Y").to_euler()
     context.scene.collection.objects.link(sun)
     world = bpy.data.worlds.new("world")
     world.use_nodes = True
-    world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.8, 0.82, 0.85, 1)
-    world.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.6
+    world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.78, 0.8, 0.83, 1)
+    world.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.45
     context.scene.world = world
 
 
@@ -239,26 +275,41 @@ def main():
 
     import bpy
 
-    from addon import bridge
     from bl_helpers import register_addon
 
     addon = register_addon()
+    code = 0
+    try:
+        _render_all(bpy.context, out, args.samples)
+    except BaseException:  # noqa: BLE001 - report any failure, then exit non-zero without hanging
+        traceback.print_exc()
+        code = 1
+    finally:
+        # The bpy 4.5 wheel hangs at interpreter exit while add-on classes are registered.
+        addon.unregister()
+        sys.stdout.flush()
+        sys.stderr.flush()
+    os._exit(code)
+
+
+def _render_all(context, out, samples):
+    import bpy
+
+    from addon import bridge
+
     bpy.ops.wm.read_factory_settings(use_empty=True)
-    context = bpy.context
-    ee, skin, centre = build(context)
+    context = bpy.context  # the factory reset replaced the scene
+    ee, skin, mid = build(context)
     m = bridge.matrix(ee)
-    camera_and_light(context, centre + m[:3, 0] * 0.03, m[:3, 2])
+    camera_and_light(context, mid, m)
     skin.vtskin.color_by = "response"
-    render(context, out / "skin_response.png", args.samples)
+    render(context, out / "skin_response.png", samples)
     skin.vtskin.color_by = "edge"
-    render(context, out / "skin_edges.png", args.samples)
+    render(context, out / "skin_edges.png", samples)
     skin.vtskin.color_by = "response"
     context.view_layer.objects.active = skin
     draw_panels(context, out / "panels.png")
     print("wrote", *(str(out / n) for n in ("skin_response.png", "skin_edges.png", "panels.png")))
-    sys.stdout.flush()
-    addon.unregister()
-    os._exit(0)
 
 
 if __name__ == "__main__":
