@@ -5,6 +5,7 @@ and has changed nothing (all computation happens before the first write)."""
 from __future__ import annotations
 
 import tempfile
+from contextlib import contextmanager
 from pathlib import Path
 
 import bpy
@@ -18,34 +19,71 @@ def _fail(op, message: str):
     return {"CANCELLED"}
 
 
+class _Cancel(Exception):
+    """Bad input: the message tells the user what to do; the operator changes nothing."""
+
+
+class _Op:
+    """Operator base: ``run()`` does the work and raises ``_Cancel`` on bad input, which
+    ``execute()`` turns into an ``{'ERROR'}`` report and ``{'CANCELLED'}`` (one place for
+    the report-and-cancel pattern every operator follows)."""
+
+    bl_options = {"REGISTER", "UNDO"}
+
+    def execute(self, context):
+        try:
+            return self.run(context)
+        except _Cancel as exc:
+            return _fail(self, str(exc))
+
+
+@contextmanager
+def _failing(what: str):
+    """vtcore's input errors inside the block cancel the operator as ``"<what>: <error>"``.
+
+    Only the computation goes inside the block, never a write, so a cancel leaves the
+    scene as it was.
+    """
+    try:
+        yield
+    except _errors() as exc:
+        raise _Cancel(f"{what}: {exc}") from exc
+
+
+def _need_skin(context, message: str, *, taxels: bool = False, attribute: str | None = None):
+    """The skin the user means (see ``_skin_of``), or cancel with ``message`` when there is
+    none, it has no taxels (``taxels``) or lacks ``attribute``."""
+    ob = _skin_of(context)
+    if (ob is None or (taxels and len(ob.data.vertices) == 0)
+            or (attribute is not None and attribute not in ob.data.attributes)):
+        raise _Cancel(message)
+    return ob
+
+
 def _out_dir(settings) -> Path:
     if settings.out_dir:
         return Path(bpy.path.abspath(settings.out_dir))
     return Path(tempfile.mkdtemp(prefix="vtskin_"))
 
 
-class VTSKIN_OT_run_scene(bpy.types.Operator):
+class VTSKIN_OT_run_scene(_Op, bpy.types.Operator):
     """Run a vtcore scene file and show its taxel responses on a taxel object"""
 
     bl_idname = "vtskin.run_scene"
     bl_label = "Run Scene"
-    bl_options = {"REGISTER", "UNDO"}
 
     filepath: bpy.props.StringProperty(name="Scene file", subtype="FILE_PATH",
                                        description="Scene TOML (empty: the scene setting)")
 
-    def execute(self, context):
-        from vtcore.errors import VtError
+    def run(self, context):
         from vtcore.scene.interactive import run_scene_file
 
         settings = context.scene.vtskin
         path = bpy.path.abspath(self.filepath or settings.scene_file)
         if not path:
-            return _fail(self, "No scene file given")
-        try:
+            raise _Cancel("No scene file given")
+        with _failing("Scene run failed"):
             res = run_scene_file(path, _out_dir(settings))
-        except (VtError, OSError, ValueError) as exc:
-            return _fail(self, f"Scene run failed: {exc}")
         name = res.result.get("name") or Path(path).stem
         ob = skin.new_object(context, f"{name} taxels")
         skin.write_layout(ob, res.layout, res.triangles, pressure=res.pressure, response=res.response)
@@ -171,45 +209,42 @@ def _write_edit(context, ee, skin_ob, frame, edit, module):
 # Skin layout
 
 
-class VTSKIN_OT_lay_patch(bpy.types.Operator):
+class VTSKIN_OT_lay_patch(_Op, bpy.types.Operator):
     """Conform a patch of modules onto the active mesh at the 3D cursor or the selected faces"""
 
     bl_idname = "vtskin.lay_patch"
     bl_label = "Lay Patch"
-    bl_options = {"REGISTER", "UNDO"}
 
     fill: bpy.props.BoolProperty(name="Fill region", default=False,
                                  description="Tile the selected faces with whole modules")
 
-    def execute(self, context):
+    def run(self, context):
         from vtcore.scene import interactive
 
         s = context.scene.vtskin
         ee = context.active_object
         if ee is None or ee.type != "MESH" or skin.is_taxels(ee):
-            return _fail(self, "Select the end-effector mesh to lay the skin on (the active object)")
+            raise _Cancel("Select the end-effector mesh to lay the skin on (the active object)")
         existing = _skin_of(context)
         frame = _frame(existing) if existing is not None else _frame(ee)
         verts, tri = _ee_input(ee, frame)
         if len(tri) == 0:
-            return _fail(self, f"{ee.name!r} has no faces: a skin needs a surface")
+            raise _Cancel(f"{ee.name!r} has no faces: a skin needs a surface")
         region = None
         if self.fill or s.place_at == "SELECTED":
             at, sel = _selected_face_centre(ee, frame)
             if at is None:
-                return _fail(self, f"No faces of {ee.name!r} are selected")
+                raise _Cancel(f"No faces of {ee.name!r} are selected")
             if self.fill:
                 region = np.isin(_tri_faces(ee), sel)
         else:
             at = _to_frame(frame, context.scene.cursor.location)
         patch = f"strip:{s.strip_modules}" if s.patch == "strip" else s.patch
         base = skin.read_layout(existing) if existing is not None and len(existing.data.vertices) else None
-        try:
+        with _failing("Cannot lay the patch"):
             edit = interactive.lay_patch(verts, tri, at, existing=base, patch=patch, module=s.module,
                                          direction=_direction(s.rotation), offset=s.offset, method=s.method,
                                          fill_region=region, max_faces=s.solve_faces or None)
-        except _errors() as exc:
-            return _fail(self, f"Cannot lay the patch: {exc}")
         ob = _write_edit(context, ee, existing, frame, edit, s.module)
         self.report({"INFO"}, f"{ob.name}: {len(edit.layout)} taxels, max strain "
                     f"{ob.vtskin.strain_max:.1f} %, {ob.vtskin.overlaps} overlaps")
@@ -225,65 +260,55 @@ def _selected_modules(ob):
     return np.unique(bridge.get_attribute(ob.data, "module_id")[sel])
 
 
-class VTSKIN_OT_remove_module(bpy.types.Operator):
+class VTSKIN_OT_remove_module(_Op, bpy.types.Operator):
     """Remove the modules of the selected taxels (or the given module) from the skin"""
 
     bl_idname = "vtskin.remove_module"
     bl_label = "Remove Module"
-    bl_options = {"REGISTER", "UNDO"}
 
     module: bpy.props.IntProperty(name="Module", default=-1, min=-1,
                                   description="Module id to remove (-1: those of the selected taxels)")
 
-    def execute(self, context):
+    def run(self, context):
         from vtcore.scene import interactive
 
-        ob = _skin_of(context)
-        if ob is None:
-            return _fail(self, "Select a skin (taxel object)")
+        ob = _need_skin(context, "Select a skin (taxel object)")
         mods = [self.module] if self.module >= 0 else _selected_modules(ob)
-        try:
+        with _failing("Cannot remove"):
             edit = interactive.remove_modules(skin.read_layout(ob), mods)
-        except _errors() as exc:
-            return _fail(self, f"Cannot remove: {exc}")
         edit.layout.meta.clear()
         _write_edit(context, ob.vtskin.end_effector, ob, None, edit, ob.vtskin.module_type)
         return {"FINISHED"}
 
 
-class VTSKIN_OT_move_module(bpy.types.Operator):
+class VTSKIN_OT_move_module(_Op, bpy.types.Operator):
     """Move a module of the skin to the 3D cursor (re-conformed to the surface there)"""
 
     bl_idname = "vtskin.move_module"
     bl_label = "Move Module to Cursor"
-    bl_options = {"REGISTER", "UNDO"}
 
     module: bpy.props.IntProperty(name="Module", default=-1, min=-1,
                                   description="Module id to move (-1: the one of the selected taxels)")
 
-    def execute(self, context):
+    def run(self, context):
         from vtcore.scene import interactive
 
-        ob = _skin_of(context)
-        if ob is None:
-            return _fail(self, "Select a skin (taxel object)")
+        ob = _need_skin(context, "Select a skin (taxel object)")
         ee = ob.vtskin.end_effector
         if ee is None or ee.type != "MESH":
-            return _fail(self, f"{ob.name!r} has no end-effector mesh to move on")
+            raise _Cancel(f"{ob.name!r} has no end-effector mesh to move on")
         mods = [self.module] if self.module >= 0 else _selected_modules(ob)
         if len(mods) != 1:
-            return _fail(self, f"Select the taxels of exactly one module (got {len(mods)} modules)")
+            raise _Cancel(f"Select the taxels of exactly one module (got {len(mods)} modules)")
         frame = bridge.matrix(ob)
         verts, tri = _ee_input(ee, frame)
         layout = skin.read_layout(ob)
         layout.meta["module"] = ob.vtskin.module_type
         s = context.scene.vtskin
-        try:
+        with _failing("Cannot move"):
             edit = interactive.move_module(layout, int(mods[0]), verts, tri,
                                            _to_frame(frame, context.scene.cursor.location),
                                            _direction(s.rotation), s.offset)
-        except _errors() as exc:
-            return _fail(self, f"Cannot move: {exc}")
         _write_edit(context, ee, ob, frame, edit, ob.vtskin.module_type)
         return {"FINISHED"}
 
@@ -313,27 +338,24 @@ def _contact_input(op, context):
     return ob, skin.read_layout(ob), skin.triangles(ob), verts, tri, pose
 
 
-class VTSKIN_OT_simulate(bpy.types.Operator):
+class VTSKIN_OT_simulate(_Op, bpy.types.Operator):
     """Press the indenter onto the skin at the target force (current frame) and show the response"""
 
     bl_idname = "vtskin.simulate"
     bl_label = "Simulate Frame"
-    bl_options = {"REGISTER", "UNDO"}
 
-    def execute(self, context):
+    def run(self, context):
         from vtcore.scene import interactive
 
         s = context.scene.vtskin
         got = _contact_input(self, context)
         if isinstance(got, str):
-            return _fail(self, got)
+            raise _Cancel(got)
         ob, layout, tri, verts, faces, pose = got
-        try:
+        with _failing("Contact failed"):
             c = interactive.simulate(layout, tri, verts, faces, pose, thickness=s.thickness, material=s.material,
                                      force=s.force if s.use_force else None, counts_per_pa=s.counts_per_pa,
                                      edge_fraction=s.edge_fraction)
-        except _errors() as exc:
-            return _fail(self, f"Contact failed: {exc}")
         me = ob.data
         bridge.set_attribute(me, "pressure", c.pressure)
         bridge.set_attribute(me, "response", c.response)
@@ -346,20 +368,19 @@ class VTSKIN_OT_simulate(bpy.types.Operator):
         return {"FINISHED"}
 
 
-class VTSKIN_OT_bake(bpy.types.Operator):
+class VTSKIN_OT_bake(_Op, bpy.types.Operator):
     """Simulate every frame of the range (indenter animation, animated force) and store it for playback"""
 
     bl_idname = "vtskin.bake"
     bl_label = "Bake Contact"
-    bl_options = {"REGISTER", "UNDO"}
 
-    def execute(self, context):
+    def run(self, context):
         from vtcore.scene import interactive
 
         scene = context.scene
         s = scene.vtskin
         if s.frame_end < s.frame_start:
-            return _fail(self, f"Empty frame range {s.frame_start}..{s.frame_end}")
+            raise _Cancel(f"Empty frame range {s.frame_start}..{s.frame_end}")
         frames = np.arange(s.frame_start, s.frame_end + 1)
         current = scene.frame_current
         poses, forces = [], []
@@ -376,17 +397,16 @@ class VTSKIN_OT_bake(bpy.types.Operator):
         finally:
             scene.frame_set(current)
         if isinstance(got, str):
-            return _fail(self, got)
+            raise _Cancel(got)
         ob, layout, tri, verts, faces, _ = got
         wm = context.window_manager
         wm.progress_begin(0, len(frames))
         try:
-            res = interactive.bake(layout, tri, verts, faces, np.stack(poses), thickness=s.thickness,
-                                   material=s.material, forces=np.array(forces) if s.use_force else None,
-                                   counts_per_pa=s.counts_per_pa, edge_fraction=s.edge_fraction,
-                                   callback=lambda i, t: wm.progress_update(i + 1))
-        except _errors() as exc:
-            return _fail(self, f"Bake failed: {exc}")
+            with _failing("Bake failed"):
+                res = interactive.bake(layout, tri, verts, faces, np.stack(poses), thickness=s.thickness,
+                                       material=s.material, forces=np.array(forces) if s.use_force else None,
+                                       counts_per_pa=s.counts_per_pa, edge_fraction=s.edge_fraction,
+                                       callback=lambda i, t: wm.progress_update(i + 1))
         finally:
             wm.progress_end()
         if "edge" not in ob.data.attributes:
@@ -398,17 +418,16 @@ class VTSKIN_OT_bake(bpy.types.Operator):
         return {"FINISHED"}
 
 
-class VTSKIN_OT_clear_bake(bpy.types.Operator):
+class VTSKIN_OT_clear_bake(_Op, bpy.types.Operator):
     """Remove the baked contact of the skin"""
 
     bl_idname = "vtskin.clear_bake"
     bl_label = "Clear Bake"
-    bl_options = {"REGISTER", "UNDO"}
 
-    def execute(self, context):
+    def run(self, context):
         ob = _skin_of(context)
         if ob is None or ob.vtskin.cache is None:
-            return _fail(self, "The selected skin has no baked contact")
+            raise _Cancel("The selected skin has no baked contact")
         bake.clear(ob)
         return {"FINISHED"}
 
@@ -417,27 +436,23 @@ class VTSKIN_OT_clear_bake(bpy.types.Operator):
 # Filters
 
 
-class VTSKIN_OT_edges(bpy.types.Operator):
+class VTSKIN_OT_edges(_Op, bpy.types.Operator):
     """Run the edge filter on the skin's response and show the edge taxels"""
 
     bl_idname = "vtskin.edges"
     bl_label = "Detect Edges"
-    bl_options = {"REGISTER", "UNDO"}
 
     show: bpy.props.BoolProperty(name="Show edges", default=True, description="Colour the taxels by edge")
 
-    def execute(self, context):
+    def run(self, context):
         from vtcore.scene import interactive
 
-        ob = _skin_of(context)
-        if ob is None or "response" not in ob.data.attributes or len(ob.data.vertices) == 0:
-            return _fail(self, "Select a skin with a response (simulate a contact first)")
+        ob = _need_skin(context, "Select a skin with a response (simulate a contact first)", taxels=True,
+                        attribute="response")
         response = bridge.get_attribute(ob.data, "response").astype(np.float64)
-        try:
+        with _failing("Edge filter failed"):
             er, edge = interactive.edges(skin.read_layout(ob), skin.triangles(ob), response,
                                          context.scene.vtskin.edge_fraction)
-        except _errors() as exc:
-            return _fail(self, f"Edge filter failed: {exc}")
         bridge.set_attribute(ob.data, "edge_response", er, "FLOAT")
         bridge.set_attribute(ob.data, "edge", edge)
         if self.show:
@@ -451,20 +466,19 @@ class VTSKIN_OT_edges(bpy.types.Operator):
 # Augmented point cloud
 
 
-class VTSKIN_OT_augment(bpy.types.Operator):
+class VTSKIN_OT_augment(_Op, bpy.types.Operator):
     """Propagate probe values over the point cloud (cluster or smooth) and colour it"""
 
     bl_idname = "vtskin.augment"
     bl_label = "Augment Point Cloud"
-    bl_options = {"REGISTER", "UNDO"}
 
-    def execute(self, context):
+    def run(self, context):
         from vtcore.scene import interactive
 
         s = context.scene.vtskin
         cloud = s.cloud
         if cloud is None or cloud.type != "MESH" or len(cloud.data.vertices) == 0:
-            return _fail(self, "Choose a point-cloud object (a mesh with vertices) in the panel")
+            raise _Cancel("Choose a point-cloud object (a mesh with vertices) in the panel")
         if cloud.mode == "EDIT":
             cloud.update_from_editmode()
         me = cloud.data
@@ -473,23 +487,21 @@ class VTSKIN_OT_augment(bpy.types.Operator):
         me.vertices.foreach_get("co", co)
         m = bridge.matrix(cloud)
         pts = co.reshape(-1, 3).astype(np.float64) @ m[:3, :3].T + m[:3, 3]
-        try:
+        with _failing("Augmentation failed"):
             if s.probe_source == "FILE":
                 probes, values = interactive.probes_from_file(bpy.path.abspath(s.probe_file))
             else:
                 sel = bridge.selected_vertices(me)
                 if len(sel) == 0:
-                    return _fail(self, f"No vertices of {cloud.name!r} are selected as probes")
+                    raise _Cancel(f"No vertices of {cloud.name!r} are selected as probes")
                 if s.probe_attribute not in me.attributes:
-                    return _fail(self, f"{cloud.name!r} has no attribute {s.probe_attribute!r} with probe values")
+                    raise _Cancel(f"{cloud.name!r} has no attribute {s.probe_attribute!r} with probe values")
                 probes = pts[sel]
                 values = bridge.get_attribute(me, s.probe_attribute).astype(np.float64)
                 if values.ndim != 1:
-                    return _fail(self, f"Attribute {s.probe_attribute!r} must be a float attribute")
+                    raise _Cancel(f"Attribute {s.probe_attribute!r} must be a float attribute")
                 values = values[sel]
             vals, rgb = interactive.augment(pts, probes, values, method=s.propagation, beta=s.beta)
-        except _errors() as exc:
-            return _fail(self, f"Augmentation failed: {exc}")
         bridge.set_attribute(me, "tactile_value", vals, "FLOAT")
         bridge.set_attribute(me, "tactile_color", rgb, "FLOAT_COLOR")
         me.color_attributes.active_color_name = "tactile_color"
@@ -504,7 +516,7 @@ class VTSKIN_OT_augment(bpy.types.Operator):
 # Export
 
 
-class VTSKIN_OT_export(bpy.types.Operator):
+class VTSKIN_OT_export(_Op, bpy.types.Operator):
     """Write the skin layout in a calibrated layout format"""
 
     bl_idname = "vtskin.export"
@@ -513,24 +525,20 @@ class VTSKIN_OT_export(bpy.types.Operator):
 
     filepath: bpy.props.StringProperty(name="File", subtype="FILE_PATH")
 
-    def execute(self, context):
+    def run(self, context):
         from vtcore.scene import interactive
 
         s = context.scene.vtskin
-        ob = _skin_of(context)
-        if ob is None or len(ob.data.vertices) == 0:
-            return _fail(self, "Select a skin with taxels to export")
+        ob = _need_skin(context, "Select a skin with taxels to export", taxels=True)
         path = bpy.path.abspath(self.filepath or s.export_path)
         if not path:
-            return _fail(self, "No export file given")
+            raise _Cancel("No export file given")
         transform = None
         if s.export_frame is not None and s.export_frame != ob:
             transform = np.linalg.inv(bridge.rigid(bridge.matrix(s.export_frame))) @ bridge.matrix(ob)
-        try:
+        with _failing("Export failed"):
             out = interactive.export_layout(skin.read_layout(ob), skin.triangles(ob), path, s.export_format,
                                             transform)
-        except _errors() as exc:
-            return _fail(self, f"Export failed: {exc}")
         self.report({"INFO"}, f"Wrote {out}")
         return {"FINISHED"}
 

@@ -1,4 +1,9 @@
-"""Sidebar panels (View3D > Sidebar > Skin). Panels only draw; operators do the work."""
+"""Sidebar panels (View3D > Sidebar > Skin). Panels only draw; operators do the work.
+
+Most panels are a column of ``Scene.vtskin`` properties and one button: they say so
+with ``props`` and ``button`` and inherit ``draw``; panels with more to show add it in
+``draw_more`` (between the properties and the button).
+"""
 
 from __future__ import annotations
 
@@ -9,6 +14,37 @@ class _Panel:
     bl_space_type = "VIEW_3D"
     bl_region_type = "UI"
     bl_category = "Skin"
+    props: tuple = ()  # names of Scene.vtskin properties, one per row
+    button: tuple | None = None  # (operator idname, icon, {operator property: value})
+
+    def draw(self, context):
+        s = context.scene.vtskin
+        col = self.layout.column()
+        for name in self.props:
+            col.prop(s, name)
+        self.draw_more(col, s, context)
+        if self.button is not None:
+            _button(col, *self.button)
+
+    def draw_more(self, col, s, context):
+        """Rows after ``props`` and before ``button`` (none by default)."""
+
+
+def _button(layout, idname, icon, settings=None, text=None):
+    """One operator button, with its operator properties set."""
+    op = layout.operator(idname, icon=icon) if text is None else layout.operator(idname, text=text, icon=icon)
+    for key, value in (settings or {}).items():
+        setattr(op, key, value)
+    return op
+
+
+def _row(col, s, *names, enabled=True):
+    """Properties ``names`` of ``s`` side by side on one row (greyed out unless ``enabled``)."""
+    row = col.row(align=True)
+    row.enabled = enabled
+    for name in names:
+        row.prop(s, name)
+    return row
 
 
 def _skin(context):
@@ -20,25 +56,17 @@ def _skin(context):
 class VTSKIN_PT_layout(_Panel, bpy.types.Panel):
     bl_idname = "VTSKIN_PT_layout"
     bl_label = "Skin layout"
+    props = ("module",)
 
-    def draw(self, context):
-        s = context.scene.vtskin
-        col = self.layout.column()
-        col.prop(s, "module")
+    def draw_more(self, col, s, context):
+        _row(col, s, *(("patch", "strip_modules") if s.patch == "strip" else ("patch",)))
+        for name in ("place_at", "rotation", "offset", "method", "solve_faces"):
+            col.prop(s, name)
+        _button(col, "vtskin.lay_patch", "MESH_ICOSPHERE", {"fill": False})
+        _button(col, "vtskin.lay_patch", "MOD_TRIANGULATE", {"fill": True}, text="Fill Selected Faces")
         row = col.row(align=True)
-        row.prop(s, "patch")
-        if s.patch == "strip":
-            row.prop(s, "strip_modules")
-        col.prop(s, "place_at")
-        col.prop(s, "rotation")
-        col.prop(s, "offset")
-        col.prop(s, "method")
-        col.prop(s, "solve_faces")
-        col.operator("vtskin.lay_patch", icon="MESH_ICOSPHERE").fill = False
-        col.operator("vtskin.lay_patch", text="Fill Selected Faces", icon="MOD_TRIANGULATE").fill = True
-        row = col.row(align=True)
-        row.operator("vtskin.remove_module", icon="X")
-        row.operator("vtskin.move_module", icon="PIVOT_CURSOR")
+        _button(row, "vtskin.remove_module", "X")
+        _button(row, "vtskin.move_module", "PIVOT_CURSOR")
         ob = _skin(context)
         if ob is not None:
             box = col.box()
@@ -53,35 +81,24 @@ class VTSKIN_PT_layout(_Panel, bpy.types.Panel):
 class VTSKIN_PT_layer(_Panel, bpy.types.Panel):
     bl_idname = "VTSKIN_PT_layer"
     bl_label = "Soft layer"
-
-    def draw(self, context):
-        s = context.scene.vtskin
-        col = self.layout.column()
-        col.prop(s, "thickness")
-        col.prop(s, "material")
+    props = ("thickness", "material")
 
 
 class VTSKIN_PT_contact(_Panel, bpy.types.Panel):
     bl_idname = "VTSKIN_PT_contact"
     bl_label = "Contact"
+    props = ("indenter",)
 
-    def draw(self, context):
-        s = context.scene.vtskin
-        col = self.layout.column()
-        col.prop(s, "indenter")
+    def draw_more(self, col, s, context):
         row = col.row(align=True)
         row.prop(s, "use_force")
-        sub = row.row()
-        sub.enabled = s.use_force
-        sub.prop(s, "force")
+        _row(row, s, "force", enabled=s.use_force)
         col.prop(s, "counts_per_pa")
-        col.operator("vtskin.simulate", icon="PLAY")
+        _button(col, "vtskin.simulate", "PLAY")
+        _row(col, s, "frame_start", "frame_end")
         row = col.row(align=True)
-        row.prop(s, "frame_start")
-        row.prop(s, "frame_end")
-        row = col.row(align=True)
-        row.operator("vtskin.bake", icon="REC")
-        row.operator("vtskin.clear_bake", icon="TRASH")
+        _button(row, "vtskin.bake", "REC")
+        _button(row, "vtskin.clear_bake", "TRASH")
         ob = _skin(context)
         if ob is not None and ob.vtskin.cache is not None:
             col.label(text=f"Baked frames {ob.vtskin.bake_start}..{ob.vtskin.bake_end}")
@@ -90,58 +107,35 @@ class VTSKIN_PT_contact(_Panel, bpy.types.Panel):
 class VTSKIN_PT_filters(_Panel, bpy.types.Panel):
     bl_idname = "VTSKIN_PT_filters"
     bl_label = "Filters"
-
-    def draw(self, context):
-        s = context.scene.vtskin
-        col = self.layout.column()
-        col.prop(s, "edge_fraction")
-        col.operator("vtskin.edges", icon="MOD_EDGESPLIT").show = True
+    props = ("edge_fraction",)
+    button = ("vtskin.edges", "MOD_EDGESPLIT", {"show": True})
 
 
 class VTSKIN_PT_augment(_Panel, bpy.types.Panel):
     bl_idname = "VTSKIN_PT_augment"
     bl_label = "Augmented point cloud"
+    props = ("cloud", "probe_source")
+    button = ("vtskin.augment", "COLOR")
 
-    def draw(self, context):
-        s = context.scene.vtskin
-        col = self.layout.column()
-        col.prop(s, "cloud")
-        col.prop(s, "probe_source")
-        if s.probe_source == "FILE":
-            col.prop(s, "probe_file")
-        else:
-            col.prop(s, "probe_attribute")
+    def draw_more(self, col, s, context):
+        col.prop(s, "probe_file" if s.probe_source == "FILE" else "probe_attribute")
         col.prop(s, "propagation")
-        sub = col.row()
-        sub.enabled = s.propagation == "smooth"
-        sub.prop(s, "beta")
-        col.operator("vtskin.augment", icon="COLOR")
+        _row(col, s, "beta", enabled=s.propagation == "smooth")
 
 
 class VTSKIN_PT_export(_Panel, bpy.types.Panel):
     bl_idname = "VTSKIN_PT_export"
     bl_label = "Export"
-
-    def draw(self, context):
-        s = context.scene.vtskin
-        col = self.layout.column()
-        col.prop(s, "export_path")
-        col.prop(s, "export_format")
-        col.prop(s, "export_frame")
-        col.operator("vtskin.export", icon="EXPORT")
+    props = ("export_path", "export_format", "export_frame")
+    button = ("vtskin.export", "EXPORT")
 
 
 class VTSKIN_PT_scene(_Panel, bpy.types.Panel):
     bl_idname = "VTSKIN_PT_scene"
     bl_label = "Scene file"
     bl_options = {"DEFAULT_CLOSED"}
-
-    def draw(self, context):
-        s = context.scene.vtskin
-        col = self.layout.column()
-        col.prop(s, "scene_file")
-        col.prop(s, "out_dir")
-        col.operator("vtskin.run_scene", icon="PLAY")
+    props = ("scene_file", "out_dir")
+    button = ("vtskin.run_scene", "PLAY")
 
 
 CLASSES = (VTSKIN_PT_layout, VTSKIN_PT_layer, VTSKIN_PT_contact, VTSKIN_PT_filters, VTSKIN_PT_augment,

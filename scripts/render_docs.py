@@ -215,8 +215,11 @@ def panel_rows(context):
     out = []
     for cls in panel.CLASSES:
         rows = []
-        shim = type("PanelShim", (), {"layout": _Recorder(rows)})()
-        cls.draw(shim, context)  # draw() only touches self.layout
+        # draw() only touches self.layout and the panel's own class attributes.
+        ns = {k: getattr(cls, k) for k in ("draw", "draw_more", "props", "button") if hasattr(cls, k)}
+        shim = type("PanelShim", (), ns)()
+        shim.layout = _Recorder(rows)
+        shim.draw(context)
         out.append((cls.bl_label, rows))
     return out
 
