@@ -39,7 +39,7 @@ import zipfile
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-STAGE = ROOT / "build" / "extension"
+STAGE = ROOT / "build" / "extension"  # --build-dir moves STAGE and CACHE (tests use a tmp dir)
 CACHE = ROOT / "build" / "wheelcache"
 DIST = ROOT / "dist"
 
@@ -53,7 +53,8 @@ BUNDLE = {
     "potpourri3d": "vtcore.layout log-map placement (heat-method log map): Lay Patch, Fill, Move",
     "trimesh": "vtcore.contact objects and proximity, vtcore.layout placement on meshes",
     "rtree": "trimesh's closest-point queries (vtcore.layout placement without open3d)",
-    "matplotlib": "scene runs write their PNG plots (vtcore.plots)",
+    # Only two operators need it: Run Scene ([output] plots = true) and Augment Point Cloud.
+    "matplotlib": "Run Scene: PNG plots (vtcore.plots); Augment Point Cloud: vtcore.augment.colour_map's colormap",
     "contourpy": "dependency of matplotlib",
     "cycler": "dependency of matplotlib",
     "fonttools": "dependency of matplotlib",
@@ -153,8 +154,16 @@ def build_wheels(platforms: list[str], python: str) -> list[Path]:
     CACHE.mkdir(parents=True, exist_ok=True)
     # vtcore itself, from this checkout (pure Python: py3-none-any).
     with tempfile.TemporaryDirectory() as tmp:
+        # Build from a copy: setuptools writes build/lib, build/bdist.* and *.egg-info next to
+        # the sources it builds, and the checkout should stay as it is.
+        src = Path(tmp) / "src"
+        shutil.copytree(ROOT / "vtcore", src / "vtcore",
+                        ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
+        for name in ("pyproject.toml", "README.md", "LICENSE"):
+            if (ROOT / name).is_file():
+                shutil.copy2(ROOT / name, src / name)
         run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-q",
-             "-w", tmp, ROOT])
+             "-w", tmp, src])
         for whl in Path(tmp).glob("vtcore-*.whl"):
             shutil.copy2(whl, wheels_dir / whl.name)
     pins = pinned()
@@ -257,7 +266,11 @@ def main(argv=None):
     ap.add_argument("--blender", help="a blender executable to build/validate with instead of the bpy wheel's tool")
     ap.add_argument("--skip-check", action="store_true", help="skip the isolated bundle check")
     ap.add_argument("--dist", default=str(DIST), help="output folder of the zip (default: dist/)")
+    ap.add_argument("--build-dir", default=str(ROOT / "build"),
+                    help="staging folder and wheel download cache (default: build/)")
     args = ap.parse_args(argv)
+    global STAGE, CACHE
+    STAGE, CACHE = Path(args.build_dir) / "extension", Path(args.build_dir) / "wheelcache"
     platforms = args.platforms or [this_platform()]
 
     stage_sources()

@@ -12,6 +12,7 @@ import json
 import os
 import subprocess
 import sys
+import tempfile
 import zipfile
 from pathlib import Path
 
@@ -20,15 +21,21 @@ import pytest
 pytest.importorskip("bpy")
 pytestmark = pytest.mark.blender
 HERE = Path(__file__).parent
+TIMEOUT = 300  # s per subprocess; each takes well under a minute when healthy
 
 
 @pytest.fixture(scope="module")
 def built_zip(tmp_path_factory):
     root = Path(__file__).resolve().parents[1]
     dist = tmp_path_factory.mktemp("dist")
-    # --skip-check: the install below exercises the bundle for real.
+    # Staging and the downloaded wheels go to the system temp folder, not the checkout (the
+    # wheel cache there survives between runs, so a run downloads nothing once warm).
+    build = Path(tempfile.gettempdir()) / "vtskin-test-build"
+    # --skip-check: the install below exercises the bundle for real. timeout: a hung
+    # subprocess fails this test instead of hanging the suite (pytest-timeout is not a dependency).
     res = subprocess.run([sys.executable, str(root / "scripts" / "build_extension.py"), "--dist", str(dist),
-                          "--skip-check"], capture_output=True, text=True, cwd=root)
+                          "--build-dir", str(build), "--skip-check"], capture_output=True, text=True, cwd=root,
+                         timeout=TIMEOUT)
     assert res.returncode == 0, res.stdout[-3000:] + res.stderr[-3000:]
     zips = list(dist.glob("vtskin-*.zip"))
     assert len(zips) == 1
@@ -60,7 +67,7 @@ def test_install_into_fresh_profile(built_zip, scenes_dir, tmp_path):
     env.pop("PYTHONPATH", None)
     res = subprocess.run([sys.executable, str(HERE / "blender" / "install_check.py"), str(built_zip),
                           str(scenes_dir / "demo.toml"), str(out)], capture_output=True, text=True,
-                         cwd=tmp_path, env=env, timeout=600)
+                         cwd=tmp_path, env=env, timeout=TIMEOUT)
     assert res.returncode == 0, res.stdout[-3000:] + res.stderr[-3000:]
     assert "INSTALL_CHECK_OK" in res.stdout
     summary = json.loads(out.read_text())

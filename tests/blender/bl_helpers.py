@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import atexit
 import sys
 from pathlib import Path
 
@@ -18,7 +19,18 @@ def register_addon():
 
     if not hasattr(bpy.types.Scene, "vtskin"):
         addon.register()
+        # Safety net behind the fixtures' teardown: the bpy 4.5 wheel hangs at interpreter exit
+        # while add-on classes are registered. atexit runs handlers last-registered first, so
+        # this runs before bpy's own exit code.
+        atexit.register(_unregister_if_registered, addon)
     return addon
+
+
+def _unregister_if_registered(addon):
+    import bpy
+
+    if hasattr(bpy.types.Scene, "vtskin"):
+        addon.unregister()
 
 
 def reset_scene():
