@@ -205,3 +205,31 @@ def test_lay_patch_without_open3d_says_so(monkeypatch):
     sphere = trimesh.creation.icosphere(3, radius=0.04)
     e = quiet(interactive.lay_patch, sphere.vertices, sphere.faces, (0, 0, 0.04), patch="triangle")
     assert any("open3d not installed" in n for n in e.report["notes"])
+
+
+def _grid(n=50, size=0.1):
+    x = np.linspace(-size / 2, size / 2, n + 1)
+    X, Y = np.meshgrid(x, x, indexing="ij")
+    v = np.column_stack([X.ravel(), Y.ravel(), np.zeros(X.size)])
+    idx = np.arange(len(v)).reshape(n + 1, n + 1)
+    a, b, c, d = idx[:-1, :-1].ravel(), idx[1:, :-1].ravel(), idx[1:, 1:].ravel(), idx[:-1, 1:].ravel()
+    return trimesh.Trimesh(v, np.vstack([np.column_stack([a, b, c]), np.column_stack([a, c, d])]), process=False)
+
+
+def test_fill_tries_rotations_and_shifts():
+    """fill tried one angle; a 26 mm band across the tiling's rows then took no whole module."""
+    from vtcore.errors import InputError
+
+    plane = _grid()
+    band = np.abs(plane.triangles_center[:, 0]) < 0.013
+    with pytest.raises(InputError, match="no whole module"):
+        quiet(fill, plane, (0, 0, 0), (1, 0, 0), region=band, angles=(0.0,), offsets=2, refine_offsets=0)
+    lay, rep = quiet(fill, plane, (0, 0, 0), (1, 0, 0), region=band)
+    assert lay.n_modules >= 2 and rep.coverage > 0.3
+    assert np.abs(lay.positions[:, 0]).max() < 0.013
+    assert not find_overlaps(lay.positions, lay.module_ids, OVERLAP_FRACTION * PITCH)
+    tries = lay.meta["fill_tilings"]
+    assert len(tries) > 20 and max(t["modules"] for t in tries) == lay.n_modules > tries[0]["modules"]
+    assert any("tilings tried" in n for n in rep.notes)
+    lay2, _ = quiet(fill, plane, (0, 0, 0), (1, 0, 0), region=band)
+    assert np.array_equal(lay.positions, lay2.positions)

@@ -153,14 +153,15 @@ def tile_poses(module: ModuleType, lo, hi) -> np.ndarray:
 
 
 def fill_patch(module: str | ModuleType, inside, lo, hi, *, angles=(0.0, np.pi / 6, np.pi / 3, np.pi / 2),
-               offsets: int = 4) -> Patch:
+               offsets: int = 4, shift=None) -> Patch:
     """Tile a flat region with whole modules, no overlap (the module type's plane tiling).
 
     inside : callable ``(n, 2) metres -> (n,) bool``, the region in the flat domain.
     lo, hi : (2,) metres, a box that contains the region.
     The tiling is tried at each of ``angles`` and ``offsets x offsets`` shifts
     within one tiling cell; the one that keeps the most whole modules wins (ties:
-    the first). Returns the patch with only the modules whose every taxel is inside.
+    the first). shift : (2,) fractions of a tiling cell: try only that shift instead.
+    Returns the patch with only the modules whose every taxel is inside.
     """
     mod = get_module(module)
     lo, hi = np.asarray(lo, float), np.asarray(hi, float)
@@ -169,21 +170,21 @@ def fill_patch(module: str | ModuleType, inside, lo, hi, *, angles=(0.0, np.pi /
     base = tile_poses(mod, -np.full(2, half), np.full(2, half))
     best, best_n = None, -1
     steps = np.arange(offsets) / max(offsets, 1)
+    shifts = [tuple(map(float, shift))] if shift is not None else [(fu, fv) for fu in steps for fv in steps]
     for ang in angles:
         c, s = np.cos(ang), np.sin(ang)
         rot = np.array([[c, -s], [s, c]])
-        for fu in steps:
-            for fv in steps:
-                shift = fu * mod.strip_period + fv * mod.fill_row
-                poses = base.copy()
-                poses[:, 0] += ang
-                poses[:, 1:] = (poses[:, 1:] + shift) @ rot.T + centre
-                p = patch_from_poses(mod, poses, "fill")
-                ok = np.asarray(inside(p.flat), dtype=bool)
-                whole = np.bincount(p.module_ids, weights=ok, minlength=p.n_modules) == len(mod)
-                if whole.sum() > best_n:
-                    best, best_n = p.select_modules(whole), int(whole.sum())
-    best.meta["fill_candidates"] = len(angles) * offsets * offsets
+        for fu, fv in shifts:
+            d = fu * mod.strip_period + fv * mod.fill_row
+            poses = base.copy()
+            poses[:, 0] += ang
+            poses[:, 1:] = (poses[:, 1:] + d) @ rot.T + centre
+            p = patch_from_poses(mod, poses, "fill")
+            ok = np.asarray(inside(p.flat), dtype=bool)
+            whole = np.bincount(p.module_ids, weights=ok, minlength=p.n_modules) == len(mod)
+            if whole.sum() > best_n:
+                best, best_n = p.select_modules(whole), int(whole.sum())
+    best.meta["fill_candidates"] = len(angles) * len(shifts)
     return best
 
 
