@@ -1,6 +1,6 @@
 """Render the pictures of docs/blender.md headless with the bpy wheel (Cycles on the CPU).
 
-    .venv/bin/python scripts/render_docs.py [--out docs/img] [--samples 16]
+    .venv/bin/python scripts/render_docs.py [--out docs/img] [--samples 32]
 
 Builds a scene with the add-on's own operators (seed 002's curved end-effector,
 a hexagonal patch laid at its middle, a 30 mm sphere pressed at 3 N through 3 mm of
@@ -39,7 +39,7 @@ def build(context):
     import bpy
     from scipy.spatial import cKDTree
 
-    from addon import skin as skin_mod
+    from addon import bridge, skin as skin_mod
     from bl_helpers import build_scene
 
     ee, ind, centre = build_scene(indenter_radius=0.02)
@@ -52,14 +52,18 @@ def build(context):
     me = ee.data
     nf = len(me.polygons)
     me.polygons.foreach_set("use_smooth", np.ones(nf, bool))
-    # Select the faces to cover: everything from 40 mm behind the middle to the end, over the
-    # curved flank, that does not face away (the underside stays bare). Local frame, metres.
+    # Select the faces to cover: a compact region 50 mm round a point 20 mm from the middle
+    # towards the curved flank, over the flank, that does not face away (the underside stays
+    # bare). The end-effector's local frame, metres.
     c = np.empty(3 * nf, np.float32)
     me.polygons.foreach_get("center", c)
     nrm = np.empty(3 * nf, np.float32)
     me.polygons.foreach_get("normal", nrm)
     c, nrm = c.reshape(-1, 3), nrm.reshape(-1, 3)
-    region = (c[:, 0] > -0.04) & (nrm[:, 2] > -0.2)
+    m = bridge.matrix(ee)
+    inv = np.linalg.inv(m)
+    anchor = inv[:3, :3] @ centre + inv[:3, 3] + np.array([0.02, 0.0, 0.0])
+    region = (np.linalg.norm(c - anchor, axis=1) < 0.05) & (nrm[:, 2] > -0.2)
     me.polygons.foreach_set("select", region)
     s = context.scene.vtskin
     s.module, s.place_at = "cyskin10", "SELECTED"
@@ -269,7 +273,7 @@ def draw_panels(context, path):
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--out", default=str(ROOT / "docs" / "img"))
-    ap.add_argument("--samples", type=int, default=16)
+    ap.add_argument("--samples", type=int, default=32)
     args = ap.parse_args()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
