@@ -155,6 +155,36 @@ def test_fill_selected_faces(skinned):
     assert ob.vtskin.overlaps == 0
 
 
+def test_fill_curved_selection_anchors_on_it():
+    """A selection over the top AND the curved flank: its area-weighted mean lies inside the
+    body and snapped to a face outside the selection, so filling found no room (cancelled).
+    The fill must anchor on a selected face and tile only selected faces."""
+    ee, _, _ = build_scene()
+    me = ee.data
+    nf = len(me.polygons)
+    c = np.empty(3 * nf, np.float32)
+    me.polygons.foreach_get("center", c)
+    nrm = np.empty(3 * nf, np.float32)
+    me.polygons.foreach_get("normal", nrm)
+    c, nrm = c.reshape(-1, 3), nrm.reshape(-1, 3)
+    region = (c[:, 0] > -0.04) & (nrm[:, 2] > -0.2)
+    assert (nrm[region, 2] < 0.5).any() and (nrm[region, 2] > 0.99).any()  # top and flank
+    me.polygons.foreach_set("select", region)
+    bpy.context.scene.vtskin.place_at = "SELECTED"
+    bpy.context.view_layer.objects.active = ee
+    assert bpy.ops.vtskin.lay_patch(fill=True) == {"FINISHED"}
+    ob = next(o for o in bpy.data.objects if o.vtskin.role == "TAXELS")
+    assert len(ob.data.vertices) >= 50 and ob.vtskin.overlaps == 0
+    # every taxel sits over a selected face (nearest face centre is selected)
+    co = np.empty(3 * len(ob.data.vertices), np.float32)
+    ob.data.vertices.foreach_get("co", co)
+    world = co.reshape(-1, 3) @ M(ob)[:3, :3].T + M(ob)[:3, 3]
+    inv = np.linalg.inv(M(ee))
+    local = world @ inv[:3, :3].T + inv[:3, 3]
+    nearest = np.argmin(((local[:, None, :] - c[None]) ** 2).sum(-1), axis=1)
+    assert region[nearest].mean() > 0.95
+
+
 def test_simulate_bake_playback_and_reload(skinned, tmp_path):
     from addon import skin
     from vtcore.scene import interactive
