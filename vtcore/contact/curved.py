@@ -145,7 +145,7 @@ def press_unrolled(layout, local, scene, pose, layer, *, force, indentation, dir
                    spreading, samples_per_taxel, taxel_radius, backend, warm_start, tol, maxiter):
     """:func:`vtcore.contact.press` with ``geometry="unrolled"`` (arguments already checked)."""
     from . import elastic
-    from .press import ContactField, PressResult, _envelope_posed, _frame, spread_field, taxel_means
+    from .press import ContactField, PressResult, _envelope_posed, _frame, taxel_readings
 
     h = layer.thickness
     sk = unrolled_skin(layout, h, layer.extent, grid, taxel_radius)
@@ -274,12 +274,7 @@ def press_unrolled(layout, local, scene, pose, layer, *, force, indentation, dir
     fld = ContactField(sk["x"], sk["y"], np.zeros(3), np.array([1.0, 0, 0]), np.array([0, 1.0, 0]), n,
                        np.zeros_like(gap), np.where(finite, normal_gap(travel), np.inf), p, thickness=h,
                        domain="flat", points_3d=pts)
-    surf = taxel_means(layout, fld, p, samples_per_taxel, taxel_radius)
-    if spread:
-        fld.stress = spread_field(fld, layer, spreading)
-        taxel = taxel_means(layout, fld, fld.stress, samples_per_taxel, taxel_radius)
-    else:
-        taxel = surf.copy()
+    surf, taxel = taxel_readings(layout, fld, p, layer, spread, spreading, samples_per_taxel, taxel_radius)
     cpt = np.full(3, np.nan)
     cpt_obj = np.full(3, np.nan)
     if total > 0:

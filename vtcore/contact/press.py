@@ -291,6 +291,18 @@ def taxel_means(layout, fld: ContactField, values, samples_per_taxel=7, radius=T
     return a @ np.asarray(values, float).ravel()
 
 
+def taxel_readings(layout, fld: ContactField, surface_pressure, layer, spread: bool, spreading: str,
+                   samples_per_taxel: int, radius: float):
+    """Per-taxel ``(surface, taxel)`` pressures (N,) Pa: the surface pressure over each taxel disc,
+    and (when ``spread``) the stress carried through the layer to it, else a copy of the surface's.
+    Sets ``fld.stress`` when spreading."""
+    surf = taxel_means(layout, fld, surface_pressure, samples_per_taxel, radius)
+    if not spread:
+        return surf, surf.copy()
+    fld.stress = spread_field(fld, layer, spreading)
+    return surf, taxel_means(layout, fld, fld.stress, samples_per_taxel, radius)
+
+
 def spread_field(fld: ContactField, layer, spreading: str = "layer") -> np.ndarray:
     """Stress (Pa) at the layer's base under the surface pressure of ``fld``.
 
@@ -634,12 +646,7 @@ def press(layout, mesh, pose, layer: SoftLayer, *, force=None, indentation=None,
     indent = max(travel - gmin, 0.0) if np.isfinite(gmin) else 0.0
     if force is None and indentation is None and np.isfinite(gmin):
         indent = max(-gmin, 0.0)
-    surf = taxel_means(layout, fld, p, samples_per_taxel, taxel_radius)
-    if spread:
-        fld.stress = spread_field(fld, layer, spreading)
-        taxel = taxel_means(layout, fld, fld.stress, samples_per_taxel, taxel_radius)
-    else:
-        taxel = surf.copy()
+    surf, taxel = taxel_readings(layout, fld, p, layer, spread, spreading, samples_per_taxel, taxel_radius)
     defl = 0.0
     cpt = np.full(3, np.nan)
     cpt_obj = np.full(3, np.nan)
