@@ -82,6 +82,8 @@ class VTSKIN_OT_run_scene(_Op, bpy.types.Operator):
         path = bpy.path.abspath(self.filepath or settings.scene_file)
         if not path:
             raise _Cancel("No scene file given")
+        if not Path(path).is_file():  # before _out_dir, which may create a temporary folder
+            raise _Cancel(f"{path}: not a readable scene file")
         with _failing("Scene run failed"):
             res = run_scene_file(path, _out_dir(settings))
         name = res.result.get("name") or Path(path).stem
