@@ -280,7 +280,7 @@ def read_icub(path, units: str | None = None) -> Layout:
             if key == "name":
                 names.append(val)
             elif key == "taxel2Repr":
-                pass
+                pass  # read above by _T2R: its list can span several lines
             elif key.startswith(("0", "1", "2", "3", "4", "5", "6", "7", "8", "9", "-", "+", ".")):
                 # numbers outside the group: a file without the [calibration] header
                 in_cal = True
