@@ -808,9 +808,9 @@ def write_mjcf(layout: Layout, path, *, site_radius: float | None = None, site_d
              '  <!-- written by vtcore: one site per taxel, one touch sensor per site; metres -->',
              "  <worldbody>", f"    <body name={quoteattr(layout.frame)}>"]
     sites = []
+    unique_ids = len(np.unique(layout.taxel_ids)) == len(layout)  # else name sites by row
     for k in range(len(layout)):
-        sname = f"taxel_{int(layout.taxel_ids[k])}" if len(np.unique(layout.taxel_ids)) == len(layout) \
-            else f"taxel_{k}"
+        sname = f"taxel_{int(layout.taxel_ids[k])}" if unique_ids else f"taxel_{k}"
         sites.append(sname)
         p = " ".join(fmt(v) for v in layout.positions[k])
         z = " ".join(fmt(v) for v in layout.normals[k])
