@@ -20,8 +20,12 @@ test: setup
 test-fast: setup
 	$(PY) -m pytest -q -n 2 --dist loadfile -m "not slow"
 
+# `make bench` (full) or `make bench QUICK=1` (small sizes): every benchmark, one
+# report in benchmarks/out/README.md; the Blender one needs bpy, so it runs as a script.
+BENCH_FLAGS := $(if $(QUICK),--quick,)
 bench: setup
-	$(VENV)/bin/vtcore bench --out benchmarks/out
+	$(PY) benchmarks/bench_blender.py --out benchmarks/out/blender $(BENCH_FLAGS)
+	$(VENV)/bin/vtcore bench --out benchmarks/out $(BENCH_FLAGS) --with benchmarks/out/blender
 
 extension: setup
 	$(PY) scripts/build_extension.py

@@ -1,26 +1,82 @@
-"""``vtcore bench [NAME ...] --out DIR [--quick]``: benchmarks of time and accuracy side by side.
+"""``vtcore bench [NAME ...] --out DIR [--quick] [--with DIR ...]``: benchmarks of time and accuracy side by side.
 
 Every ``vtcore.<package>.bench`` module that defines ``run(out: Path, quick: bool)``
-is a benchmark named after its package. Each writes its own table (Markdown and
-CSV) and accuracy-vs-time plot into ``DIR/<name>/`` and returns the table rows;
-this command writes ``DIR/README.md`` linking them.
+is a benchmark named after its package. Each writes its own table (``table.md``
+with the paper numbers it is measured against, ``table.csv``) and an
+accuracy-vs-time plot into ``DIR/<name>/``; this command then writes one
+``DIR/README.md`` that puts every table and plot on one page. ``--with`` adds a
+folder some other benchmark wrote the same three files into (the Blender
+benchmark, ``benchmarks/bench_blender.py``, which needs ``bpy`` and so is not
+part of ``vtcore``).
 """
 
 from __future__ import annotations
 
 import importlib
+import os
 import pkgutil
+import time
 from pathlib import Path
+
+TABLE = "table.md"
+PLOT = "accuracy_vs_time.png"
 
 
 def available() -> dict[str, str]:
+    """Benchmark name -> module (``{"layout": "vtcore.layout.bench", ...}``), sorted by name.
+
+    A package's ``bench`` module counts only if it defines ``run``: this very
+    module is ``vtcore.cli.bench`` and is the command, not a benchmark.
+    """
     import vtcore
 
     out = {}
     for mod in pkgutil.iter_modules(vtcore.__path__):
-        if mod.ispkg and importlib.util.find_spec(f"vtcore.{mod.name}.bench") is not None:
-            out[mod.name] = f"vtcore.{mod.name}.bench"
+        name = f"vtcore.{mod.name}.bench"
+        if not mod.ispkg or importlib.util.find_spec(name) is None:
+            continue
+        if callable(getattr(importlib.import_module(name), "run", None)):
+            out[mod.name] = name
     return dict(sorted(out.items()))
+
+
+def section(folder: Path, name: str, link: str, seconds: float | None = None) -> list[str]:
+    """The report lines for one benchmark folder: its table (title demoted a level) and its plot.
+
+    ``folder`` holds ``table.md`` and ``accuracy_vs_time.png``; ``link`` is the
+    folder relative to the report (``"layout"``, ``"blender"``). A missing table
+    is said, not skipped, so a broken benchmark shows in the report.
+    """
+    lines = [f"## {name}", ""]
+    if seconds is not None:
+        lines += [f"Ran in {seconds:.1f} s (whole benchmark, wall clock).", ""]
+    table = folder / TABLE
+    if not table.is_file():
+        return lines + [f"No `{TABLE}` in `{folder}`.", ""]
+    for line in table.read_text(encoding="utf-8").splitlines():
+        # The table's own headings go two levels down, under this section's.
+        lines.append("##" + line if line.startswith("#") else line)
+    lines.append("")
+    if (folder / PLOT).is_file():
+        lines += [f"![{name}: accuracy against time]({link}/{PLOT})", ""]
+    return lines
+
+
+def write_report(out: Path, sections: list[list[str]], quick: bool) -> Path:
+    """Write ``out/README.md`` from the sections (atomically); return its path."""
+    from .._io import atomic_write
+
+    head = ["# Benchmarks", "",
+            f"{'Quick (small sizes, a smoke run)' if quick else 'Full'} run. Each section is one area: "
+            "its table of time next to accuracy, the paper numbers it is measured against "
+            "(in the notes above each table) and its accuracy-vs-time plot. "
+            "Each folder also holds the table as CSV.", "",
+            "Areas: " + ", ".join(f"[{s[0][3:]}](#{s[0][3:].lower()})" for s in sections) + ".", ""]
+    out.mkdir(parents=True, exist_ok=True)
+    path = out / "README.md"
+    with atomic_write(path, "w", encoding="utf-8") as fh:
+        fh.write("\n".join(head + [ln for s in sections for ln in s]).rstrip("\n") + "\n")
+    return path
 
 
 def cmd_bench(args) -> int:
@@ -31,16 +87,24 @@ def cmd_bench(args) -> int:
     for n in names:
         if n not in benches:
             raise InputError(f"unknown benchmark {n!r}; available: {', '.join(benches)}")
+    extra = [Path(d) for d in args.with_dirs]
+    for d in extra:
+        if not (d / TABLE).is_file():
+            raise InputError(f"--with {d}: no {TABLE} there (run that benchmark first)")
     out = Path(args.out)
-    lines = ["# Benchmarks", "", "Each folder holds a table (`table.md`, `table.csv`) and a plot of accuracy against time.", ""]
+    sections = []
     for n in names:
         module = importlib.import_module(benches[n])
         print(f"bench {n} ...", flush=True)
+        t0 = time.perf_counter()
         module.run(out / n, quick=args.quick)
-        lines.append(f"- [{n}]({n}/table.md)")
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "README.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
-    print(f"benchmarks written to {out}/")
+        sections.append(section(out / n, n, n, time.perf_counter() - t0))
+    for d in extra:
+        # Linked relative to the report, wherever the folder is.
+        rel = Path(os.path.relpath(d.resolve(), out.resolve())).as_posix()
+        sections.append(section(d, d.name, rel))
+    path = write_report(out, sections, args.quick)
+    print(f"benchmarks written to {out}/ (report: {path})")
     return 0
 
 
@@ -49,4 +113,7 @@ def register(sub) -> None:
     p.add_argument("names", nargs="*", help="benchmarks to run (default: all)")
     p.add_argument("--out", default="benchmarks/out", help="output folder")
     p.add_argument("--quick", action="store_true", help="small sizes, for a smoke run")
+    p.add_argument("--with", dest="with_dirs", action="append", default=[], metavar="DIR",
+                   help="also report the table and plot another benchmark wrote into DIR "
+                        "(e.g. benchmarks/bench_blender.py's folder)")
     p.set_defaults(func=cmd_bench)

@@ -1,0 +1,73 @@
+"""``vtcore bench``: discovery, and the one report that ``make bench`` documents (timings never asserted)."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+AREAS = {"augment", "can", "categorize", "contact", "control", "filters", "layout"}
+
+
+def _vtcore(*args, cwd):
+    env = {"PYTHONPATH": str(ROOT), "MPLBACKEND": "Agg", "PATH": "/usr/bin:/bin"}
+    return subprocess.run([sys.executable, "-m", "vtcore", *args], cwd=cwd, env=env,
+                          capture_output=True, text=True, timeout=900)
+
+
+def test_available_lists_the_areas_and_not_the_command_itself():
+    from vtcore.cli.bench import available
+
+    names = available()
+    # vtcore.cli.bench is the command; listing it as a benchmark "cli" crashed `make bench`.
+    assert set(names) == AREAS
+    assert names["layout"] == "vtcore.layout.bench"
+
+
+def test_one_benchmark_and_an_outside_folder_make_one_report(tmp_path):
+    from vtcore._bench import write_table
+
+    # A folder as benchmarks/bench_blender.py writes it (table + plot), outside the output.
+    other = tmp_path / "elsewhere" / "blender"
+    write_table(other, [{"case": "frame write", "seconds": 0.5}], title="Blender add-on",
+                notes=["Goal (issue 7): <= 20 ms."])
+    (other / "accuracy_vs_time.png").write_bytes(b"\x89PNG")
+    out = tmp_path / "out"
+    r = _vtcore("bench", "can", "--quick", "--out", str(out), "--with", str(other), cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    report = (out / "README.md").read_text()
+    assert report.index("## can") < report.index("## blender")
+    assert "### CAN decoding" in report and "### Blender add-on" in report
+    assert "Goal (issue 7): <= 20 ms." in report
+    assert "](can/accuracy_vs_time.png)" in report
+    assert "](../elsewhere/blender/accuracy_vs_time.png)" in report
+    assert (out / "can" / "accuracy_vs_time.png").is_file()
+
+
+def test_bad_names_are_one_clear_message(tmp_path):
+    r = _vtcore("bench", "nosuch", "--out", str(tmp_path / "o"), cwd=tmp_path)
+    assert r.returncode == 2 and "unknown benchmark 'nosuch'" in r.stderr and "Traceback" not in r.stderr
+    r = _vtcore("bench", "can", "--out", str(tmp_path / "o"), "--with", str(tmp_path), cwd=tmp_path)
+    assert r.returncode == 2 and "no table.md" in r.stderr and "Traceback" not in r.stderr
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.slow
+def test_vtcore_bench_quick_end_to_end(tmp_path):
+    """The README's command, as a user runs it: every area, one report with every table and plot."""
+    out = tmp_path / "bench"
+    r = _vtcore("bench", "--quick", "--out", str(out), cwd=tmp_path)
+    assert r.returncode == 0, r.stderr[-3000:]
+    assert "Traceback" not in r.stderr
+    report = (out / "README.md").read_text()
+    for area in sorted(AREAS):
+        assert f"## {area}\n" in report
+        assert f"]({area}/accuracy_vs_time.png)" in report
+        assert (out / area / "table.md").is_file() and (out / area / "table.csv").is_file()
+        assert (out / area / "accuracy_vs_time.png").stat().st_size > 1000
+        # the area's table (with its paper anchors) is on the page, not only linked
+        title = (out / area / "table.md").read_text().splitlines()[0]
+        assert "#" + title in report
