@@ -221,6 +221,7 @@ class VTSKIN_OT_lay_patch(_Op, bpy.types.Operator):
                                  description="Tile the selected faces with whole modules")
 
     def run(self, context):
+        from vtcore.layout import get_module
         from vtcore.scene import interactive
 
         s = context.scene.vtskin
@@ -244,7 +245,8 @@ class VTSKIN_OT_lay_patch(_Op, bpy.types.Operator):
         patch = f"strip:{s.strip_modules}" if s.patch == "strip" else s.patch
         base = skin.read_layout(existing) if existing is not None and len(existing.data.vertices) else None
         with _failing("Cannot lay the patch"):
-            edit = interactive.lay_patch(verts, tri, at, existing=base, patch=patch, module=s.module,
+            module = get_module(s.module, mirror=s.mirror)
+            edit = interactive.lay_patch(verts, tri, at, existing=base, patch=patch, module=module,
                                          direction=_direction(s.rotation), offset=s.offset, method=s.method,
                                          fill_region=region, max_faces=s.solve_faces or None)
         ob = _write_edit(context, ee, existing, frame, edit, s.module)

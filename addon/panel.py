@@ -56,9 +56,8 @@ def _skin(context):
 class VTSKIN_PT_layout(_Panel, bpy.types.Panel):
     bl_idname = "VTSKIN_PT_layout"
     bl_label = "Skin layout"
-    props = ("module",)
-
     def draw_more(self, col, s, context):
+        _row(col, s, "module", "mirror")
         _row(col, s, *(("patch", "strip_modules") if s.patch == "strip" else ("patch",)))
         for name in ("place_at", "rotation", "offset", "method", "solve_faces"):
             col.prop(s, name)

@@ -58,9 +58,10 @@ class VTSKIN_PG_object(bpy.types.PropertyGroup):
 
 
 def _modules():
-    return [("cyskin10", "CySkin (10 taxels)", "CySkin triangular module, 10 taxels"),
-            ("cyskin11", "CySkin (11 taxels)", "CySkin module with the shared hexagon centre"),
-            ("icub12", "iCub (12 taxels)", "iCub triangular module, 12 taxels")]
+    from vtcore.layout import MODULES
+
+    # every module type of vtcore's registry, with the registry's own description
+    return [(k, f"{k} ({len(m)} taxels)", m.doc or k) for k, m in sorted(MODULES.items())]
 
 
 def _materials():
@@ -93,6 +94,8 @@ class VTSKIN_PG_scene(bpy.types.PropertyGroup):
                                               ("strip", "Strip", "A row of modules")], default="hexagon")
     strip_modules: IntProperty(name="Modules", default=4, min=1, max=64)
     module: EnumProperty(name="Module", items=_modules(), default="cyskin10")
+    mirror: BoolProperty(name="Mirror", default=False,
+                         description="Mirror-image modules (skinGui's mirror column: x negated in the module frame)")
     place_at: EnumProperty(name="At", items=[("CURSOR", "3D cursor", "Centre the patch at the 3D cursor"),
                                              ("SELECTED", "Selected faces", "Centre at the selected faces")],
                            default="CURSOR")

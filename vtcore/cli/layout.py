@@ -1,7 +1,7 @@
 """``vtcore layout place|import|export|info``: design, convert and inspect skin layouts.
 
 - ``vtcore layout place MESH --patch {triangle,hexagon,strip:N,fill} --at X Y Z [--direction DX DY DZ]
-  [--module NAME] [--offset METRES] --out LAYOUT``
+  [--module NAME] [--mirror] [--offset METRES] --out LAYOUT``
 - ``vtcore layout import FILE [--format icub|cyskin|csv|json|ply] --out LAYOUT``
 - ``vtcore layout export LAYOUT --format icub|cyskin|csv|json|ply|mjcf --out FILE [--transform FILE_OR_16_NUMBERS]``
 - ``vtcore layout info LAYOUT [--json]``
@@ -55,16 +55,17 @@ def _print_warnings(caught):
 
 
 def cmd_place(args) -> int:
-    from ..layout import fill, place, save
+    from ..layout import fill, get_module, place, save
 
     mesh = _load_mesh(args.mesh, args.scale)
+    module = get_module(args.module, mirror=args.mirror)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         if args.patch == "fill":
-            layout, report = fill(mesh, args.at, args.direction, module=args.module, radius=args.radius,
+            layout, report = fill(mesh, args.at, args.direction, module=module, radius=args.radius,
                                   offset=args.offset)
         else:
-            layout, report = place(mesh, args.patch, args.at, args.direction, module=args.module,
+            layout, report = place(mesh, args.patch, args.at, args.direction, module=module,
                                    offset=args.offset, method=args.method)
     _print_warnings(caught)
     layout.meta["mesh"] = str(args.mesh)
@@ -207,6 +208,8 @@ def register(sub) -> None:
     pl.add_argument("--direction", type=float, nargs=3, metavar=("DX", "DY", "DZ"),
                     help="in-plane direction of the patch's x axis")
     pl.add_argument("--module", default="cyskin10", choices=sorted(MODULES), help="module type")
+    pl.add_argument("--mirror", action="store_true",
+                    help="mirror-image modules (skinGui's mirror column: x negated in the module frame)")
     pl.add_argument("--offset", type=float, default=0.0, metavar="METRES", help="distance along the normal")
     pl.add_argument("--method", default="logmap", choices=("logmap", "project"), help="placement method")
     pl.add_argument("--radius", type=float, help="fill: geodesic radius of the region (metres)")

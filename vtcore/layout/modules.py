@@ -26,7 +26,30 @@ datasheet value.
 ``icub12``: the iCub skin triangle (30 mm side, 12 slots, slots 6 and 10 are
 thermal pads), slot pattern as drawn by the iCub skin GUI: the unit triangle
 ``(0,0)-(1,0)-(0.5, sin 60)`` scaled by 30 mm with slot offsets built from
-``L = 2 sin(60)/9``. Origin at the outline centroid, apex towards +y.
+``L = 2 sin(60)/9``. Origin at the outline centroid, apex towards +y. This is
+the *old* iCub triangle (5.0 mm pitch, taxel 3 off the origin).
+
+``icub10``: the current iCub skin triangle, skinGui's ``triangle_10pad``
+(icub-main ``src/tools/iCubSkinGui/src/include/Triangle_10pad.h``): 12 slots, 10
+pressure pads and thermal pads at slots 6 and 10, slot numbering as the iCub
+software has it. skinGui writes the offsets in mils (1/1000 inch, the PCB CAD
+unit; the drawing divides them by 40): 257.2 mil = 6.533 mm from the centre
+taxel 3, which sits at the module origin. The pressure pads lie on a triangular
+lattice of that pitch, rows of 4, 3, 2, 1 (the CySkin pattern); the outline is
+skinGui's drawn triangle (vertices ``(+-55/4, -32.5/4)`` and ``(0, 63/4)`` in the
+same drawing units, about 28 mm a side). Copies tile at the spacing of skinGui's
+own forearm layouts (neighbouring triangle centres 18.48 drawing units apart,
+``left_forearm_V2.ini``), i.e. triangles of 32 drawing units a side.
+
+Mirrored modules
+----------------
+skinGui layouts carry a ``mirror`` column: a mirrored triangle has every offset's
+x negated in the module frame before it is rotated (``if (lrMirror==1) x=-x``),
+and half the triangles of a real iCub forearm are mirror images. :meth:`ModuleType.mirror`
+returns that mirror image (same name and slot numbering, ``mirrored`` set), whose
+strip, hexagon and plane tiling are the mirror images of the original's, so every
+patch kind and ``fill`` work with it unchanged; ``get_module(name, mirror=True)``
+looks it up.
 """
 
 from __future__ import annotations
@@ -38,6 +61,7 @@ import numpy as np
 from ..errors import InputError
 
 PITCH = 7.5e-3  #: m, CySkin taxel pitch (seeds 001, 002)
+MIL = 25.4e-6  #: m per mil (1/1000 inch), the unit of skinGui's triangle_10pad offsets
 TAXEL_DIAMETER = 4.0e-3  #: m, CySkin taxel diameter
 
 _A = np.array([1.0, 0.0])
@@ -71,6 +95,7 @@ class ModuleType:
         (iCub positions files: 12).
     id_scheme : ``"cyskin"`` (taxel UID ``(module + 1) << 4 | sensor``) or ``"icub"``
         (taxel id ``module * 12 + slot``, the row of a positions file).
+    mirrored : True for the mirror image of the registered geometry (see :meth:`mirror`).
     """
 
     name: str
@@ -87,6 +112,7 @@ class ModuleType:
     edges: np.ndarray = None
     slots: int = 0
     id_scheme: str = "cyskin"
+    mirrored: bool = False
     doc: str = ""
     meta: dict = field(default_factory=dict)
 
@@ -112,6 +138,25 @@ class ModuleType:
     def placed_outline(self, angle: float, centre) -> np.ndarray:
         return self.outline @ _rot(angle).T + np.asarray(centre, dtype=np.float64)
 
+    def mirror(self) -> "ModuleType":
+        """The mirror image (skinGui's ``mirror`` column): x negated in the module frame.
+
+        Same name, sensors, roles and edges; the outline is re-ordered to stay
+        counter-clockwise; strip, hexagon and plane-tiling poses are mirrored too
+        (angle negated, x negated), so they still tile. Mirroring twice gives the original.
+        """
+        flip = np.array([-1.0, 1.0])
+
+        def poses(ps):
+            return [(-float(a), np.asarray(c, float) * flip) for a, c in ps]
+
+        return ModuleType(
+            name=self.name, taxels=self.taxels * flip, sensors=self.sensors.copy(), roles=self.roles.copy(),
+            outline=(self.outline * flip)[::-1].copy(), pitch=self.pitch, taxel_diameter=self.taxel_diameter,
+            strip=poses(self.strip), strip_period=self.strip_period * flip, fill_row=self.fill_row * flip,
+            hexagon=poses(self.hexagon), edges=self.edges.copy(), slots=self.slots, id_scheme=self.id_scheme,
+            mirrored=not self.mirrored, doc=self.doc, meta=dict(self.meta))
+
     @property
     def radius(self) -> float:
         """Largest distance from the module origin to its outline, metres."""
@@ -133,15 +178,18 @@ def register_module(module: ModuleType) -> ModuleType:
     return module
 
 
-def get_module(name: str | ModuleType) -> ModuleType:
-    """The registered module type ``name`` (a :class:`ModuleType` passes through)."""
+def get_module(name: str | ModuleType, mirror: bool = False) -> ModuleType:
+    """The registered module type ``name`` (a :class:`ModuleType` passes through);
+    ``mirror=True``: its mirror image (:meth:`ModuleType.mirror`)."""
     if isinstance(name, ModuleType):
-        return name
-    try:
-        return MODULES[name]
-    except KeyError:
-        raise InputError(f"unknown module type {name!r}; known: {', '.join(sorted(MODULES))}",
-                         key="module") from None
+        mod = name
+    else:
+        try:
+            mod = MODULES[name]
+        except KeyError:
+            raise InputError(f"unknown module type {name!r}; known: {', '.join(sorted(MODULES))}",
+                             key="module") from None
+    return mod.mirror() if mirror else mod
 
 
 def module_names() -> tuple[str, ...]:
@@ -226,6 +274,41 @@ def _icub12(side: float = 30e-3) -> ModuleType:
         doc="iCub skin triangle: 12 slots (10 pressure taxels, thermal pads at slots 6 and 10), 30 mm side")
 
 
+# --- iCub: the current 10-pad triangle (skinGui triangle_10pad) ----------------------------------
+# Slot offsets in mils as Triangle_10pad.h lists them (icub-main, src/tools/iCubSkinGui/src/include/
+# Triangle_10pad.h, dX[i], dY[i]); slots 6 and 10 are the thermal pads.
+ICUB10_MIL = np.array([
+    [257.2, 0.0], [385.83, -222.83], [128.62, -222.83], [0.0, 0.0], [-128.62, -222.83], [-385.83, -222.83],
+    [-256.3, -147.64], [-257.2, 0.0], [-128.62, 222.83], [0.0, 445.54], [0.0, 296.55], [128.62, 222.83]])
+#: skinGui's drawn outline of the triangle_10pad (dXv, dYv, drawing units of 40 mil)
+ICUB10_OUTLINE_DRAW = np.array([[-55.0 / 4, -32.5 / 4], [55.0 / 4, -32.5 / 4], [0.0, 63.0 / 4]])
+#: centre-to-centre distance of neighbouring triangles in skinGui's forearm layouts (drawing units):
+#: e.g. left_forearm_V2.ini triangles 0 (100.00, -20.00) and 1 (109.24, -4.00)
+ICUB10_NEIGHBOUR_DRAW = float(np.hypot(9.24, 16.0))
+
+
+def _icub10() -> ModuleType:
+    taxels = ICUB10_MIL * MIL
+    roles = np.full(12, "pressure", dtype=object)
+    roles[[6, 10]] = "thermal"
+    pitch = float(np.linalg.norm(taxels[0]))  # centre taxel 3 to taxel 0: 6.533 mm
+    outline = ICUB10_OUTLINE_DRAW * 40 * MIL
+    # tiling: up and down triangles of side s, edge to edge, centroids 2 * inradius = s / sqrt(3) apart
+    side = ICUB10_NEIGHBOUR_DRAW * 40 * MIL * np.sqrt(3.0)
+    h = side * np.sqrt(3.0) / 2
+    hexagon = [(k * np.pi / 3, _rot(k * np.pi / 3) @ np.array([side / 2, h / 3])) for k in range(6)]
+    return ModuleType(
+        name="icub10", taxels=taxels, sensors=np.arange(12), roles=roles, outline=outline,
+        # skinGui draws a pad as a circle of radius 2.2 drawing units (m_RadiusOrig): 4.5 mm across
+        pitch=pitch, taxel_diameter=2 * 2.2 * 40 * MIL,
+        strip=[(0.0, np.array([side / 2, h / 3])), (np.pi, np.array([side, 2 * h / 3]))],
+        strip_period=np.array([side, 0.0]), fill_row=np.array([side / 2, h]), hexagon=hexagon,
+        slots=12, id_scheme="icub",
+        doc=("iCub skin triangle_10pad (current iCub skin): 10 pressure pads 6.53 mm apart round the centre "
+             "taxel 3 at the origin, thermal pads at slots 6 and 10"))
+
+
 register_module(_cyskin())
 register_module(_cyskin(eleven=True))
 register_module(_icub12())
+register_module(_icub10())

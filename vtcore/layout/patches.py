@@ -87,7 +87,10 @@ class Patch:
         return self.to_layout(pos, nrm)
 
     def to_layout(self, positions, normals, meta: dict | None = None) -> Layout:
-        m = {"module_type": self.module.name, "patch": self.kind, "pitch_m": self.module.pitch,
+        # id_scheme lets a writer number iCub taxels by slot whatever the module's name;
+        # module_mirror says the modules are mirror images (skinGui's mirror column)
+        m = {"module_type": self.module.name, "module_mirror": bool(self.module.mirrored),
+             "id_scheme": self.module.id_scheme, "patch": self.kind, "pitch_m": self.module.pitch,
              "module_poses": self.poses.tolist(), **self.meta, **(meta or {})}
         return Layout(positions, normals, self.taxel_ids, self.module_ids, flat=self.flat.copy(),
                       roles=self.roles.copy(), meta=m)
@@ -188,15 +191,19 @@ def fill_patch(module: str | ModuleType, inside, lo, hi, *, angles=(0.0, np.pi /
     return best
 
 
-def make_patch(kind: str, module: str | ModuleType = "cyskin10", *, center: bool = False) -> Patch:
+def make_patch(kind: str, module: str | ModuleType = "cyskin10", *, center: bool = False,
+               mirror: bool = False) -> Patch:
     """A flat patch: ``"triangle"``, ``"hexagon"`` or ``"strip:N"``.
+
+    ``mirror=True`` builds it of mirror-image modules (skinGui's ``mirror`` column, see
+    :meth:`~vtcore.layout.modules.ModuleType.mirror`): the mirror image of the whole patch.
 
     ``center=True`` adds the taxel at the centre of a CySkin hexagon to module 0
     (real planar hexagons have 61 taxels; seed 001 uses 60 and excludes it).
     The patch is centred on the mean of its taxels except the hexagon, which is
     centred on its centre site.
     """
-    mod = get_module(module)
+    mod = get_module(module, mirror=mirror)
     kind = str(kind).strip()
     if kind == "triangle":
         return patch_from_poses(mod, [[0.0, 0.0, 0.0]], "triangle")

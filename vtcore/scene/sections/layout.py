@@ -12,7 +12,8 @@ papers and come with their own skin (``[layout] patch = "auto"``).
 ``[layout]`` either loads a calibrated layout ``file`` or places a ``patch``
 (triangle, hexagon, strip:N, fill) of ``module`` on the end-effector at ``at``
 (default: the origin, the top of the skin surface) with its x axis along
-``direction``, ``offset`` metres out along the normal. On the analytic primitives
+``direction``, ``offset`` metres out along the normal; ``mirror = true`` lays
+mirror-image modules (skinGui's ``mirror`` column). On the analytic primitives
 with the default ``at`` the exponential map is exact (azimuthal equidistant on
 the sphere, unrolling on the cylinder); elsewhere the mesh log map is used.
 """
@@ -68,6 +69,8 @@ LAYOUT = Section({
     "patch": Field("str", default="auto", check=_patch_ok,
                    doc="auto (the seed end-effector's own skin, else hexagon), triangle, hexagon, strip:N, fill"),
     "module": Field("str", default="cyskin10", choices=lambda: tuple(sorted(MODULES)), doc="module type"),
+    "mirror": Field("bool", default=False,
+                    doc="mirror-image modules (skinGui's mirror column: x negated in the module frame)"),
     "pitch": Field("float", default=PITCH, gt=0, unit="m", doc="taxel pitch (scales the patch)"),
     "center": Field("bool", default=False, doc="hexagon: add the centre taxel (61 instead of 60)"),
     "at": Field("vec", default=None, length=3, unit="m", doc="surface point the patch is centred on"),
@@ -146,7 +149,7 @@ def build_end_effector(scene) -> "trimesh.Trimesh":
 
 
 def _scaled_patch(lay: dict):
-    p = make_patch(lay["patch"], lay["module"], center=lay["center"])
+    p = make_patch(lay["patch"], lay["module"], center=lay["center"], mirror=lay["mirror"])
     mod = MODULES[lay["module"]]
     s = lay["pitch"] / mod.pitch
     if s != 1.0:
@@ -204,7 +207,8 @@ def build_layout(scene) -> Layout:
     mesh = build_end_effector(scene)
     at = lay["at"] if lay["at"] is not None else [0.0, 0.0, 0.0]
     if kind == "fill":
-        layout, _ = L.fill(mesh, at, lay["direction"], module=lay["module"], radius=lay["radius"],
+        layout, _ = L.fill(mesh, at, lay["direction"], module=L.get_module(lay["module"], mirror=lay["mirror"]),
+                           radius=lay["radius"],
                            offset=lay["offset"])
         return layout
     layout, _ = L.place(mesh, _scaled_patch(lay), at, lay["direction"], offset=lay["offset"],
