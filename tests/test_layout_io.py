@@ -9,7 +9,7 @@ import pytest
 
 from vtcore.errors import FormatError, InputError
 from vtcore.layout import Layout, LayoutWarning, load, make_patch, save, seed002_curved
-from vtcore.layout.io import write_cyskin
+from vtcore.layout.io.cyskin import write as write_cyskin
 
 FORMATS = [("json", "json"), ("icub", "txt"), ("cyskin", "json"), ("csv", "csv"), ("ply", "ply")]
 
@@ -314,7 +314,7 @@ def test_nothing_half_written(tmp_path, monkeypatch):
     f = tmp_path / "keep.csv"
     save(lay, f)
     before = f.read_bytes()
-    import vtcore.layout.io as lio
+    import vtcore.layout.io.csv as lio
 
     def boom(v, spec):  # fail half-way through the rows
         if boom.calls > 50:

@@ -1,0 +1,122 @@
+"""Calibrated layout files: read and write, one module per format.
+
+Like python-can's ``can.io``: each format module (:mod:`.native`, :mod:`.icub`, :mod:`.cyskin`,
+:mod:`.csv`, :mod:`.ply`, :mod:`.mjcf`) has ``NAME``, ``SUFFIXES``, ``read(path, units=None) -> Layout``
+(``None`` for export-only formats) and ``write(layout, path, **options)``; :data:`FORMAT_MODULES`
+maps each name to its module and :func:`load`/:func:`save` dispatch through it.
+
+Formats (``format=`` names):
+
+- ``json``: our own versioned JSON (``"format": "vtcore-layout", "version": 1``):
+  positions, normals, taxel and module ids, roles, CAN addresses, frame name and
+  4x4 transform (row-major), units, flat coordinates when known, provenance.
+- ``icub``: the iCub skinGui positions text (``name``, ``spatial_sampling``,
+  ``taxel2Repr ( ... )``, ``[calibration]`` rows ``x y z nx ny nz``, 12 per triangle).
+- ``cyskin``: the CySkin calibration JSON (``file_version`` "2"; variants with
+  ``skin``, ``tactile_maps`` or both; we write ``info`` + ``skin`` + ``tactile_maps``).
+- ``csv``: one taxel a row under a header (``x,y,z`` required; ``nx,ny,nz``,
+  ``taxel_id``, ``module_id``, ``u,v``, ``role``, ``can_id`` optional; ``x_mm`` style
+  headers declare millimetres).
+- ``ply``: vertices with per-taxel attributes, faces of the skin mesh (ASCII written;
+  ASCII and binary read).
+- ``mjcf``: export only: one MuJoCo site per taxel and a ``touch`` sensor on each.
+
+Readers are lenient about what real files do (mixed tabs and spaces, CRLF,
+scientific notation, non-unit or placeholder normals, repeated positions,
+mismatched declared counts): they keep going and warn with
+:class:`~vtcore.layout.LayoutWarning`; every warning is also kept in
+``layout.meta["import_warnings"]``. A value that cannot be a number (NaN,
+text) or a short row is an error that names the file and line.
+
+Units: files without a declared unit are checked: taxels whose median
+neighbour spacing exceeds 0.1 "metres" are in millimetres; we convert and warn.
+Pass ``units="m"`` or ``units="mm"`` to declare them instead.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from ...errors import InputError
+from ..model import Layout
+from . import csv, cyskin, icub, mjcf, native, ply
+
+# name -> module with read/write (the one table every dispatch goes through)
+FORMAT_MODULES = {m.NAME: m for m in (native, icub, cyskin, csv, ply, mjcf)}
+FORMATS = tuple(FORMAT_MODULES)
+READ_FORMATS = tuple(n for n, m in FORMAT_MODULES.items() if m.read is not None)
+# suffix -> format name when writing; ".json" is ambiguous (ours or CySkin), ours wins on save
+SUFFIX_FORMATS = {s: n for n, m in reversed(FORMAT_MODULES.items()) for s in m.SUFFIXES if s}
+
+
+def detect_format(path: Path) -> str:
+    """The format of an existing file: from its suffix and, for ``.json``, its content."""
+    ext = path.suffix.lower()
+    if ext == ".json":
+        try:
+            data = json.loads(path.read_text(encoding="utf-8", errors="replace"))
+        except (OSError, ValueError):
+            return native.NAME
+        if isinstance(data, dict) and data.get("format") != "vtcore-layout" and (
+                "skin" in data or "tactile_maps" in data or "info" in data):
+            return cyskin.NAME
+        return native.NAME
+    if ext == "":
+        return icub.NAME
+    if ext in SUFFIX_FORMATS:
+        return SUFFIX_FORMATS[ext]
+    raise InputError(f"cannot tell the layout format of {path.name!r} from its extension; "
+                     f"pass format= one of {', '.join(FORMATS)}", file=path)
+
+
+def load(path, format: str | None = None, *, units: str | None = None) -> Layout:
+    """Read a layout file.
+
+    path : file. format : one of ``json, icub, cyskin, csv, ply`` (default: from
+    the extension and, for ``.json``, the content). units : ``"m"`` or ``"mm"``
+    to declare the file's length unit; by default declared units in the file
+    are used, else millimetres are detected (and warned about).
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise InputError("file not found", file=path)
+    fmt = format or detect_format(path)
+    if fmt not in READ_FORMATS:
+        raise InputError(f"cannot read format {fmt!r}; readable: {', '.join(READ_FORMATS)}", file=path,
+                         key="format")
+    return FORMAT_MODULES[fmt].read(path, units=units)
+
+
+def save(layout: Layout, path, format: str | None = None, *, transform=None, **options) -> None:
+    """Write ``layout`` to ``path`` (written to a temporary file, then renamed).
+
+    format : one of ``json, icub, cyskin, csv, ply, mjcf`` (default from the
+    extension; ``.json`` means our own JSON). transform : optional (4, 4)
+    rigid transform; the taxels are written in that frame (``p' = R p + t``).
+    options : passed to the format's ``write`` (see each format module).
+    """
+    path = Path(path)
+    fmt = format
+    if fmt is None:
+        fmt = SUFFIX_FORMATS.get(path.suffix.lower())
+        if fmt is None:
+            raise InputError(f"cannot tell the format from {path.name!r}; pass format= one of "
+                             f"{', '.join(FORMATS)}", file=path)
+    if fmt not in FORMAT_MODULES:
+        raise InputError(f"unknown format {fmt!r}; use one of {', '.join(FORMATS)}", file=path, key="format")
+    if transform is not None:
+        t = np.asarray(transform, dtype=np.float64)
+        if t.shape != (4, 4) or not np.isfinite(t).all():
+            raise InputError("transform must be a finite 4x4 matrix", key="transform")
+        r = t[:3, :3]
+        if not np.allclose(r @ r.T, np.eye(3), atol=1e-4) or not np.allclose(t[3], [0, 0, 0, 1]):
+            raise InputError("transform must be rigid (orthonormal rotation, bottom row 0 0 0 1)",
+                             key="transform")
+        layout = layout.transformed(t)
+    FORMAT_MODULES[fmt].write(layout, path, **options)
+
+
+__all__ = ["FORMATS", "READ_FORMATS", "FORMAT_MODULES", "SUFFIX_FORMATS", "detect_format", "load", "save"]

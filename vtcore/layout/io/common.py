@@ -1,0 +1,119 @@
+"""Shared by the layout readers and writers: the import report, units, normals, numbers."""
+
+from __future__ import annotations
+
+import math
+import warnings
+
+import numpy as np
+
+from ...errors import FormatError, InputError
+from ..mesh import LayoutWarning, _nn_spacing, estimate_normals
+from ..model import Layout
+
+MM_SPACING = 0.1  # m: no skin has taxels 10 cm apart; such spacing means millimetres
+
+
+class ImportReport:
+    """Collects import warnings, emits each as a LayoutWarning once."""
+
+    def __init__(self, path):
+        self.path = str(path)
+        self.items: list[str] = []
+
+    def warn(self, msg: str, line: int | None = None):
+        where = f"{self.path}:{line}" if line is not None else self.path
+        text = f"{where}: {msg}"
+        self.items.append(text)
+        warnings.warn(text, LayoutWarning, stacklevel=3)
+
+
+def units_scale(positions: np.ndarray, units: str | None, report: ImportReport, declared: str | None = None) -> float:
+    """Scale to metres: declared units win; else millimetres are detected from the spacing."""
+    u = units or declared
+    if u is not None:
+        if u not in ("m", "mm"):
+            raise InputError(f"units must be 'm' or 'mm', got {u!r}", file=report.path, key="units")
+        if u == "m" and len(positions) > 1 and np.median(_nn_spacing(positions)) > MM_SPACING:
+            report.warn(f"declared in metres but the median taxel spacing is "
+                        f"{np.median(_nn_spacing(positions)):.3g} m; is it millimetres?")
+        return 1e-3 if u == "mm" else 1.0
+    if len(positions) > 1:
+        s = float(np.median(_nn_spacing(positions)))
+        if s > MM_SPACING:
+            report.warn(f"median taxel spacing {s:.4g} would be {s:.4g} m: read as millimetres and "
+                        f"converted to metres (declare units='m' or 'mm' to decide yourself)")
+            return 1e-3
+    return 1.0
+
+
+def clean_normals(normals: np.ndarray, positions: np.ndarray, report: ImportReport, what: str = "normal"):
+    """Unit normals; zero ones estimated from the neighbours; non-unit ones normalised (warned)."""
+    normals = np.array(normals, dtype=np.float64)
+    norm = np.linalg.norm(normals, axis=1)
+    zero = norm < 1e-9
+    off = ~zero & (np.abs(norm - 1) > 1e-3)
+    if off.any():
+        report.warn(f"{int(off.sum())} {what}s are not unit length (norm {norm[off].min():.3g}-"
+                    f"{norm[off].max():.3g}); normalised")
+    normals[~zero] /= norm[~zero, None]
+    if zero.any():
+        if len(positions) >= 3:
+            est = estimate_normals(positions, reference=np.where(zero[:, None], 0.0, normals)
+                                   if (~zero).any() else None)
+            normals[zero] = est[zero]
+        else:
+            normals[zero] = [0.0, 0.0, 1.0]
+        report.warn(f"{int(zero.sum())} taxels have no {what} (all zeros); estimated from their neighbours")
+    if len(normals) > 3 and len(np.unique(np.round(normals, 9), axis=0)) == 1:
+        c = positions - positions.mean(axis=0)
+        if np.linalg.svd(c, compute_uv=False)[2] > 1e-3 * np.linalg.svd(c, compute_uv=False)[0]:
+            report.warn(f"every {what} is {normals[0].round(6).tolist()} on a non-planar layout: "
+                        "placeholder normals? kept as given")
+    return normals
+
+
+def check_repeats(positions: np.ndarray, report: ImportReport):
+    from ..mesh import find_duplicates
+
+    rep = find_duplicates(positions, 1e-7)
+    k = int((rep != np.arange(len(positions))).sum())
+    if k:
+        report.warn(f"{k} taxels repeat another taxel's position (kept; skin_mesh merges them)")
+
+
+def parse_number(token: str, path, line: int, what: str) -> float:
+    try:
+        v = float(token)
+    except ValueError:
+        raise FormatError(f"{what}: {token!r} is not a number", file=path, line=line) from None
+    if not math.isfinite(v):
+        raise FormatError(f"{what}: {token!r} is not a finite number", file=path, line=line)
+    return v
+
+
+def finish(layout: Layout, report: ImportReport, path, fmt: str) -> Layout:
+    layout.meta.setdefault("source", str(path))
+    layout.meta["source_format"] = fmt
+    if report.items:
+        layout.meta["import_warnings"] = list(report.items)
+    return layout
+
+
+def as_list(x):
+    return None if x is None else np.asarray(x).tolist()
+
+
+def default_faces(layout: Layout) -> np.ndarray:
+    """The faces a file read from had (``meta["faces"]``, kept for a lossless round trip), else the
+    layout's skin mesh triangles."""
+    f = layout.meta.get("faces")
+    if f is not None:
+        f = np.asarray(f, dtype=np.int64).reshape(-1, 3)
+        if not len(f) or (f.min() >= 0 and f.max() < len(layout)):
+            return f
+    from ..mesh import skin_mesh
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", LayoutWarning)
+        return skin_mesh(layout).triangles if len(layout) >= 3 else np.zeros((0, 3), np.int64)

@@ -1,0 +1,125 @@
+"""CSV: one taxel a row under a header line."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+
+from ..._io import atomic_write
+from ...errors import FormatError
+from ..model import Layout
+from .common import ImportReport, check_repeats, clean_normals, finish, parse_number, units_scale
+
+NAME = "csv"
+SUFFIXES = (".csv",)
+
+
+_CSV_COLS = ("taxel_id", "module_id", "x", "y", "z", "nx", "ny", "nz", "u", "v", "role", "can_id")
+
+
+def write(layout: Layout, path) -> None:
+    cols = ["taxel_id", "module_id", "x", "y", "z", "nx", "ny", "nz"]
+    if layout.flat is not None:
+        cols += ["u", "v"]
+    cols.append("role")
+    if layout.can_ids is not None:
+        cols.append("can_id")
+    fmt = lambda v: format(float(v), ".12g")  # noqa: E731
+    lines = [",".join(cols)]
+    for k in range(len(layout)):
+        row = [str(int(layout.taxel_ids[k])), str(int(layout.module_ids[k]))]
+        row += [fmt(v) for v in layout.positions[k]] + [fmt(v) for v in layout.normals[k]]
+        if layout.flat is not None:
+            row += [fmt(v) for v in layout.flat[k]]
+        row.append(str(layout.roles[k]))
+        if layout.can_ids is not None:
+            row.append(str(int(layout.can_ids[k])))
+        lines.append(",".join(row))
+    with atomic_write(path, "w", encoding="utf-8", newline="\n") as fh:
+        fh.write("\n".join(lines) + "\n")
+
+
+def read(path, units: str | None = None) -> Layout:
+    report = ImportReport(path)
+    text = Path(path).read_bytes().decode("utf-8-sig", errors="replace").replace("\r\n", "\n").replace("\r", "\n")
+    lines = text.split("\n")
+    header = None
+    declared = None
+    rows = []
+    for ln, line in enumerate(lines, start=1):
+        s = line.strip()
+        if not s:
+            continue
+        if s.startswith("#"):
+            m = re.search(r"units?\s*[:=]\s*(mm|m)\b", s)
+            if m:
+                declared = m.group(1)
+            continue
+        delim = "," if "," in s else (";" if ";" in s else None)
+        toks = [t.strip() for t in (s.split(delim) if delim else s.split())]
+        if header is None:
+            header = [t.lower() for t in toks]
+            header_line = ln
+            continue
+        if len(toks) < len(header):
+            raise FormatError(f"row has {len(toks)} values, the header names {len(header)}", file=path, line=ln)
+        if len(toks) > len(header):
+            report.warn(f"row has {len(toks)} values for {len(header)} columns; extra ignored", line=ln)
+        rows.append((ln, toks[: len(header)]))
+    if header is None:
+        raise FormatError("empty file (no header)", file=path)
+    # units written into column names: x_mm, y_mm ...
+    names = []
+    for h in header:
+        m = re.fullmatch(r"(.+?)[_\s\[(]*(mm|m)[\])]*", h)
+        if m and m.group(1) in ("x", "y", "z", "u", "v"):
+            declared = declared or m.group(2)
+            names.append(m.group(1))
+        else:
+            names.append({"id": "taxel_id", "uid": "taxel_id", "module": "module_id", "type": "role",
+                          "can": "can_id"}.get(h, h))
+    missing = [c for c in ("x", "y", "z") if c not in names]
+    if missing:
+        raise FormatError(f"header lacks column(s) {', '.join(missing)} (has: {', '.join(header)})",
+                          file=path, line=header_line)
+    unknown = [h for h, nm in zip(header, names) if nm not in _CSV_COLS]
+    if unknown:
+        report.warn(f"ignored unknown column(s): {', '.join(unknown)}", line=header_line)
+    if not rows:
+        raise FormatError("no taxel rows after the header", file=path)
+    col = {nm: i for i, nm in enumerate(names)}
+
+    def numeric(name, integer=False):
+        i = col[name]
+        out = []
+        for ln, toks in rows:
+            v = parse_number(toks[i], path, ln, f"column {header[i]}")
+            if integer:
+                if v != int(v):
+                    raise FormatError(f"column {header[i]}: {toks[i]!r} is not an integer", file=path, line=ln)
+                v = int(v)
+            out.append(v)
+        return np.asarray(out, dtype=np.int64 if integer else np.float64)
+
+    n = len(rows)
+    pos = np.column_stack([numeric(c) for c in ("x", "y", "z")])
+    if all(c in col for c in ("nx", "ny", "nz")):
+        nrm = np.column_stack([numeric(c) for c in ("nx", "ny", "nz")])
+    else:
+        nrm = np.zeros((n, 3))
+    scale = units_scale(pos, units, report, declared)
+    nrm = clean_normals(nrm, pos, report)
+    check_repeats(pos, report)
+    ids = numeric("taxel_id", True) if "taxel_id" in col else np.arange(n)
+    mods = numeric("module_id", True) if "module_id" in col else (
+        np.where(ids > 0, (ids >> 4) - 1, -1) if "taxel_id" in col else np.zeros(n, np.int64))
+    flat = np.column_stack([numeric("u"), numeric("v")]) * scale if ("u" in col and "v" in col) else None
+    roles = np.asarray([toks[col["role"]] or "pressure" for _, toks in rows], dtype=object) \
+        if "role" in col else None
+    can = numeric("can_id", True) if "can_id" in col else None
+    layout = Layout(pos * scale, nrm, ids, mods, flat, roles, can_ids=can)
+    return finish(layout, report, path, "csv")
+
+

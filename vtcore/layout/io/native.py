@@ -1,0 +1,96 @@
+"""Our own versioned layout JSON (``"format": "vtcore-layout"``): everything a Layout holds."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+from ..._io import atomic_write
+from ...errors import FormatError
+from ..model import Layout
+from .common import ImportReport, as_list, clean_normals, finish, units_scale
+
+NAME = "json"
+SUFFIXES = (".json",)
+JSON_VERSION = 1
+
+
+def _jsonable(obj):
+    if isinstance(obj, dict):
+        return {str(k): _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return _jsonable(obj.tolist())
+    if isinstance(obj, (np.integer,)):
+        return int(obj)
+    if isinstance(obj, (np.floating,)):
+        return float(obj)
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    if isinstance(obj, (str, int, float, bool)) or obj is None:
+        return obj
+    return str(obj)
+
+
+def write(layout: Layout, path) -> None:
+    doc = {
+        "format": "vtcore-layout", "version": JSON_VERSION, "units": "m",
+        "frame": layout.frame, "transform": layout.transform.tolist(),
+        "n_taxels": len(layout),
+        "taxels": {
+            "positions": layout.positions.tolist(), "normals": layout.normals.tolist(),
+            "taxel_ids": layout.taxel_ids.tolist(), "module_ids": layout.module_ids.tolist(),
+            "roles": [str(r) for r in layout.roles],
+            "flat": as_list(layout.flat), "can_ids": as_list(layout.can_ids),
+        },
+        "meta": _jsonable(layout.meta),
+    }
+    with atomic_write(path, "w", encoding="utf-8") as fh:
+        json.dump(doc, fh, indent=1)
+        fh.write("\n")
+
+
+def read(path, units: str | None = None) -> Layout:
+    report = ImportReport(path)
+    try:
+        doc = json.loads(Path(path).read_text(encoding="utf-8"))
+    except json.JSONDecodeError as exc:
+        raise FormatError(f"not valid JSON: {exc.msg}", file=path, line=exc.lineno) from None
+    if not isinstance(doc, dict) or doc.get("format") != "vtcore-layout":
+        raise FormatError("not a vtcore layout JSON (no \"format\": \"vtcore-layout\")", file=path)
+    if int(doc.get("version", 0)) > JSON_VERSION:
+        raise FormatError(f"layout JSON version {doc.get('version')} is newer than this reader "
+                          f"({JSON_VERSION})", file=path, key="version")
+    t = doc.get("taxels") or {}
+    for key in ("positions", "normals"):
+        if key not in t:
+            raise FormatError("missing", file=path, key=f"taxels.{key}")
+    try:
+        pos = np.asarray(t["positions"], dtype=np.float64)
+        nrm = np.asarray(t["normals"], dtype=np.float64)
+    except (TypeError, ValueError):
+        raise FormatError("positions and normals must be lists of 3 numbers", file=path, key="taxels") from None
+    for key, a in (("positions", pos), ("normals", nrm)):
+        if a.ndim != 2 or a.shape[1] != 3:
+            raise FormatError(f"must be a list of [x, y, z], got shape {a.shape}", file=path, key=f"taxels.{key}")
+        bad = ~np.isfinite(a).all(axis=1)
+        if bad.any():
+            raise FormatError(f"row {int(np.flatnonzero(bad)[0])} is not finite", file=path, key=f"taxels.{key}")
+    n = len(pos)
+    if doc.get("n_taxels") is not None and doc["n_taxels"] != n:
+        report.warn(f"n_taxels says {doc['n_taxels']} but there are {n} positions; using the list")
+    scale = units_scale(pos, units, report, doc.get("units"))
+    flat = t.get("flat")
+    layout = Layout(pos * scale, clean_normals(nrm, pos, report), t.get("taxel_ids", np.arange(n)),
+                    t.get("module_ids", np.zeros(n, int)),
+                    None if flat is None else np.asarray(flat, dtype=np.float64) * scale,
+                    t.get("roles"), doc.get("frame", "end_effector"),
+                    np.asarray(doc.get("transform", np.eye(4)), dtype=np.float64), dict(doc.get("meta") or {}),
+                    t.get("can_ids"))
+    return finish(layout, report, path, "json")
+
+

@@ -1,0 +1,167 @@
+"""PLY: taxels as vertices with per-taxel attributes, faces of the skin mesh."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..._io import atomic_write
+from ...errors import FormatError
+from ..model import Layout
+from .common import ImportReport, clean_normals, default_faces, finish, parse_number, units_scale
+
+NAME = "ply"
+SUFFIXES = (".ply",)
+
+
+_ROLE_CODE = {"pressure": 0, "thermal": 1}
+
+
+def write(layout: Layout, path, faces: np.ndarray | None = None) -> None:
+    """ASCII PLY: vertex ``x y z nx ny nz taxel_id module_id role [u v] [can_id]`` and the
+    faces the layout was read with, else its skin mesh (``role`` 0 pressure, 1 thermal, 2 other)."""
+    if faces is None:
+        faces = default_faces(layout)
+    faces = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
+    props = ["double x", "double y", "double z", "double nx", "double ny", "double nz",
+             "int taxel_id", "int module_id", "uchar role"]
+    if layout.flat is not None:
+        props += ["double u", "double v"]
+    if layout.can_ids is not None:
+        props += ["int can_id"]
+    head = ["ply", "format ascii 1.0", "comment vtcore layout, units metres",
+            f"comment frame {layout.frame}",
+            "comment transform " + " ".join(format(v, ".12g") for v in layout.transform.ravel()),
+            f"element vertex {len(layout)}"] + [f"property {p}" for p in props] + \
+        [f"element face {len(faces)}", "property list uchar int vertex_indices", "end_header"]
+    fmt = lambda v: format(float(v), ".12g")  # noqa: E731
+    roles = [_ROLE_CODE.get(str(r), 2) for r in layout.roles]
+    body = []
+    for k in range(len(layout)):
+        row = [fmt(v) for v in layout.positions[k]] + [fmt(v) for v in layout.normals[k]]
+        row += [str(int(layout.taxel_ids[k])), str(int(layout.module_ids[k])), str(roles[k])]
+        if layout.flat is not None:
+            row += [fmt(v) for v in layout.flat[k]]
+        if layout.can_ids is not None:
+            row.append(str(int(layout.can_ids[k])))
+        body.append(" ".join(row))
+    body += [f"3 {a} {b} {c}" for a, b, c in faces]
+    with atomic_write(path, "w", encoding="utf-8", newline="\n") as fh:
+        fh.write("\n".join(head + body) + "\n")
+
+
+_PLY_TYPES = {"char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1", "short": "i2", "int16": "i2",
+              "ushort": "u2", "uint16": "u2", "int": "i4", "int32": "i4", "uint": "u4", "uint32": "u4",
+              "float": "f4", "float32": "f4", "double": "f8", "float64": "f8"}
+
+
+def read(path, units: str | None = None) -> Layout:
+    report = ImportReport(path)
+    raw = Path(path).read_bytes()
+    end = raw.find(b"end_header")
+    if not raw.startswith(b"ply") or end < 0:
+        raise FormatError("not a PLY file (no 'ply' magic or no end_header)", file=path, line=1)
+    nl = raw.find(b"\n", end)
+    head = raw[:end].decode("ascii", errors="replace").replace("\r", "").split("\n")
+    body = raw[nl + 1:]
+    fmt = None
+    elements = []  # (name, count, [(type, name) or ('list', ct, it, name)])
+    frame, transform = "end_effector", np.eye(4)
+    for line in head:
+        tok = line.split()
+        if not tok:
+            continue
+        if tok[0] == "format":
+            fmt = tok[1]
+        elif tok[0] == "comment" and len(tok) > 2 and tok[1] == "frame":
+            frame = tok[2]
+        elif tok[0] == "comment" and len(tok) == 18 and tok[1] == "transform":
+            transform = np.asarray([float(t) for t in tok[2:]]).reshape(4, 4)
+        elif tok[0] == "element":
+            elements.append((tok[1], int(tok[2]), []))
+        elif tok[0] == "property" and elements:
+            if tok[1] == "list":
+                elements[-1][2].append(("list", tok[2], tok[3], tok[4]))
+            else:
+                elements[-1][2].append((tok[1], tok[2]))
+    if fmt not in ("ascii", "binary_little_endian", "binary_big_endian"):
+        raise FormatError(f"unknown PLY format {fmt!r}", file=path)
+    vert = None
+    faces = np.zeros((0, 3), np.int64)
+    if fmt == "ascii":
+        lines = body.decode("utf-8", errors="replace").replace("\r", "").split("\n")
+        hl = len(head) + 1
+        pos_line = 0
+        for name, count, props in elements:
+            if name == "vertex":
+                names = [p[-1] for p in props]
+                vals = []
+                for k in range(count):
+                    ln = hl + pos_line + k + 1
+                    if pos_line + k >= len(lines):
+                        raise FormatError(f"file ends after {k} of {count} vertices", file=path, line=ln)
+                    toks = lines[pos_line + k].split()
+                    if len(toks) < len(names):
+                        raise FormatError(f"vertex row has {len(toks)} values, needs {len(names)}",
+                                          file=path, line=ln)
+                    vals.append([parse_number(t, path, ln, f"vertex {names[j]}") for j, t in enumerate(toks[:len(names)])])
+                vert = {nm: np.asarray(vals, float).reshape(count, -1)[:, j] for j, nm in enumerate(names)}
+            elif name == "face":
+                fl = []
+                for k in range(count):
+                    toks = lines[pos_line + k].split()
+                    if toks and int(toks[0]) == 3 and len(toks) >= 4:
+                        fl.append([int(t) for t in toks[1:4]])
+                faces = np.asarray(fl, np.int64).reshape(-1, 3)
+            pos_line += count
+    else:
+        order = "<" if fmt == "binary_little_endian" else ">"
+        off = 0
+        for name, count, props in elements:
+            if any(p[0] == "list" for p in props):
+                if name != "face" or len(props) != 1:
+                    report.warn(f"skipped element {name!r} with list properties")
+                    break
+                _, ct, it, _ = props[0]
+                dt = np.dtype([("n", order + _PLY_TYPES[ct]), ("i", order + _PLY_TYPES[it], 3)])
+                arr = np.frombuffer(body, dtype=dt, count=count, offset=off)
+                if np.any(arr["n"] != 3):
+                    report.warn("non-triangle faces ignored")
+                faces = arr["i"][arr["n"] == 3].astype(np.int64)
+                off += dt.itemsize * count
+                continue
+            dt = np.dtype([(p[1], order + _PLY_TYPES[p[0]]) for p in props])
+            try:
+                arr = np.frombuffer(body, dtype=dt, count=count, offset=off)
+            except ValueError:
+                raise FormatError(f"file too short for {count} {name} elements", file=path) from None
+            off += dt.itemsize * count
+            if name == "vertex":
+                vert = {nm: arr[nm].astype(np.float64) for nm in arr.dtype.names}
+    if vert is None:
+        raise FormatError("no vertex element", file=path)
+    for c in ("x", "y", "z"):
+        if c not in vert:
+            raise FormatError(f"vertex has no '{c}' property", file=path)
+    pos = np.column_stack([vert["x"], vert["y"], vert["z"]])
+    if not np.isfinite(pos).all():
+        raise FormatError(f"vertex {int(np.flatnonzero(~np.isfinite(pos).all(1))[0])} is not finite", file=path)
+    n = len(pos)
+    nrm = np.column_stack([vert[c] for c in ("nx", "ny", "nz")]) if all(c in vert for c in ("nx", "ny", "nz")) \
+        else np.zeros((n, 3))
+    scale = units_scale(pos, units, report, "m" if "vtcore" in "".join(head) else None)
+    nrm = clean_normals(nrm, pos, report)
+    ids = vert["taxel_id"].astype(np.int64) if "taxel_id" in vert else np.arange(n)
+    mods = vert["module_id"].astype(np.int64) if "module_id" in vert else np.zeros(n, np.int64)
+    inv = {v: k for k, v in _ROLE_CODE.items()}
+    roles = np.asarray([inv.get(int(r), "other") for r in vert["role"]], dtype=object) if "role" in vert else None
+    flat = np.column_stack([vert["u"], vert["v"]]) * scale if ("u" in vert and "v" in vert) else None
+    can = vert["can_id"].astype(np.int64) if "can_id" in vert else None
+    if len(faces) and (faces.min() < 0 or faces.max() >= n):
+        raise FormatError("face indices out of range", file=path)
+    layout = Layout(pos * scale, nrm, ids, mods, flat, roles, frame, transform,
+                    {"faces": faces.tolist()}, can)
+    return finish(layout, report, path, "ply")
+
+
