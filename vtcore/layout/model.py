@@ -25,6 +25,8 @@ class Layout:
     meta : free-form provenance (source file, module type, patch, placement report).
     can_ids : (N,) int or None, the CAN address that carries each taxel (iCub:
         ``board_address << 4 | triangle``; CySkin: the hub's module address), -1 unknown.
+    normals_estimated : (N,) bool or None: True where the normal was estimated (the file had
+        none) rather than read; writers of lossless formats write those rows as they were read.
     """
 
     positions: np.ndarray
@@ -37,6 +39,7 @@ class Layout:
     transform: np.ndarray = field(default_factory=lambda: np.eye(4))
     meta: dict = field(default_factory=dict)
     can_ids: np.ndarray | None = None
+    normals_estimated: np.ndarray | None = None
 
     def __post_init__(self):
         self.positions = np.ascontiguousarray(self.positions, dtype=np.float64).reshape(-1, 3)
@@ -53,7 +56,9 @@ class Layout:
         self.transform = np.asarray(self.transform, dtype=np.float64).reshape(4, 4)
         if self.can_ids is not None:
             self.can_ids = np.asarray(self.can_ids, dtype=np.int64).reshape(-1)
-        optional = tuple(k for k in ("flat", "can_ids") if getattr(self, k) is not None)
+        if self.normals_estimated is not None:
+            self.normals_estimated = np.asarray(self.normals_estimated, dtype=bool).reshape(-1)
+        optional = tuple(k for k in ("flat", "can_ids", "normals_estimated") if getattr(self, k) is not None)
         for name in ("normals", "taxel_ids", "module_ids", "roles") + optional:
             if len(getattr(self, name)) != n:
                 raise InputError(f"has {len(getattr(self, name))} rows but positions has {n}", key=name)
@@ -74,7 +79,8 @@ class Layout:
         return Layout(self.positions[idx], self.normals[idx], self.taxel_ids[idx], self.module_ids[idx],
                       None if self.flat is None else self.flat[idx], self.roles[idx], self.frame,
                       self.transform.copy(), dict(self.meta),
-                      None if self.can_ids is None else self.can_ids[idx])
+                      None if self.can_ids is None else self.can_ids[idx],
+                      None if self.normals_estimated is None else self.normals_estimated[idx])
 
     def transformed(self, matrix: np.ndarray, frame: str | None = None) -> "Layout":
         """Positions and normals mapped by the 4x4 rigid ``matrix`` (p' = R p + t).
