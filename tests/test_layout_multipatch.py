@@ -168,17 +168,17 @@ def test_at_off_the_surface_is_reported():
 
 @pytest.mark.parametrize("open3d", [True, False])
 def test_simplified_solve_with_and_without_open3d(monkeypatch, open3d):
-    """Inside Blender open3d is not bundled and _decimate imported it unconditionally. Without it
+    """Inside Blender open3d is not bundled and decimate imported it unconditionally. Without it
     (and without trimesh's fast-simplification) the full cropped mesh is solved and the report says so."""
     import sys
 
-    from vtcore.layout import conform
+    from vtcore.layout import repair
 
     sphere = trimesh.creation.icosphere(5, radius=0.04)  # 20k faces
     if not open3d:
         monkeypatch.setitem(sys.modules, "open3d", None)
         monkeypatch.setitem(sys.modules, "fast_simplification", None)
-    small, note = conform._decimate(sphere, 2000)
+    small, note = repair.decimate(sphere, 2000)
     if open3d:
         assert small is not sphere and 500 < len(small.faces) < 6000 and "simplified by open3d" in note
         assert np.abs(np.linalg.norm(small.vertices, axis=1) - 0.04).max() < 1e-3
@@ -190,8 +190,8 @@ def test_simplified_solve_with_and_without_open3d(monkeypatch, open3d):
     assert np.abs(np.linalg.norm(lay.positions, axis=1) - 0.04).max() < 1e-4
     assert abs(rep.strain_max - full.strain_max) < 0.02  # ~8 % either way (curvature); 2k faces cost ~1 %
     if open3d:  # a copy that is not faithful is refused and the full cropped mesh is solved, with a note
-        monkeypatch.setattr(conform, "_aspect", lambda m: np.full(len(m.faces), 10.0))
-        same, note = conform._decimate(sphere, 2000)
+        monkeypatch.setattr(repair, "aspect", lambda m: np.full(len(m.faces), 10.0))
+        same, note = repair.decimate(sphere, 2000)
         assert same is sphere and "full cropped mesh" in note
 
 

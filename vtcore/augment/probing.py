@@ -18,6 +18,7 @@ from typing import Callable
 import numpy as np
 
 from ..errors import InputError, UnreachableTargetError
+from ..geometry import tangent_basis
 
 
 def cyskin_module_layout():
@@ -41,10 +42,8 @@ def probe_pose(v, n, top: float, gap: float = 0.0) -> np.ndarray:
     """
     v = np.asarray(v, float)
     z = -np.asarray(n, float) / np.linalg.norm(n)
-    a = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    x = np.cross(a, z)
-    x /= np.linalg.norm(x)
-    y = np.cross(z, x)
+    t1, t2 = tangent_basis(z)
+    x, y = -t2, t1  # (helper x z, z x that): the frame this function has always used
     rot = np.vstack([x, y, z])                     # object frame -> end-effector frame; n -> -z
     pose = np.eye(4)
     pose[:3, :3] = rot

@@ -30,6 +30,7 @@ from dataclasses import field as dc_field
 import numpy as np
 
 from ..errors import InputError, UnreachableTargetError
+from ..geometry import tangent_basis
 from . import elastic
 from .materials import SoftLayer
 from .proximity import lower_envelope, prepare_mesh
@@ -165,10 +166,8 @@ def _frame(layout, direction):
             raise InputError(f"must be a non-zero 3-vector, got {direction}", key="direction")
         u = u / np.linalg.norm(u)
     n = -u
-    a = np.array([1.0, 0.0, 0.0]) if abs(n[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    e1 = a - (a @ n) * n
-    e1 /= np.linalg.norm(e1)
-    return u, n, e1, np.cross(n, e1)
+    e1, e2 = tangent_basis(n)
+    return u, n, e1, e2
 
 
 def _surface_height(xy, z, X, Y):

@@ -31,6 +31,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from ..errors import FormatError, InputError
+from ..geometry import closest_point_on_triangles, tangent_basis
 
 BACKENDS = ("open3d", "numpy")
 #: How open meshes are treated: refuse them, close their holes, or use only the
@@ -82,22 +83,14 @@ def prepare_mesh(mesh, open_mesh: str = "error", name: str = "object"):
     return m
 
 
-def _basis(n):
-    n = np.asarray(n, float)
-    n = n / np.linalg.norm(n)
-    a = np.array([1.0, 0.0, 0.0]) if abs(n[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    e1 = np.cross(n, a)
-    e1 /= np.linalg.norm(e1)
-    return e1, np.cross(n, e1), n
-
-
 def _line_hits_numpy(points, n, v, f):
     """All crossings of the lines ``p + t n`` with the triangles.
 
     Returns (point index (K,), t (K,)). Triangles seen edge-on (zero projected
     area) are skipped: a line crossing them also crosses a neighbour face.
     """
-    e1, e2, n = _basis(n)
+    n = np.asarray(n, float) / np.linalg.norm(n)
+    e1, e2 = tangent_basis(n)  # any orthonormal pair: only the projection matters
     p2 = np.column_stack([points @ e1, points @ e2])
     tri = v[f]                                           # (F, 3, 3)
     t2 = np.stack([tri @ e1, tri @ e2], axis=-1)         # (F, 3, 2)
@@ -180,42 +173,6 @@ def lower_envelope(points, direction, mesh, backend: str | None = None) -> np.nd
     return out
 
 
-def _closest_on_triangles(p, a, b, c):
-    """Closest points on triangles (a, b, c) to points p (all (K, 3)); Ericson, RTCD 5.1.5."""
-    ab, ac, ap = b - a, c - a, p - a
-    d1, d2 = np.einsum("ij,ij->i", ab, ap), np.einsum("ij,ij->i", ac, ap)
-    bp = p - b
-    d3, d4 = np.einsum("ij,ij->i", ab, bp), np.einsum("ij,ij->i", ac, bp)
-    cp = p - c
-    d5, d6 = np.einsum("ij,ij->i", ab, cp), np.einsum("ij,ij->i", ac, cp)
-    va = d3 * d6 - d5 * d4
-    vb = d5 * d2 - d1 * d6
-    vc = d1 * d4 - d3 * d2
-    with np.errstate(divide="ignore", invalid="ignore"):
-        denom = va + vb + vc
-        v = np.where(denom != 0, vb / denom, 0.0)
-        w = np.where(denom != 0, vc / denom, 0.0)
-        out = a + ab * v[:, None] + ac * w[:, None]  # interior
-        # edges
-        vab = d1 / (d1 - d3)
-        m = (vc <= 0) & (d1 >= 0) & (d3 <= 0)
-        out[m] = a[m] + ab[m] * vab[m, None]
-        wac = d2 / (d2 - d6)
-        m = (vb <= 0) & (d2 >= 0) & (d6 <= 0)
-        out[m] = a[m] + ac[m] * wac[m, None]
-        wbc = (d4 - d3) / ((d4 - d3) + (d5 - d6))
-        m = (va <= 0) & ((d4 - d3) >= 0) & ((d5 - d6) >= 0)
-        out[m] = b[m] + (c[m] - b[m]) * wbc[m, None]
-    # vertices
-    m = (d1 <= 0) & (d2 <= 0)
-    out[m] = a[m]
-    m = (d3 >= 0) & (d4 <= d3)
-    out[m] = b[m]
-    m = (d6 >= 0) & (d5 <= d6)
-    out[m] = c[m]
-    return out
-
-
 # An oblique direction for inside tests: lines along it almost never graze an
 # edge or vertex of meshes built on axis-aligned or regular grids.
 _PARITY_DIR = np.array([0.2672612419124244, 0.5345224838248488, 0.8017837257372732]) + \
@@ -247,7 +204,7 @@ def signed_distance(points, mesh, backend: str | None = None) -> np.ndarray:
         prim = ans["primitive_ids"].numpy().astype(np.int64)
         # Distance recomputed in float64 on the closest triangle that open3d found.
         tri = v[f[prim]]
-        cp = _closest_on_triangles(pts, tri[:, 0], tri[:, 1], tri[:, 2])
+        cp = closest_point_on_triangles(tri, pts)
         dist = np.linalg.norm(pts - cp, axis=1)
         occ = scene.compute_occupancy(q, nsamples=3).numpy().astype(bool)
         return np.where(occ, dist, -dist)
@@ -261,7 +218,7 @@ def signed_distance(points, mesh, backend: str | None = None) -> np.ndarray:
     counts = np.fromiter((len(x) for x in balls), int, len(balls))
     fi = np.fromiter(itertools.chain.from_iterable(balls), int, counts.sum())
     pi = np.repeat(np.arange(len(pts)), counts)
-    cp = _closest_on_triangles(pts[pi], tri[fi, 0], tri[fi, 1], tri[fi, 2])
+    cp = closest_point_on_triangles(tri[fi], pts[pi])
     d = np.linalg.norm(pts[pi] - cp, axis=1)
     dist = ub.copy()
     np.minimum.at(dist, pi, d)

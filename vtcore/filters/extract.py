@@ -8,6 +8,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import InputError
+from ..geometry import tangent_basis
 
 #: A component whose second moments differ by less than this fraction of their sum
 #: (a single point, a symmetric blob) has no orientation and is left out of the mean.
@@ -61,10 +62,7 @@ def plane_basis(normal) -> np.ndarray:
     if not np.isfinite(norm) or norm < 1e-12:
         raise InputError(f"plane normal must be a non-zero finite vector, got {n}", key="normal")
     n = n / norm
-    ref = np.array([1.0, 0.0, 0.0]) if abs(n[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    u = ref - n * (ref @ n)
-    u /= np.linalg.norm(u)
-    v = np.cross(n, u)
+    u, v = tangent_basis(n)
     return np.vstack([u, v, n])
 
 

@@ -62,7 +62,7 @@ def _big_patch(n_modules, width, height):
 
 
 def _place_rows(quick):
-    from .conform import place
+    from .place import place
 
     faces = 10_000 if quick else 100_000
     n_mod = 100 if quick else 1000
@@ -91,7 +91,7 @@ def _place_rows(quick):
 def _sphere_rows(quick):
     import trimesh
 
-    from .conform import place
+    from .place import place
     from .patches import make_patch, wrap_on_sphere
 
     R = 0.04

@@ -1,0 +1,179 @@
+"""What a placement did: the :class:`PlacementReport`, module-edge strain, overlaps, coverage.
+
+Strain is the edge length on the surface, measured as the arc through both taxels with
+their normals, over the flat length, minus one: bending is free for a flexible PCB,
+stretching is not. Overlaps are taxels of different modules closer than
+``OVERLAP_FRACTION`` of the pitch. Coverage is the area of a region under module outlines
+over the region's area (in the flat domain of the log map).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from ..errors import InputError
+from .model import Layout
+from .patches import Patch
+
+OVERLAP_FRACTION = 0.75  #: taxels of different modules closer than this many pitches overlap
+
+
+@dataclass
+class PlacementReport:
+    """What a placement did to the patch.
+
+    strain : (E,) float, per module edge, (length on the surface / flat length) - 1.
+    strain_max : float, max |strain|. strain_mean : float, mean |strain|.
+    module_strain : (M,) float, per module max |strain|.
+    overlaps : list of (module_a, module_b) pairs of this patch that overlap each other.
+    existing_overlaps : list of (existing_module, new_module) pairs: a module of this patch
+        overlapping one already on the skin (``place(..., existing=layout)``); new module ids
+        are the patch's own (0-based), existing ones as in ``existing.module_ids``.
+    off_boundary : (K,) int, taxel indices that fell outside the mapped surface (off an open boundary,
+        or past the cut locus of a closed surface where the log map is unreliable).
+    coverage : float in [0, 1] or nan, fraction of the region under module outlines.
+    surface_distance_max : float, metres, max distance of a taxel (before offset) from the mesh.
+    method : "logmap" or "project"; notes : list of str.
+    """
+
+    strain: np.ndarray
+    module_strain: np.ndarray
+    overlaps: list
+    off_boundary: np.ndarray
+    coverage: float = float("nan")
+    surface_distance_max: float = 0.0
+    method: str = "logmap"
+    seconds: float = 0.0
+    notes: list = field(default_factory=list)
+    existing_overlaps: list = field(default_factory=list)
+
+    @property
+    def strain_max(self) -> float:
+        return float(np.abs(self.strain).max()) if len(self.strain) else 0.0
+
+    @property
+    def strain_mean(self) -> float:
+        return float(np.abs(self.strain).mean()) if len(self.strain) else 0.0
+
+    def as_dict(self) -> dict:
+        return {"method": self.method, "strain_max": self.strain_max, "strain_mean": self.strain_mean,
+                # every overlapping pair an integrator has to act on: within the patch and with
+                # modules already on the skin (the add-on shows this one number)
+                "overlaps": len(self.overlaps) + len(self.existing_overlaps),
+                "overlaps_within": len(self.overlaps), "overlaps_existing": len(self.existing_overlaps),
+                "overlap_pairs": [list(map(int, p)) for p in self.overlaps],
+                "existing_overlap_pairs": [list(map(int, p)) for p in self.existing_overlaps],
+                "off_boundary": [int(i) for i in self.off_boundary], "coverage": _f(self.coverage),
+                "surface_distance_max_m": float(self.surface_distance_max), "seconds": float(self.seconds),
+                "notes": list(self.notes)}
+
+
+def _f(x):
+    return None if x is None or not np.isfinite(x) else float(x)
+
+
+def arc_lengths(p: np.ndarray, q: np.ndarray, n_p: np.ndarray, n_q: np.ndarray) -> np.ndarray:
+    """Length of the circular arc through ``p`` and ``q`` whose normals turn from ``n_p`` to ``n_q``:
+    chord * (theta/2) / sin(theta/2). Exact on spheres and along circles of cylinders."""
+    chord = np.linalg.norm(q - p, axis=1)
+    cosang = np.clip(np.einsum("ij,ij->i", n_p, n_q), -1.0, 1.0)
+    half = np.arccos(cosang) / 2
+    factor = np.where(half > 1e-8, half / np.where(half > 1e-8, np.sin(half), 1.0), 1.0)
+    return chord * factor
+
+
+def layout_strain(layout: Layout, flat: np.ndarray, edges: np.ndarray) -> np.ndarray:
+    """(E,) strain of ``edges`` (E, 2) of ``layout`` against ``flat`` (N, 2) coordinates."""
+    if not len(edges):
+        return np.zeros(0)
+    i, j = edges[:, 0], edges[:, 1]
+    lf = np.linalg.norm(flat[i] - flat[j], axis=1)
+    ls = arc_lengths(layout.positions[i], layout.positions[j], layout.normals[i], layout.normals[j])
+    return ls / np.where(lf > 0, lf, np.nan) - 1.0
+
+
+def find_overlaps(positions: np.ndarray, module_ids: np.ndarray, min_distance: float) -> list:
+    """Module pairs (a < b) that have taxels closer than ``min_distance`` metres."""
+    if len(positions) < 2:
+        return []
+    pairs = cKDTree(positions).query_pairs(min_distance, output_type="ndarray")
+    if not len(pairs):
+        return []
+    a, b = module_ids[pairs[:, 0]], module_ids[pairs[:, 1]]
+    cross = a != b
+    mp = np.unique(np.sort(np.column_stack([a[cross], b[cross]]), axis=1), axis=0)
+    return [tuple(map(int, r)) for r in mp]
+
+
+def find_overlaps_between(existing: Layout, positions: np.ndarray, module_ids: np.ndarray,
+                          min_distance: float) -> list:
+    """(existing_module, new_module) pairs with taxels closer than ``min_distance`` metres.
+
+    existing : the layout already on the skin. positions : (n, 3) metres and module_ids :
+    (n,) of the new taxels, in the same frame. A pair appears once.
+    """
+    if existing is None or len(existing) == 0 or len(positions) == 0:
+        return []
+    hits = cKDTree(np.asarray(existing.positions)).query_ball_point(np.asarray(positions), min_distance)
+    counts = np.array([len(h) for h in hits])
+    if not counts.sum():
+        return []
+    new = np.repeat(np.asarray(module_ids), counts)
+    old = np.asarray(existing.module_ids)[np.concatenate([np.asarray(h, np.int64) for h in hits if len(h)])]
+    mp = np.unique(np.column_stack([old, new]), axis=0)
+    return [tuple(map(int, r)) for r in mp]
+
+
+def overlap_note(pairs: list) -> str:
+    a = len({p[1] for p in pairs})
+    b = len({p[0] for p in pairs})
+    return (f"{a} module(s) of this patch overlap {b} module(s) already on the skin "
+            f"({len(pairs)} pairs; taxels closer than {OVERLAP_FRACTION} pitch)")
+
+
+def coverage_of(mesh, patch: Patch, lm, region, extent) -> float:
+    """Fraction of the region's area under module outlines (in the flat domain of the log map)."""
+    if lm is None:
+        return float("nan")
+    F = np.asarray(lm.mesh.faces)
+    area = lm.mesh.area_faces
+    cent = lm.uv[F].mean(axis=1)
+    reach = lm.reachable[F].all(axis=1)
+    if region is None:
+        sel = (np.hypot(*cent.T) <= float(np.hypot(*patch.flat.T).max())) & reach
+    else:
+        region = np.asarray(region, dtype=bool)
+        if len(region) != len(mesh.faces):
+            raise InputError(f"region has {len(region)} entries, the mesh {len(mesh.faces)} faces", key="region")
+        # the log map's mesh is a cleaned crop: match faces by centroid
+        c3 = np.asarray(lm.mesh.triangles_center)
+        _, near = cKDTree(np.asarray(mesh.triangles_center)).query(c3)
+        sel = region[near] & reach
+    if not sel.any():
+        return float("nan")
+    inside = points_in_outlines(cent[sel], patch)
+    return float(area[sel][inside].sum() / area[sel].sum())
+
+
+def points_in_outlines(points: np.ndarray, patch: Patch) -> np.ndarray:
+    """(n,) bool: which flat points (n, 2) lie inside some module outline of ``patch``."""
+    out = np.zeros(len(points), bool)
+    if not patch.n_modules or not len(points):
+        return out
+    outl = patch.outlines()  # (M, m, 2)
+    tree = cKDTree(patch.poses[:, 1:])
+    cand = tree.query_ball_point(points, patch.module.radius)
+    rows = np.repeat(np.arange(len(points)), [len(c) for c in cand])
+    mods = np.concatenate([np.asarray(c, dtype=np.int64) for c in cand]) if len(rows) else np.zeros(0, np.int64)
+    if not len(rows):
+        return out
+    poly = outl[mods]  # (K, m, 2), counter-clockwise convex outlines
+    edge = np.roll(poly, -1, axis=1) - poly
+    rel = points[rows][:, None, :] - poly
+    cross = edge[..., 0] * rel[..., 1] - edge[..., 1] * rel[..., 0]
+    ins = np.all(cross >= 0, axis=1) | np.all(cross <= 0, axis=1)
+    out[rows[ins]] = True
+    return out
