@@ -231,7 +231,7 @@ class IcubCodec(Codec):
         has = ((np.asarray(keys) & 1) == 1) & (batch.dlc >= 8) & (np.asarray(keys) >= 0)
         d6 = batch.data[:, 6].astype(np.uint16)
         d7 = batch.data[:, 7].astype(np.uint16)
-        err = np.where(has, d7 & 0x0F, -1).astype(np.int8)
+        err = np.where(has, (d7 & 0x0F).astype(np.int8), np.int8(-1))  # numpy 2: -1 is no uint16
         oor = np.where(has, (d6 << 4) | (d7 >> 4), 0).astype(np.uint16)
         return err, oor
 

@@ -28,6 +28,7 @@ import scipy.sparse as sp
 from scipy.spatial import Delaunay, cKDTree
 
 from ..errors import InputError
+from ..geometry import cross2
 from .model import Layout
 
 
@@ -154,8 +155,8 @@ def _triangle_geometry(tri: np.ndarray, pts: np.ndarray):
     a, b, c = pts[tri[:, 0]], pts[tri[:, 1]], pts[tri[:, 2]]
     lens = np.stack([np.linalg.norm(b - c, axis=1), np.linalg.norm(c - a, axis=1),
                      np.linalg.norm(a - b, axis=1)], axis=1)
-    cr = np.cross(b - a, c - a)
-    area2 = np.linalg.norm(cr, axis=-1) if cr.ndim == 2 else np.abs(cr)
+    u, v = b - a, c - a
+    area2 = np.abs(cross2(u, v)) if pts.shape[1] == 2 else np.linalg.norm(np.cross(u, v), axis=-1)
     return lens, area2
 
 
