@@ -36,19 +36,36 @@ def flatten(positions, triangles, flat=None) -> np.ndarray:
             raise InputError(f"{len(f)} flat rows for {len(positions)} taxels", key="flat")
         return f
     pos = np.asarray(positions, dtype=np.float64)
+    tri = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
+    if len(tri) and (tri.min() < 0 or tri.max() >= len(pos)):
+        raise InputError(f"triangles must index the {len(pos)} taxels (0..{len(pos) - 1}); "
+                         f"got indices {tri.min()}..{tri.max()}", key="triangles")
     centre = pos.mean(axis=0)
-    try:
-        import potpourri3d as pp3d
-
-        v0 = int(np.argmin(np.linalg.norm(pos - centre, axis=1)))
-        solver = pp3d.MeshVectorHeatSolver(pos, np.asarray(triangles, dtype=np.int64))
-        f = np.asarray(solver.compute_log_map(v0), dtype=np.float64)
-        if f.shape == (len(pos), 2) and np.all(np.isfinite(f)):
-            return f
-    except Exception:  # noqa: BLE001 - any failure of the optional parameterisation -> PCA
-        pass
+    f = log_map(pos, tri, int(np.argmin(np.linalg.norm(pos - centre, axis=1)))) if len(tri) else None
+    if f is not None:
+        return f
     _, _, vt = np.linalg.svd(pos - centre, full_matrices=False)
     return (pos - centre) @ vt[:2].T
+
+
+def log_map(positions, triangles, centre: int) -> np.ndarray | None:
+    """Logarithmic map (N, 2) metres of a triangle mesh about vertex ``centre`` (potpourri3d).
+
+    None when potpourri3d is not installed (it is the optional extra ``geodesic``) or
+    when the mesh is one it cannot parameterise: geometry-central raises RuntimeError
+    for a non-manifold mesh, and a mesh in several pieces leaves vertices without a
+    finite coordinate. Any other error is a real one and propagates.
+    """
+    try:
+        import potpourri3d as pp3d
+    except ImportError:
+        return None
+    try:
+        solver = pp3d.MeshVectorHeatSolver(positions, triangles)
+        f = np.asarray(solver.compute_log_map(centre), dtype=np.float64)
+    except RuntimeError:  # GC_SAFETY_ASSERT: not a manifold surface mesh
+        return None
+    return f if f.shape == (len(positions), 2) and np.all(np.isfinite(f)) else None
 
 
 class TactileImage:

@@ -28,8 +28,8 @@ from ...plots import skin_3d, taxel_map
 from ..registry import TaskSpec, register_task
 from ..runner import TaskResult
 from ..schema import Field, Section
-from ..sections.contact import (build_layer, keyframe_poses, layer_options, object_compliance, object_mesh,
-                                object_pose)
+from ..sections.layer import build_layer, layer_options
+from ..sections.objects import keyframe_poses, object_compliance, object_mesh, object_pose
 from ..sections.layout import build_end_effector, build_layout
 
 PARAMS = Section({
@@ -165,13 +165,14 @@ def _profile_figure(cut, title):
 
 
 def _edge_step(layout, values):
-    """Largest neighbour-to-neighbour difference on the skin mesh, over the largest value."""
+    """Largest neighbour-to-neighbour difference on the skin mesh, over the largest value.
+
+    skin_mesh meshes any layout (one taxel, a line, repeated positions), so an error
+    from it is a real one and reaches the user instead of a silent NaN metric.
+    """
     from ...layout import skin_mesh
 
-    try:
-        e = skin_mesh(layout).edges
-    except Exception:
-        return float("nan")
+    e = skin_mesh(layout).edges
     vmax = float(np.max(values)) if len(values) else 0.0
     if len(e) == 0 or vmax <= 0:
         return 0.0
