@@ -153,6 +153,6 @@ def test_pipeline_orders_by_stage_not_by_listing():
 def _ctx():
     from pathlib import Path
 
-    from vtcore.scene.schema import _Ctx
+    from vtcore.scene.schema import Context
 
-    return _Ctx(file="t", base=Path("."))
+    return Context(file="t", base=Path("."))

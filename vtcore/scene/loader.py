@@ -21,7 +21,7 @@ from typing import Any
 
 from ..errors import SceneError, SceneErrors
 from . import registry
-from .schema import Field, Section, _Ctx
+from .schema import Context, Field, Section
 
 SCENE_SECTION = Section({
     "name": Field("str", default="", doc="short name shown in reports"),
@@ -122,7 +122,7 @@ def load_scene(path: str | Path, overrides: list[str] | None = None) -> Scene:
         raise SceneError(f"not UTF-8 text: {exc}", file=path) from None
     raw = apply_overrides(raw, overrides, path)
 
-    ctx = _Ctx(file=str(path), base=path.parent.resolve())
+    ctx = Context(file=str(path), base=path.parent.resolve())
     data: dict[str, Any] = {}
     top = {"scene": Field("table", section=SCENE_SECTION), "task": Field("any", default={}),
            "effects": Field("any", default={}),

@@ -13,6 +13,7 @@ with defaults filled and appends one :class:`SceneError` per problem.
 
 from __future__ import annotations
 
+import copy
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -61,7 +62,7 @@ class Field:
     def _choices(self):
         return self.choices() if callable(self.choices) else self.choices
 
-    def validate(self, value, key: str, ctx: "_Ctx"):
+    def validate(self, value, key: str, ctx: "Context"):
         k = self.kind
         if k == "table":
             if not isinstance(value, dict):
@@ -147,7 +148,17 @@ class Section:
     doc: str = ""
     check: Callable[[dict], list[tuple[str, str]]] | None = None
 
-    def validate(self, data: dict, ctx: "_Ctx", prefix: str = "") -> dict:
+    def defaults(self) -> dict:
+        """The table a scene gets when it leaves this one out: every field's default (copied).
+
+        A section with a required field has no such table: ValueError names the field.
+        """
+        missing = [k for k, f in self.fields.items() if f.required]
+        if missing:
+            raise ValueError(f"no defaults: {', '.join(missing)} required")
+        return {k: copy.deepcopy(f.default) for k, f in self.fields.items()}
+
+    def validate(self, data: dict, ctx: "Context", prefix: str = "") -> dict:
         out = {}
         for key in data:
             if key not in self.fields:
@@ -169,7 +180,10 @@ class Section:
 
 
 @dataclass
-class _Ctx:
+class Context:
+    """Where validation of one scene file stands: the file (for messages), the folder that
+    relative paths start from, and the problems found so far (:class:`SceneError`)."""
+
     file: str
     base: Path
     errors: list = field(default_factory=list)

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...contact.elastic import SPREADINGS
 from ...contact.press import spread_field, taxel_means
 from ..registry import EffectSpec, register_effect
 from ..schema import Field, Section
@@ -31,12 +32,6 @@ class SoftLayerSpreading:
         self.kernel = p["kernel"]
 
     def apply(self, state, ctx):
-        if "results" not in state:  # the foundation's per-taxel form
-            from ...contact.press import spread_through_layer
-
-            state["pressure"] = spread_through_layer(state["positions"], state["pressure"],
-                                                     state["thickness"], state["taxel_area"])
-            return state
         layout, layer = state["layout"], state["layer"]
         rows = []
         s = self.samples or state.get("samples_per_taxel", 7)
@@ -77,7 +72,7 @@ class ObjectCompliance:
 register_effect(EffectSpec("soft_layer", "contact", 10, SoftLayerSpreading, Section({
     "samples_per_taxel": Field("int", default=0, ge=0,
                                doc="points averaged over each taxel disc (0: the [layer] setting)"),
-    "kernel": Field("str", default="layer", choices=("layer", "boussinesq"),
+    "kernel": Field("str", default="layer", choices=SPREADINGS,
                     doc="exact base stress of the layer, or the Boussinesq half-space stress at depth h")}),
     doc="Boussinesq spreading of stress through the layer to the taxels"))
 register_effect(EffectSpec("object_compliance", "contact", 20, ObjectCompliance, Section({

@@ -87,14 +87,8 @@ LAYOUT = Section({
 register_section("end_effector", Field("table", default=None, section=END_EFFECTOR))
 register_section("layout", Field("table", default=None, section=LAYOUT))
 
-_EE_DEFAULTS = {k: f.default for k, f in END_EFFECTOR.fields.items()}
-_LAYOUT_DEFAULTS = {k: f.default for k, f in LAYOUT.fields.items()}
-
-
 def _tables(scene):
-    ee = scene["end_effector"] or dict(_EE_DEFAULTS)
-    lay = scene["layout"] or dict(_LAYOUT_DEFAULTS)
-    return ee, lay
+    return scene["end_effector"] or END_EFFECTOR.defaults(), scene["layout"] or LAYOUT.defaults()
 
 
 def _primitive(ee: dict):

@@ -1,10 +1,6 @@
-"""``[layer]`` and ``[[objects]]``: the soft layer and what touches the skin.
+"""``[[objects]]``: what touches the skin.
 
-``[layer]``: thickness, material (or young_modulus/poisson), extent (radius of the
-layer), and how the contact is simulated (model, grid_spacing, samples_per_taxel,
-backend).
-
-``[[objects]]``: one table per object: ``kind`` (cube, cuboid, box, sphere,
+One table per object: ``kind`` (cube, cuboid, box, sphere,
 halfcylinder, cylinder, ruler, mug, or ``mesh`` with ``mesh = "file.stl"`` and
 ``scale``), its dimensions (metres; defaults are seed 001's objects), where it is
 (``position`` [x, y] on the skin, ``yaw`` rad, ``gap`` m above the layer, ``flip``),
@@ -17,29 +13,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...contact.materials import MATERIALS, SoftLayer
 from ...contact.objects import DEFAULTS, make_object, placement_pose
 from ...contact.proximity import OPEN_MESH
 from ..registry import register_section
 from ..schema import Field, Section
-
-LAYER = Section({
-    "thickness": Field("float", default=3e-3, gt=0, unit="m", doc="soft layer thickness"),
-    "material": Field("str", default="ecoflex_00_20", choices=tuple(MATERIALS), doc="layer material"),
-    "young_modulus": Field("float", default=None, gt=0, unit="Pa", doc="overrides the material's E"),
-    "poisson": Field("float", default=None, ge=0, lt=0.5, doc="overrides the material's Poisson ratio"),
-    "extent": Field("float", default=None, gt=0, unit="m", doc="radius of the layer (seed 001: 0.04)"),
-    "base": Field("str", default="bonded", choices=("bonded", "frictionless"),
-                  doc="the layer's interface with the end-effector: glued, or a pad that slides"),
-    "model": Field("str", default="finite_layer", choices=("finite_layer", "halfspace", "local"),
-                   doc="contact model (see docs/contact.md)"),
-    "grid_spacing": Field("float", default=1e-3, gt=0, unit="m", doc="contact grid cell size"),
-    "samples_per_taxel": Field("int", default=7, ge=1, doc="points averaged over each 4 mm taxel disc"),
-    "backend": Field("str", default="auto", choices=("auto", "open3d", "numpy"), doc="proximity back-end"),
-    "geometry": Field("str", default="plane", choices=("plane", "unrolled"),
-                      doc="solve on the plane normal to the press (flat patches) or on the layout's unrolled "
-                          "flat coordinates with the layer compressed along its normals (curved patches)"),
-})
+from .layer import build_layer
 
 _DIMS = {
     "side": Field("float", default=None, gt=0, unit="m"),
@@ -85,28 +63,7 @@ OBJECT = Section({
                                 if any(b["t"] <= a["t"] for a, b in zip(o["keyframes"], o["keyframes"][1:]))
                                 else []))
 
-register_section("layer", Field("table", default=None, section=LAYER))
 register_section("objects", Field("tables", default=[], section=OBJECT))
-
-
-def build_layer(scene) -> SoftLayer:
-    """The scene's SoftLayer (defaults when there is no ``[layer]`` table)."""
-    t = scene["layer"] or LAYER.validate({}, _NullCtx())
-    try:
-        return SoftLayer(thickness=t["thickness"], material=t["material"], young_modulus=t["young_modulus"],
-                         poisson=t["poisson"], extent=t["extent"], base=t["base"])
-    except ValueError as exc:
-        raise scene.error(f"layer.{getattr(exc, 'key', '') or 'thickness'}", getattr(exc, "reason", str(exc)))
-
-
-def layer_options(scene) -> dict:
-    """Keyword arguments for vtcore.contact.press from ``[layer]``: model, grid, samples, backend."""
-    from ...contact.press import ContactGrid
-
-    t = scene["layer"] or LAYER.validate({}, _NullCtx())
-    return {"model": t["model"], "grid": ContactGrid(spacing=t["grid_spacing"]),
-            "samples_per_taxel": t["samples_per_taxel"], "backend": None if t["backend"] == "auto" else t["backend"],
-            "geometry": t["geometry"]}
 
 
 def object_mesh(scene, i: int):
@@ -137,15 +94,16 @@ def object_mesh(scene, i: int):
 
 
 def _skin_top(scene) -> float:
-    """Height (z) of the layer's outer surface at its highest point, metres."""
-    layer = build_layer(scene)
-    try:
-        from .layout import build_layout
+    """Height (z) of the layer's outer surface at its highest point, metres.
 
-        lay = build_layout(scene)
-        return float((lay.positions[:, 2] + layer.thickness * lay.normals[:, 2]).max())
-    except Exception:  # no layout tables: a flat skin at z = 0
-        return layer.thickness
+    Every scene has a layout (without layout tables: the default patch on the default
+    end-effector), so any error building it is a real one and reaches the user.
+    """
+    from .layout import build_layout
+
+    layer = build_layer(scene)
+    lay = build_layout(scene)
+    return float((lay.positions[:, 2] + layer.thickness * lay.normals[:, 2]).max())
 
 
 def object_pose(scene, i: int, mesh=None, top: float | None = None) -> np.ndarray:
@@ -214,9 +172,3 @@ def build_objects(scene) -> list[tuple[str, "object", np.ndarray]]:
         out.append((o["name"], mesh, object_pose(scene, i, mesh, top)))
     return out
 
-
-class _NullCtx:
-    errors: list = []
-
-    def fail(self, key, reason):  # defaults never fail
-        raise AssertionError(f"{key}: {reason}")

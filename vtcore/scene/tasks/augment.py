@@ -69,7 +69,7 @@ def _contact_prober(scene, ctx, obj):
     decides whether stress spreads through the layer.
     """
     from ...augment.probing import ContactProber
-    from ..sections.contact import build_layer, layer_options
+    from ..sections.layer import build_layer, layer_options
 
     comp = ctx.pipeline.get("object_compliance")          # unlisted: a rigid object, no deflection
     gain = ctx.pipeline.get("gain")

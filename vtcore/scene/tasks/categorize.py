@@ -83,7 +83,8 @@ class _Pressures:
     """
 
     def __init__(self, scene, ctx):
-        from ..sections.contact import build_layer, build_objects, layer_options
+        from ..sections.layer import build_layer, layer_options
+        from ..sections.objects import build_objects
         from ..sections.layout import build_layout
 
         self.scene, self.ctx = scene, ctx

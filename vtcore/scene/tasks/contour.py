@@ -119,7 +119,7 @@ def run(scene, ctx) -> TaskResult:
     from ...control.contour import (PressContact, believed_skin, random_starts, seed002_object,
                                     taxel_position_error)
     from ...layout import skin_mesh
-    from ..sections.contact import build_layer, layer_options
+    from ..sections.layer import build_layer, layer_options
 
     p = scene["task"]
     if p["object"] == "mug" and not p["mug_inner_diameter"] < p["mug_outer_diameter"]:

@@ -35,7 +35,7 @@ def run(scene, ctx) -> TaskResult:
     from ...contact import make_object, press
     from ...filters import EdgeFilter, MeshEdgeDetector
     from ...layout import skin_mesh
-    from ..sections.contact import build_layer, layer_options
+    from ..sections.layer import build_layer, layer_options
     from .contour import control_skin
 
     p = scene["task"]

@@ -21,7 +21,7 @@ from ...control.path_following import ForceController, contact_response_table, f
 from ..registry import TaskSpec, register_task
 from ..runner import TaskResult
 from ..schema import Field, Section
-from ..sections.contact import build_layer, layer_options
+from ..sections.layer import build_layer, layer_options
 from .augment import _contact_prober
 
 PARAMS = Section({

@@ -1,0 +1,58 @@
+"""``[layer]``: the soft layer over the skin and how its contact is simulated.
+
+Thickness, material (or young_modulus/poisson), extent (radius of the layer),
+base (bonded or frictionless), and the contact model, grid_spacing,
+samples_per_taxel, proximity backend and geometry: :func:`build_layer` makes the
+:class:`vtcore.contact.SoftLayer`, :func:`layer_options` the keyword arguments of
+:func:`vtcore.contact.press`. The choices are the contact package's own option
+sets, so a new model or back-end there is valid here without an edit.
+"""
+
+from __future__ import annotations
+
+from ...contact.elastic import MODELS
+from ...contact.materials import MATERIALS, SoftLayer
+from ...contact.press import GEOMETRIES
+from ...contact.proximity import BACKENDS
+from ..registry import register_section
+from ..schema import Field, Section
+
+LAYER = Section({
+    "thickness": Field("float", default=3e-3, gt=0, unit="m", doc="soft layer thickness"),
+    "material": Field("str", default="ecoflex_00_20", choices=tuple(MATERIALS), doc="layer material"),
+    "young_modulus": Field("float", default=None, gt=0, unit="Pa", doc="overrides the material's E"),
+    "poisson": Field("float", default=None, ge=0, lt=0.5, doc="overrides the material's Poisson ratio"),
+    "extent": Field("float", default=None, gt=0, unit="m", doc="radius of the layer (seed 001: 0.04)"),
+    "base": Field("str", default="bonded", choices=("bonded", "frictionless"),
+                  doc="the layer's interface with the end-effector: glued, or a pad that slides"),
+    "model": Field("str", default="finite_layer", choices=MODELS,
+                   doc="contact model (see docs/contact.md)"),
+    "grid_spacing": Field("float", default=1e-3, gt=0, unit="m", doc="contact grid cell size"),
+    "samples_per_taxel": Field("int", default=7, ge=1, doc="points averaged over each 4 mm taxel disc"),
+    "backend": Field("str", default="auto", choices=("auto",) + BACKENDS, doc="proximity back-end"),
+    "geometry": Field("str", default="plane", choices=GEOMETRIES,
+                      doc="solve on the plane normal to the press (flat patches) or on the layout's unrolled "
+                          "flat coordinates with the layer compressed along its normals (curved patches)"),
+})
+
+register_section("layer", Field("table", default=None, section=LAYER))
+
+
+def build_layer(scene) -> SoftLayer:
+    """The scene's SoftLayer (defaults when there is no ``[layer]`` table)."""
+    t = scene["layer"] or LAYER.defaults()
+    try:
+        return SoftLayer(thickness=t["thickness"], material=t["material"], young_modulus=t["young_modulus"],
+                         poisson=t["poisson"], extent=t["extent"], base=t["base"])
+    except ValueError as exc:
+        raise scene.error(f"layer.{getattr(exc, 'key', '') or 'thickness'}", getattr(exc, "reason", str(exc)))
+
+
+def layer_options(scene) -> dict:
+    """Keyword arguments for vtcore.contact.press from ``[layer]``: model, grid, samples, backend."""
+    from ...contact.press import ContactGrid
+
+    t = scene["layer"] or LAYER.defaults()
+    return {"model": t["model"], "grid": ContactGrid(spacing=t["grid_spacing"]),
+            "samples_per_taxel": t["samples_per_taxel"], "backend": None if t["backend"] == "auto" else t["backend"],
+            "geometry": t["geometry"]}
