@@ -185,12 +185,15 @@ def _skin_of(context):
 
 
 def _apply_report(ob, report):
+    from vtcore.layout.summary import report_lines
+
     s = ob.vtskin
     s.strain_max = 100.0 * float(report.get("strain_max") or 0.0)
     s.strain_mean = 100.0 * float(report.get("strain_mean") or 0.0)
     s.overlaps = int(report.get("overlaps") or 0)
     cov = report.get("coverage")
     s.coverage = -1.0 if cov is None else 100.0 * float(cov)
+    s.report = "\n".join(report_lines(report))
 
 
 def _write_edit(context, ee, skin_ob, frame, edit, module):

@@ -71,9 +71,9 @@ class VTSKIN_PT_layout(_Panel, bpy.types.Panel):
             box = col.box()
             v = ob.vtskin
             box.label(text=f"{ob.name}: {len(ob.data.vertices)} taxels")
-            box.label(text=f"Strain max {v.strain_max:.1f} %, mean {v.strain_mean:.1f} %")
-            box.label(text=f"Overlaps {v.overlaps}, coverage "
-                      + ("n/a" if v.coverage < 0 else f"{v.coverage:.0f} %"))
+            # vtcore words the placement report (the same lines as `vtcore layout place`)
+            for line in v.report.splitlines():
+                box.label(text=line[:1].upper() + line[1:])
             box.prop(v, "color_by")
 
 

@@ -52,6 +52,8 @@ class VTSKIN_PG_object(bpy.types.PropertyGroup):
     overlaps: IntProperty(name="Overlaps", default=0, description="Pairs of modules that overlap")
     coverage: FloatProperty(name="Coverage", default=-1.0, subtype="PERCENTAGE",
                             description="Share of the region under module outlines (-1: unknown)")
+    report: StringProperty(name="Placement report", default="",
+                           description="The last layout edit's placement report, one finding a line")
     force: FloatProperty(name="Force", default=0.0, unit="NONE", description="Force of the last contact (N)")
     edge_threshold: FloatProperty(name="Edge threshold", default=0.0,
                                   description="Edge response threshold used (counts^2/m)")

@@ -70,10 +70,11 @@ def cmd_place(args) -> int:
     _print_warnings(caught)
     layout.meta["mesh"] = str(args.mesh)
     save(layout, args.out, args.format)
-    cov = "n/a" if not np.isfinite(report.coverage) else f"{report.coverage:.3f}"
-    print(f"{args.out}: {len(layout)} taxels in {layout.n_modules} modules, strain max {report.strain_max:.4f}, "
-          f"overlaps {len(report.overlaps)}, off boundary {len(report.off_boundary)}, coverage {cov}, "
-          f"{report.seconds:.2f} s ({report.method})")
+    from ..layout.summary import report_lines
+
+    print(f"{args.out}: {len(layout)} taxels in {layout.n_modules} modules, {report.seconds:.2f} s ({report.method})")
+    for line in report_lines(layout.meta.get("placement")):
+        print(f"  {line}")
     return 0
 
 
@@ -133,6 +134,7 @@ def layout_info(layout) -> dict:
     """Summary numbers of a layout (the ``layout info`` fields)."""
     from ..layout.conform import OVERLAP_FRACTION, find_overlaps, layout_strain
     from ..layout.mesh import _nn_spacing
+    from ..layout.summary import report_fields
 
     n = len(layout)
     sp = _nn_spacing(layout.positions) if n > 1 else np.zeros(n)
@@ -163,11 +165,14 @@ def layout_info(layout) -> dict:
         "bbox_min_m": lo.tolist(), "bbox_max_m": hi.tolist(),
         "frame": layout.frame, "module_type": layout.meta.get("module_type"),
         "roles": {str(r): int(c) for r, c in zip(*np.unique(layout.roles.astype(str), return_counts=True))},
+        "mirror": layout.meta.get("module_mirror"),
+        "placement": report_fields(placement),
     }
 
 
 def cmd_info(args) -> int:
     from ..layout import load
+    from ..layout.summary import report_lines
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -187,6 +192,10 @@ def cmd_info(args) -> int:
     print(f"  strain: max {f(info['strain_max'], '.4f')}, mean {f(info['strain_mean'], '.4f')}; "
           f"overlaps {info['overlaps']}; off boundary {info['off_boundary']}; "
           f"coverage {f(info['coverage'], '.3f')}")
+    lines = report_lines(layout.meta.get("placement"))
+    if lines:
+        method = info["placement"].get("method")
+        print(f"  placement report{f' ({method})' if method else ''}: " + "; ".join(lines))
     lo, hi = np.array(info["bbox_min_m"]) * 1e3, np.array(info["bbox_max_m"]) * 1e3
     print(f"  bounding box (mm): [{lo[0]:.1f}, {lo[1]:.1f}, {lo[2]:.1f}] .. [{hi[0]:.1f}, {hi[1]:.1f}, {hi[2]:.1f}]"
           f" in frame {info['frame']!r}")

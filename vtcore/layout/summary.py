@@ -1,0 +1,76 @@
+"""The placement report as a designer reads it: the same lines in the CLI, ``vtcore layout
+info`` and the Blender panel.
+
+A placement report is the dict :meth:`PlacementReport.as_dict` writes into
+``layout.meta["placement"]`` (and what a layout file keeps of it). :func:`report_fields`
+picks the numbers a designer acts on (lists become counts), :func:`report_lines`
+words them. A field a report does not have is left out, so older layout files and
+the analytic placements of scenes show what they know.
+"""
+
+from __future__ import annotations
+
+import math
+
+
+def _num(value):
+    """A finite float, or None (missing, None, nan)."""
+    if value is None or isinstance(value, bool):
+        return None
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        return None
+    return v if math.isfinite(v) else None
+
+
+def _count(value):
+    """A count from an int or from a list of items (e.g. taxel indices)."""
+    if isinstance(value, (list, tuple)):
+        return len(value)
+    v = _num(value)
+    return None if v is None else int(v)
+
+
+def report_fields(placement: dict | None) -> dict:
+    """The designer-facing numbers of a placement report dict (absent ones left out).
+
+    Returns a dict with any of: ``method`` (str), ``coverage`` (fraction of the
+    region under module outlines), ``strain_max``, ``strain_mean`` (|stretch| of module
+    edges, fractions), ``overlaps``, ``overlaps_within``, ``overlaps_existing`` (module
+    pairs), ``off_boundary`` (taxels), ``surface_distance_max_mm``, ``seconds``.
+    """
+    p = placement or {}
+    out = {}
+    if isinstance(p.get("method"), str):
+        out["method"] = p["method"]
+    for key in ("coverage", "strain_max", "strain_mean", "seconds"):
+        v = _num(p.get(key))
+        if v is not None:
+            out[key] = v
+    for key in ("overlaps", "overlaps_within", "overlaps_existing", "off_boundary"):
+        v = _count(p.get(key))
+        if v is not None:
+            out[key] = v
+    d = _num(p.get("surface_distance_max_m"))
+    if d is not None:
+        out["surface_distance_max_mm"] = d * 1e3
+    return out
+
+
+def report_lines(placement: dict | None) -> list[str]:
+    """Short lines, one per finding, for a terminal or a panel (empty without a report)."""
+    f = report_fields(placement)
+    lines = []
+    if "coverage" in f:
+        lines.append(f"coverage {100 * f['coverage']:.1f} % of the region")
+    if "strain_max" in f:
+        mean = f" (mean {100 * f['strain_mean']:.2f} %)" if "strain_mean" in f else ""
+        lines.append(f"strain max {100 * f['strain_max']:.2f} %{mean}")
+    if "overlaps" in f:
+        parts = [f"{f[k]} {w}" for k, w in (("overlaps_within", "within the patch"),
+                                            ("overlaps_existing", "with modules already there")) if f.get(k)]
+        lines.append(f"overlaps {f['overlaps']} module pairs" + (f" ({', '.join(parts)})" if parts else ""))
+    if f.get("off_boundary"):
+        lines.append(f"{f['off_boundary']} taxels off the mapped surface")
+    return lines
