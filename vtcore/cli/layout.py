@@ -3,7 +3,9 @@
 - ``vtcore layout place MESH --patch {triangle,hexagon,strip:N,fill} --at X Y Z [--direction DX DY DZ]
   [--module NAME] [--mirror] [--offset METRES] --out LAYOUT``
 - ``vtcore layout import FILE [--format icub|cyskin|csv|json|ply] --out LAYOUT``
-- ``vtcore layout export LAYOUT --format icub|cyskin|csv|json|ply|mjcf --out FILE [--transform FILE_OR_16_NUMBERS]``
+- ``vtcore layout export LAYOUT --format icub|cyskin|csv|json|ply|mjcf|urdf --out FILE [--transform FILE_OR_16_NUMBERS]``
+  MJCF: ``[--model ROBOT.xml --body BODY] [--footprint taxel|tile] [--pad|--no-pad] [--site-radius M]``;
+  URDF: ``--parent LINK [--model ROBOT.urdf]``; iCub: ``[--estimate-normals]``.
 - ``vtcore layout info LAYOUT [--json]``
 
 Layouts are written in the format their ``--out`` name says (``.json`` is our own JSON).
@@ -12,6 +14,7 @@ All lengths are metres.
 
 from __future__ import annotations
 
+import argparse
 import json
 import sys
 import warnings
@@ -21,7 +24,6 @@ import numpy as np
 
 
 def _patch_arg(value: str) -> str:
-    import argparse
 
     if value in ("triangle", "hexagon", "fill"):
         return value
@@ -117,15 +119,32 @@ def _read_transform(value: list[str]) -> np.ndarray:
     return nums.reshape(4, 4)
 
 
+def _export_options(args) -> dict:
+    """The writer options the chosen format takes; an option given for another format is an error."""
+    from ..errors import InputError
+
+    given = {k: getattr(args, k) for k in ("model", "body", "parent", "footprint", "pad", "site_radius",
+                                           "pad_thickness")
+             if getattr(args, k) is not None}
+    takes = {"mjcf": {"model", "body", "footprint", "pad", "site_radius", "pad_thickness"},
+             "urdf": {"model", "parent"}}.get(args.format, set())
+    wrong = sorted(set(given) - takes)
+    if wrong:
+        flags = ", ".join("--" + k.replace("_", "-") for k in wrong)
+        raise InputError(f"{flags} do(es) not apply to --format {args.format}", key="--format")
+    return given
+
+
 def cmd_export(args) -> int:
     from ..layout import load, save
 
+    options = _export_options(args)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         layout = load(args.layout)
     _print_warnings(caught)
     transform = _read_transform(args.transform) if args.transform else None
-    save(layout, args.out, args.format, transform=transform)
+    save(layout, args.out, args.format, transform=transform, **options)
     print(f"{args.out}: {len(layout)} taxels as {args.format}")
     return 0
 
@@ -240,6 +259,15 @@ def register(sub) -> None:
     ex.add_argument("--out", required=True, metavar="FILE")
     ex.add_argument("--transform", nargs="+", metavar="FILE_OR_16_NUMBERS",
                     help="4x4 rigid transform (row-major): a file or 16 numbers; taxels are written in that frame")
+    ex.add_argument("--model", metavar="ROBOT", help="mjcf/urdf: the robot file to add the skin to")
+    ex.add_argument("--body", help="mjcf with --model: the robot body the skin's frame is expressed in")
+    ex.add_argument("--parent", help="urdf: the link the taxel links hang from (default: the layout's frame)")
+    ex.add_argument("--footprint", choices=("taxel", "tile"),
+                    help="mjcf: sites of the taxel's size (default) or pads and sites tiling the skin")
+    ex.add_argument("--pad", action=argparse.BooleanOptionalAction, default=None,
+                    help="mjcf: give the skin its own contact pads (default: on in a fragment, off with --model)")
+    ex.add_argument("--site-radius", type=float, metavar="METRES", help="mjcf: taxel site radius")
+    ex.add_argument("--pad-thickness", type=float, metavar="METRES", help="mjcf: pad thickness (default 1 mm)")
     ex.set_defaults(func=cmd_export)
 
     inf = lsub.add_parser("info", help="counts, spacing, strain, overlaps, coverage, bounding box")

@@ -1,7 +1,7 @@
 """Calibrated layout files: read and write, one module per format.
 
 Like python-can's ``can.io``: each format module (:mod:`.native`, :mod:`.icub`, :mod:`.cyskin`,
-:mod:`.csv`, :mod:`.ply`, :mod:`.mjcf`) has ``NAME``, ``SUFFIXES``, ``read(path, units=None) -> Layout``
+:mod:`.csv`, :mod:`.ply`, :mod:`.mjcf`, :mod:`.urdf`) has ``NAME``, ``SUFFIXES``, ``read(path, units=None) -> Layout``
 (``None`` for export-only formats) and ``write(layout, path, **options)``; :data:`FORMAT_MODULES`
 maps each name to its module and :func:`load`/:func:`save` dispatch through it.
 
@@ -19,7 +19,9 @@ Formats (``format=`` names):
   headers declare millimetres).
 - ``ply``: vertices with per-taxel attributes, faces of the skin mesh (ASCII written;
   ASCII and binary read).
-- ``mjcf``: export only: one MuJoCo site per taxel and a ``touch`` sensor on each.
+- ``mjcf``: export only: one MuJoCo site per taxel and a ``touch`` sensor on each, as a
+  fragment or merged into a robot's MJCF (see :mod:`.mjcf`).
+- ``urdf``: export only: one fixed link ``<parent>_skin_<n>`` per taxel (see :mod:`.urdf`).
 
 Readers are lenient about what real files do (mixed tabs and spaces, CRLF,
 scientific notation, non-unit or placeholder normals, repeated positions,
@@ -42,10 +44,10 @@ import numpy as np
 
 from ...errors import InputError
 from ..model import Layout
-from . import csv, cyskin, icub, mjcf, native, ply
+from . import csv, cyskin, icub, mjcf, native, ply, urdf
 
 # name -> module with read/write (the one table every dispatch goes through)
-FORMAT_MODULES = {m.NAME: m for m in (native, icub, cyskin, csv, ply, mjcf)}
+FORMAT_MODULES = {m.NAME: m for m in (native, icub, cyskin, csv, ply, mjcf, urdf)}
 FORMATS = tuple(FORMAT_MODULES)
 READ_FORMATS = tuple(n for n, m in FORMAT_MODULES.items() if m.read is not None)
 # suffix -> format name when writing; ".json" is ambiguous (ours or CySkin), ours wins on save
@@ -93,7 +95,7 @@ def load(path, format: str | None = None, *, units: str | None = None) -> Layout
 def save(layout: Layout, path, format: str | None = None, *, transform=None, **options) -> None:
     """Write ``layout`` to ``path`` (written to a temporary file, then renamed).
 
-    format : one of ``json, icub, cyskin, csv, ply, mjcf`` (default from the
+    format : one of ``json, icub, cyskin, csv, ply, mjcf, urdf`` (default from the
     extension; ``.json`` means our own JSON). transform : optional (4, 4)
     rigid transform; the taxels are written in that frame (``p' = R p + t``).
     options : passed to the format's ``write`` (see each format module).

@@ -117,3 +117,12 @@ def default_faces(layout: Layout) -> np.ndarray:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", LayoutWarning)
         return skin_mesh(layout).triangles if len(layout) >= 3 else np.zeros((0, 3), np.int64)
+
+
+def taxel_labels(layout: Layout) -> np.ndarray:
+    """(N,) int: the number that names each taxel's frame or site (``<parent>_skin_<n>``):
+    its taxel id when the ids are unique and non-negative, else its row."""
+    ids = layout.taxel_ids
+    if len(ids) and ids.min() >= 0 and len(np.unique(ids)) == len(ids):
+        return ids
+    return np.arange(len(layout))

@@ -1,41 +1,265 @@
-"""MuJoCo MJCF (export only): one site and one touch sensor per taxel."""
+"""MuJoCo MJCF (export only): one site and one ``touch`` sensor per taxel.
+
+A MuJoCo touch sensor sums the normal force of the contacts that involve *the body
+its site belongs to* and whose contact point lies in the site's volume. So sites
+sense only in a body that has collision geoms. Two ways to get there:
+
+- ``model=ROBOT.xml, body=BODY`` (CLI ``--model --body``): the robot's MJCF with the
+  sites added to ``BODY`` itself, placed by the layout's ``transform`` (the pose of
+  the layout frame in ``BODY``; a CySkin ``tf_matrix``), and the sensors appended.
+  BODY's own collision geoms are what the ball touches.
+- the fragment (no ``model``): a ``<mujoco>`` file with one body named after the
+  layout frame, at the layout's ``transform``, holding the sites and, by default, its
+  own contact pad (see ``pad``). Attach it to a robot link with
+  ``<attach model="skin" body="FRAME" prefix="skin/"/>`` or ``MjSpec.attach_body``;
+  it becomes a child body welded to the link, and its pad is the surface the
+  sensors count.
+
+Footprints (``footprint=``):
+
+- ``"taxel"`` (default, taxel fidelity): each site is a cylinder of the module's
+  taxel diameter (CySkin: a 4 mm disc; ``site_radius`` overrides), axis along the
+  taxel normal. A contact that lands between taxels reads nothing, as on the real skin.
+- ``"tile"`` (force coverage): every taxel gets its own welded child body
+  ``<site>_cell`` with a pad disc that covers its share of the surface (radius: the
+  largest circumradius of the triangles around it: the file's faces, else the skin mesh, so the discs cover every
+  triangle) and a site of the same size. Each contact lands on some taxel's pad and is
+  counted by that taxel alone, so the readings sum to the contact force wherever it
+  lands. The pads are the contact surface (``pad`` is implied).
+
+``pad=True`` (``"taxel"`` footprint) adds the same covering discs as geoms of the
+sites' own body: the contact surface for a link without collision geoms, or for the
+fragment. Pads are ``pad_thickness`` thick and sit on the surface (their top face is
+``pad_thickness`` above the taxel along its normal) and massless (``density="0"``): the
+robot's dynamics do not change.
+
+Sensors are written in taxel order: ``data.sensordata[k]`` is taxel row ``k``.
+Site names: ``{prefix}{n}`` with ``n`` the taxel id when ids are unique and
+non-negative, else the row; sensors ``{prefix}{n}_touch``.
+"""
 
 from __future__ import annotations
+
+import os
+import xml.etree.ElementTree as ET
+from pathlib import Path
 
 import numpy as np
 
 from ..._io import atomic_write
+from ...errors import FormatError, InputError
 from ..model import Layout
+from .common import default_faces, taxel_labels
 
 NAME = "mjcf"
 SUFFIXES = (".xml", ".mjcf")
 read = None  # export only
+FOOTPRINTS = ("taxel", "tile")
+SITE_MARGIN = 2e-3  # m, half-height of a site beyond its pad: contact points of soft contacts sit within it
 
 
-def write(layout: Layout, path, *, site_radius: float | None = None, site_depth: float = 1e-3) -> None:
-    """MuJoCo MJCF: a body holding one cylinder site per taxel (axis along its normal)
-    and a ``touch`` sensor on each site, in taxel order."""
-    from xml.sax.saxutils import quoteattr
+def _fmt(v) -> str:
+    return format(float(v), ".9g")
 
-    r = site_radius if site_radius is not None else float(layout.meta.get("taxel_radius_m", 2e-3))
-    fmt = lambda v: format(float(v), ".9g")  # noqa: E731
-    name = str(layout.meta.get("name") or layout.meta.get("end_effector") or "skin")
-    lines = [f'<mujoco model={quoteattr(name)}>',
-             '  <!-- written by vtcore: one site per taxel, one touch sensor per site; metres -->',
-             "  <worldbody>", f"    <body name={quoteattr(layout.frame)}>"]
-    sites = []
-    unique_ids = len(np.unique(layout.taxel_ids)) == len(layout)  # else name sites by row
-    for k in range(len(layout)):
-        sname = f"taxel_{int(layout.taxel_ids[k])}" if unique_ids else f"taxel_{k}"
-        sites.append(sname)
-        p = " ".join(fmt(v) for v in layout.positions[k])
-        z = " ".join(fmt(v) for v in layout.normals[k])
-        lines.append(f'      <site name="{sname}" type="cylinder" pos="{p}" zaxis="{z}" '
-                     f'size="{fmt(r)} {fmt(site_depth / 2)}" rgba="0.2 0.8 0.2 0.5"/>')
-    lines += ["    </body>", "  </worldbody>", "  <sensor>"]
-    lines += [f'    <touch name="touch_{s[6:]}" site="{s}"/>' for s in sites]
-    lines += ["  </sensor>", "</mujoco>"]
+
+def _vec(a) -> str:
+    return " ".join(_fmt(v) for v in np.asarray(a).ravel())
+
+
+def taxel_radius(layout: Layout) -> float:
+    """Radius (m) of one taxel's sensing disc: the layout's module type, else 2 mm (CySkin)."""
+    from ..modules import TAXEL_DIAMETER, get_module
+
+    if layout.meta.get("taxel_radius_m"):
+        return float(layout.meta["taxel_radius_m"])
+    name = layout.meta.get("module_type")
+    if name:
+        try:
+            return get_module(name).taxel_diameter / 2
+        except InputError:
+            pass
+    return TAXEL_DIAMETER / 2
+
+
+def cover_radii(layout: Layout) -> np.ndarray:
+    """(N,) m: per taxel, the radius of a disc that covers its share of every triangle around it.
+
+    Every point of an acute triangle lies within its circumradius of one of its corners;
+    in an obtuse one within half its longest edge. The largest such radius over the
+    taxel's triangles (the file's faces, else the skin mesh) makes discs that cover the
+    whole triangulated skin. A taxel in no triangle gets the median spacing.
+    """
+    n = len(layout)
+    if n < 3:
+        return np.full(n, taxel_radius(layout))
+    tri = default_faces(layout)
+    p = layout.positions
+    a, b, c = p[tri[:, 0]], p[tri[:, 1]], p[tri[:, 2]]
+    sides = np.column_stack([np.linalg.norm(b - c, axis=1), np.linalg.norm(c - a, axis=1),
+                             np.linalg.norm(a - b, axis=1)])
+    area2 = np.linalg.norm(np.cross(b - a, c - a), axis=1)  # twice the area
+    longest = sides.max(axis=1)
+    obtuse = 2 * longest ** 2 > (sides ** 2).sum(axis=1)
+    # circumradius abc / (4 K) = abc / (2 * area2); zero-area triangles take the obtuse bound
+    with np.errstate(divide="ignore", invalid="ignore"):
+        circ = np.where(obtuse | (area2 <= 1e-18), longest / 2, sides.prod(axis=1) / (2 * area2))
+    r = np.zeros(n)
+    for k in range(3):  # per corner: a max over the incident triangles (vectorised)
+        np.maximum.at(r, tri[:, k], circ)
+    lonely = r <= 0
+    if lonely.any():
+        from scipy.spatial import cKDTree
+
+        d, _ = cKDTree(layout.positions).query(layout.positions, k=2)
+        r[lonely] = float(np.median(d[:, 1]))
+    return r
+
+
+def _body_frame(layout: Layout) -> tuple[np.ndarray, np.ndarray]:
+    """Taxel positions and normals in the parent body (the layout's transform applied)."""
+    t = layout.transform
+    return layout.positions @ t[:3, :3].T + t[:3, 3], layout.normals @ t[:3, :3].T
+
+
+def _quat(r: np.ndarray) -> np.ndarray:
+    """(w, x, y, z) of a rotation matrix (MuJoCo's order)."""
+    from scipy.spatial.transform import Rotation
+
+    x, y, z, w = Rotation.from_matrix(r).as_quat()
+    return np.array([w, x, y, z])
+
+
+def add_skin(layout: Layout, parent: ET.Element, sensor: ET.Element, *, positions: np.ndarray,
+             normals: np.ndarray, prefix: str, footprint: str = "taxel", pad: bool = False,
+             site_radius: float | None = None, pad_thickness: float = 1e-3) -> list[str]:
+    """Add sites (and pads) for every taxel to the MJCF body ``parent`` and touch sensors to ``sensor``.
+
+    positions, normals : (N, 3) in ``parent``'s frame (metres, unit normals).
+    Returns the site names in taxel order.
+    """
+    if footprint not in FOOTPRINTS:
+        raise InputError(f"footprint must be one of {', '.join(FOOTPRINTS)}, got {footprint!r}", key="footprint")
+    if not (pad_thickness > 0):
+        raise InputError(f"pad thickness must be > 0 m, got {pad_thickness}", key="pad_thickness")
+    nz = np.linalg.norm(normals, axis=1)
+    if np.any(nz < 1e-9):
+        raise InputError(f"{int((nz < 1e-9).sum())} taxels have a zero normal; a site needs an axis "
+                         "(estimate the normals first)", key="normals")
+    normals = normals / nz[:, None]
+    names = [f"{prefix}{lab}" for lab in taxel_labels(layout)]
+    r_taxel = float(site_radius) if site_radius is not None else taxel_radius(layout)
+    cover = cover_radii(layout) if (pad or footprint == "tile") else None
+    h = pad_thickness / 2
+    green = "0.2 0.8 0.2 0.5"
+    for k, name in enumerate(names):
+        p, n = positions[k], normals[k]
+        if footprint == "tile":
+            cell = ET.SubElement(parent, "body", name=f"{name}_cell", pos=_vec(p), zaxis=_vec(n))
+            ET.SubElement(cell, "geom", name=f"{name}_pad", type="cylinder", pos=_vec([0, 0, h]),
+                          size=f"{_fmt(cover[k])} {_fmt(h)}", density="0", rgba="0.85 0.85 0.8 1")
+            ET.SubElement(cell, "site", name=name, type="cylinder", pos=_vec([0, 0, h]),
+                          size=f"{_fmt(cover[k])} {_fmt(h + SITE_MARGIN)}", rgba=green)
+            continue
+        centre = p + h * n if pad else p
+        if pad:
+            ET.SubElement(parent, "geom", name=f"{name}_pad", type="cylinder", pos=_vec(centre), zaxis=_vec(n),
+                          size=f"{_fmt(cover[k])} {_fmt(h)}", density="0", rgba="0.85 0.85 0.8 1")
+        ET.SubElement(parent, "site", name=name, type="cylinder", pos=_vec(centre), zaxis=_vec(n),
+                      size=f"{_fmt(r_taxel)} {_fmt((h if pad else 0) + SITE_MARGIN)}", rgba=green)
+    for name in names:
+        ET.SubElement(sensor, "touch", name=f"{name}_touch", site=name)
+    return names
+
+
+def _rebase(root: ET.Element, src_dir: Path, out_dir: Path) -> None:
+    """Keep the robot's relative file references valid from the output's folder."""
+    if src_dir.resolve() == out_dir.resolve():
+        return
+    rel = lambda f: os.path.relpath(src_dir / f, out_dir)  # noqa: E731
+    compiler = root.find("compiler")
+    if compiler is None:
+        compiler = ET.Element("compiler")
+        root.insert(0, compiler)
+    for key in ("meshdir", "texturedir"):
+        v = compiler.get(key)
+        if v is not None and not os.path.isabs(v):
+            compiler.set(key, rel(v))
+    v = compiler.get("assetdir")
+    if v is not None and not os.path.isabs(v):
+        compiler.set("assetdir", rel(v))
+    elif v is None:
+        compiler.set("assetdir", rel("."))  # files without a dir were relative to the model
+    for inc in root.iter("include"):
+        f = inc.get("file")
+        if f and not os.path.isabs(f):
+            inc.set("file", rel(f))
+
+
+def merge_into_model(layout: Layout, model, body: str, **options) -> ET.ElementTree:
+    """The robot MJCF ``model`` (a path) with the skin added to its body ``body``."""
+    model = Path(model)
+    if not model.is_file():
+        raise InputError("robot model not found", file=model, key="--model")
+    try:
+        tree = ET.parse(model, parser=ET.XMLParser(target=ET.TreeBuilder(insert_comments=True)))
+    except ET.ParseError as exc:
+        raise FormatError(f"not valid XML: {exc}", file=model, line=exc.position[0]) from None
+    root = tree.getroot()
+    if root.tag != "mujoco":
+        raise FormatError(f"the root element is <{root.tag}>, not <mujoco>", file=model)
+    target = next((b for b in root.iter("body") if b.get("name") == body), None)
+    if target is None:
+        names = [b.get("name") for b in root.iter("body") if b.get("name")]
+        hint = " (it may be in an <include>d file: merge into that file)" if root.find(".//include") is not None else ""
+        raise InputError(f"no body named {body!r}{hint}; bodies: {', '.join(names[:20]) or 'none'}",
+                         file=model, key="--body")
+    taken = {e.get("name") for e in root.iter() if e.get("name")}
+    pos, nrm = _body_frame(layout)
+    sensor = root.find("sensor")
+    if sensor is None:
+        sensor = ET.SubElement(root, "sensor")
+    prefix = options.pop("prefix", None) or f"{body}_skin_"
+    names = add_skin(layout, target, sensor, positions=pos, normals=nrm, prefix=prefix, **options)
+    clash = sorted(taken & set(names))
+    if clash:
+        raise InputError(f"the model already has elements named {', '.join(clash[:5])}; pass another prefix",
+                         file=model, key="prefix")
+    return tree
+
+
+def write(layout: Layout, path, *, model=None, body: str | None = None, footprint: str = "taxel",
+          pad: bool | None = None, site_radius: float | None = None, pad_thickness: float = 1e-3,
+          prefix: str | None = None) -> None:
+    """Write the skin as MJCF: a fragment, or ``model`` with the skin added to ``body``.
+
+    model : path of the robot's MJCF, or None for the self-contained fragment.
+    body : the robot body the layout's frame is expressed in (required with ``model``).
+    footprint : ``"taxel"`` or ``"tile"`` (see the module docstring). pad : add
+    covering contact pads (default: True for the fragment, False in a model).
+    site_radius : m, overrides the module's taxel radius. pad_thickness : m.
+    prefix : site name prefix (default ``taxel_`` in the fragment, ``BODY_skin_`` in a model).
+    """
+    opts = dict(footprint=footprint, site_radius=site_radius, pad_thickness=pad_thickness)
+    if model is not None:
+        if not body:
+            raise InputError("--model needs --body: the robot body the skin is on", key="--body")
+        tree = merge_into_model(layout, model, body, pad=bool(pad), prefix=prefix, **opts)
+        _rebase(tree.getroot(), Path(model).parent, Path(path).parent)
+    else:
+        root = ET.Element("mujoco", model=str(layout.meta.get("name") or layout.meta.get("end_effector") or "skin"))
+        root.append(ET.Comment(
+            " written by vtcore (metres): one site and one touch sensor per taxel, in taxel order. "
+            "Attach the body to a robot link: <attach model=\"skin\" body=\"" + layout.frame + "\" prefix=\"skin/\"/> "
+            "(or MjSpec.attach_body). Touch sensors count contacts of their own body's geoms only: "
+            "this body senses through its pads; without pads export with --model ROBOT.xml --body LINK. "))
+        wb = ET.SubElement(root, "worldbody")
+        t = layout.transform
+        frame = ET.SubElement(wb, "body", name=layout.frame, pos=_vec(t[:3, 3]), quat=_vec(_quat(t[:3, :3])))
+        sensor = ET.SubElement(root, "sensor")
+        add_skin(layout, frame, sensor, positions=layout.positions, normals=layout.normals,
+                 prefix=prefix or "taxel_", pad=True if pad is None else bool(pad), **opts)
+        tree = ET.ElementTree(root)
+    ET.indent(tree, space="  ")
     with atomic_write(path, "w", encoding="utf-8", newline="\n") as fh:
-        fh.write("\n".join(lines) + "\n")
-
-
+        tree.write(fh, encoding="unicode", xml_declaration=False)
+        fh.write("\n")
