@@ -131,7 +131,7 @@ def _export_options(args) -> dict:
     wrong = sorted(set(given) - takes)
     if wrong:
         flags = ", ".join("--" + k.replace("_", "-") for k in wrong)
-        raise InputError(f"{flags} do(es) not apply to --format {args.format}", key="--format")
+        raise InputError(f"{flags}: not an option of --format {args.format}", key="--format")
     return given
 
 

@@ -251,7 +251,8 @@ def write(layout: Layout, path, *, model=None, body: str | None = None, footprin
             " written by vtcore (metres): one site and one touch sensor per taxel, in taxel order. "
             "Attach the body to a robot link: <attach model=\"skin\" body=\"" + layout.frame + "\" prefix=\"skin/\"/> "
             "(or MjSpec.attach_body). Touch sensors count contacts of their own body's geoms only: "
-            "this body senses through its pads; without pads export with --model ROBOT.xml --body LINK. "))
+            "this body senses through its pads; without pads, export the skin into the robot's own MJCF instead "
+            "(vtcore layout export with the model and body options). "))
         wb = ET.SubElement(root, "worldbody")
         t = layout.transform
         frame = ET.SubElement(wb, "body", name=layout.frame, pos=_vec(t[:3, 3]), quat=_vec(_quat(t[:3, :3])))

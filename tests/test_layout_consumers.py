@@ -1,0 +1,295 @@
+"""Exported layouts in the hands of their consumers: MuJoCo (a ball dropped on a skinned link)
+and a URDF parser from PyPI (every taxel frame's pose)."""
+
+import warnings
+import xml.etree.ElementTree as ET
+
+import numpy as np
+import pytest
+
+from vtcore.errors import InputError
+from vtcore.layout import make_patch, place, save
+
+G = 9.81
+BALL_MASS = 0.1  # kg
+R_LINK, L_LINK = 0.04, 0.2  # m, a forearm-like cylinder along x
+
+
+@pytest.fixture(scope="module")
+def forearm_skin():
+    """A 60-taxel CySkin hexagon conformed to the top of a cylinder (link frame), then
+    expressed in a patch frame whose pose in the link is ``transform`` (like a CySkin tf_matrix)."""
+    import trimesh
+
+    mesh = trimesh.creation.cylinder(radius=R_LINK, height=L_LINK, sections=256)
+    mesh.apply_transform(trimesh.transformations.rotation_matrix(np.pi / 2, [0, 1, 0]))  # axis along x
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        on_link, _ = place(mesh, "hexagon", [0.01, 0, R_LINK], [1, 0, 0])
+    t = np.eye(4)
+    c, s = np.cos(0.4), np.sin(0.4)
+    t[:3, :3] = [[c, -s, 0], [s, c, 0], [0, 0, 1]]
+    t[:3, 3] = [0.02, -0.01, R_LINK]
+    patch = on_link.transformed(np.linalg.inv(t), frame="forearm_patch")
+    np.testing.assert_allclose(patch.transform, t, atol=1e-12)
+    return on_link, patch
+
+
+def robot_xml(path, link_geom: str, ball_joint: str):
+    path.write_text(f"""<mujoco model="arm">
+  <!-- a test robot: one link, and a ball above it -->
+  <option timestep="0.001"/>
+  <worldbody>
+    <body name="forearm" pos="0 0 0.5">
+      {link_geom}
+    </body>
+    <body name="ball" pos="0 0 1">
+      {ball_joint}
+      <geom name="ball" type="sphere" size="0.01" mass="{BALL_MASS}"/>
+    </body>
+  </worldbody>
+</mujoco>
+""")
+    return path
+
+
+CYLINDER = f'<geom name="forearm_geom" type="cylinder" size="{R_LINK} {L_LINK / 2}" quat="0.70710678 0 0.70710678 0"/>'
+# the ball falls straight down (a ball on top of a cylinder is an unstable equilibrium)
+SLIDE = '<joint name="drop" type="slide" axis="0 0 1" damping="0.5"/>'
+
+
+def settle(model_path, ball_at, seconds=2.0):
+    import mujoco
+
+    m = mujoco.MjModel.from_xml_path(str(model_path))
+    free = m.jnt_type[m.body("ball").jntadr[0]] == mujoco.mjtJoint.mjJNT_FREE
+    if not free:
+        m.body_pos[m.body("ball").id] = ball_at
+    d = mujoco.MjData(m)
+    if free:
+        d.qpos[:3] = ball_at
+    mujoco.mj_forward(m, d)
+    for _ in range(int(seconds / m.opt.timestep)):
+        mujoco.mj_step(m, d)
+    return m, d
+
+
+def world(on_link, k, lift):
+    """World point ``lift`` metres above taxel ``k`` of the link-frame layout (link at z = 0.5)."""
+    return on_link.positions[k] + [0, 0, 0.5] + lift * on_link.normals[k]
+
+
+def test_model_sites_exact_and_frame_applied(tmp_path, forearm_skin):
+    import mujoco
+
+    on_link, patch = forearm_skin
+    robot = robot_xml(tmp_path / "robot.xml", CYLINDER, SLIDE)
+    save(patch, tmp_path / "skinned.xml", "mjcf", model=robot, body="forearm")
+    m = mujoco.MjModel.from_xml_path(str(tmp_path / "skinned.xml"))
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    assert m.nsensor == len(patch)
+    ids = [m.site(f"forearm_skin_{i}").id for i in patch.taxel_ids]
+    assert all(m.site_bodyid[i] == m.body("forearm").id for i in ids)  # in the link itself: it senses
+    np.testing.assert_allclose(d.site_xpos[ids], on_link.positions + [0, 0, 0.5], atol=1e-8)
+    z = d.site_xmat[ids].reshape(-1, 3, 3)[:, :, 2]
+    np.testing.assert_allclose(z, on_link.normals, atol=1e-7)
+    # taxel order: sensor k is taxel row k
+    assert [m.sensor(k).name for k in range(3)] == [f"forearm_skin_{i}_touch" for i in patch.taxel_ids[:3]]
+    np.testing.assert_allclose(m.site_size[ids[0]][0], 2e-3)  # the CySkin 4 mm disc
+    # the robot's own content is kept (comment, option, the ball)
+    text = (tmp_path / "skinned.xml").read_text()
+    assert "a test robot" in text and m.body("ball").id > 0
+
+
+@pytest.mark.parametrize("which", ["first", "middle", "last"])
+def test_ball_on_a_taxel_reads_its_weight(tmp_path, forearm_skin, which):
+    on_link, patch = forearm_skin
+    # taxels within 6 mm of the cylinder's top line (the normal force is mg / cos(phi), phi < 9 deg)
+    near_top = np.flatnonzero(np.abs(on_link.positions[:, 1]) < 6e-3)
+    near_top = near_top[np.argsort(on_link.positions[near_top, 0])]
+    k = near_top[{"first": 0, "middle": len(near_top) // 2, "last": -1}[which]]
+    robot = robot_xml(tmp_path / "robot.xml", CYLINDER, SLIDE)
+    save(patch, tmp_path / "skinned.xml", "mjcf", model=robot, body="forearm")
+    # the ball falls along z and touches the cylinder on the radial line through its centre:
+    # put that line through the taxel
+    x, y = on_link.positions[k, :2]
+    top = np.array([x, y * (R_LINK + 0.01) / R_LINK, 0.5 + R_LINK + 0.03])
+    m, d = settle(tmp_path / "skinned.xml", top)
+    s = d.sensordata.copy()
+    under = np.flatnonzero(s > 0)
+    assert len(under) >= 1
+    assert abs(s.sum() - BALL_MASS * G) < 0.05 * BALL_MASS * G, (s.sum(), under)
+    # the sensors that read are the ones under the ball, every other reads exactly 0
+    contact = d.contact[0].pos - [0, 0, 0.5]
+    dist = np.linalg.norm(on_link.positions - contact, axis=1)
+    assert np.all(dist[under] < 2.5e-3)
+    assert np.all(s[dist > 2.5e-3] == 0)
+
+
+def test_between_taxels_reads_nothing_unless_tiled(tmp_path, forearm_skin):
+    """Taxel fidelity: a ball between taxels reads 0; the tiling footprint reads its weight anywhere."""
+    on_link, patch = forearm_skin
+    robot = robot_xml(tmp_path / "robot.xml", CYLINDER, SLIDE)
+    mid = (on_link.positions[30] + on_link.positions[31]) / 2
+    start = np.array([mid[0], mid[1], 0.5 + R_LINK + 0.03])
+    save(patch, tmp_path / "taxel.xml", "mjcf", model=robot, body="forearm")
+    _, d = settle(tmp_path / "taxel.xml", start)
+    assert d.ncon >= 1 and np.all(d.sensordata == 0)
+    save(patch, tmp_path / "tile.xml", "mjcf", model=robot, body="forearm", footprint="tile")
+    m, d = settle(tmp_path / "tile.xml", start)
+    s = d.sensordata
+    assert abs(s.sum() - BALL_MASS * G) < 0.05 * BALL_MASS * G, s.sum()
+    far = np.linalg.norm(on_link.positions - mid, axis=1) > 0.02
+    assert np.all(s[far] == 0)
+
+
+def test_free_ball_on_a_tiled_flat_link_anywhere(tmp_path):
+    """A free ball (no joint constraint) dropped at random places on a tiled flat skin."""
+    lay = make_patch("hexagon").flat_layout()
+    link = '<geom name="plate" type="box" size="0.05 0.05 0.005" pos="0 0 -0.005"/>'
+    robot = robot_xml(tmp_path / "robot.xml", link, "<freejoint/>")
+    save(lay, tmp_path / "tile.xml", "mjcf", model=robot, body="forearm", footprint="tile")
+    rng = np.random.default_rng(3)
+    for xy in rng.uniform(-0.02, 0.02, (3, 2)):
+        m, d = settle(tmp_path / "tile.xml", [xy[0], xy[1], 0.53], seconds=1.5)
+        assert abs(d.sensordata.sum() - BALL_MASS * G) < 0.05 * BALL_MASS * G, (xy, d.sensordata.sum())
+
+
+def test_fragment_attached_to_a_link_senses_through_its_pads(tmp_path, forearm_skin):
+    import mujoco
+
+    on_link, patch = forearm_skin
+    save(patch, tmp_path / "skin.xml", "mjcf")  # the fragment: body at the patch pose, pads on
+    frag = ET.parse(tmp_path / "skin.xml").getroot()
+    assert frag.find("worldbody/body").get("name") == "forearm_patch"
+    robot = mujoco.MjSpec.from_file(str(robot_xml(tmp_path / "robot.xml", CYLINDER, SLIDE)))
+    skin = mujoco.MjSpec.from_file(str(tmp_path / "skin.xml"))
+    robot.body("forearm").add_frame().attach_body(skin.body("forearm_patch"), "skin/", "")
+    m = robot.compile()
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    sid = m.site("skin/taxel_" + str(patch.taxel_ids[30])).id
+    np.testing.assert_allclose(d.site_xpos[sid], world(on_link, 30, 5e-4), atol=1e-8)  # tf applied, pad top
+    x, y = on_link.positions[30, :2]
+    m.body_pos[m.body("ball").id] = [x, y, 0.5 + R_LINK + 0.03]
+    mujoco.mj_forward(m, d)
+    for _ in range(2000):
+        mujoco.mj_step(m, d)
+    assert abs(d.sensordata.sum() - BALL_MASS * G) < 0.05 * BALL_MASS * G, d.sensordata.sum()
+    # without pads the same fragment reads nothing: the contact is the link's, not the skin body's
+    save(patch, tmp_path / "bare.xml", "mjcf", pad=False)
+    robot = mujoco.MjSpec.from_file(str(tmp_path / "robot.xml"))
+    robot.body("forearm").add_frame().attach_body(mujoco.MjSpec.from_file(str(tmp_path / "bare.xml"))
+                                                  .body("forearm_patch"), "skin/", "")
+    m = robot.compile()
+    d = mujoco.MjData(m)
+    m.body_pos[m.body("ball").id] = [x, y, 0.5 + R_LINK + 0.03]
+    for _ in range(2000):
+        mujoco.mj_step(m, d)
+    assert d.ncon >= 1 and np.all(d.sensordata == 0)
+
+
+def test_model_errors(tmp_path, forearm_skin):
+    _, patch = forearm_skin
+    robot = robot_xml(tmp_path / "robot.xml", CYLINDER, SLIDE)
+    with pytest.raises(InputError, match="no body named 'hand'.*forearm"):
+        save(patch, tmp_path / "o.xml", "mjcf", model=robot, body="hand")
+    with pytest.raises(InputError, match="--body"):
+        save(patch, tmp_path / "o.xml", "mjcf", model=robot)
+    assert not (tmp_path / "o.xml").exists()
+    save(patch, tmp_path / "once.xml", "mjcf", model=robot, body="forearm")
+    with pytest.raises(InputError, match="already has elements named forearm_skin_"):
+        save(patch, tmp_path / "o.xml", "mjcf", model=tmp_path / "once.xml", body="forearm")
+    assert not (tmp_path / "o.xml").exists()
+
+
+def test_mesh_paths_still_resolve_from_another_folder(tmp_path):
+    import mujoco
+    import trimesh
+
+    (tmp_path / "robot" / "meshes").mkdir(parents=True)
+    trimesh.creation.box((0.1, 0.1, 0.01)).export(tmp_path / "robot" / "meshes" / "plate.stl")
+    robot = tmp_path / "robot" / "robot.xml"
+    robot.write_text('<mujoco><compiler meshdir="meshes"/><asset><mesh name="plate" file="plate.stl"/></asset>'
+                     '<worldbody><body name="link"><geom type="mesh" mesh="plate"/></body></worldbody></mujoco>')
+    lay = make_patch("triangle").flat_layout()
+    lay.positions[:, 2] += 0.005
+    save(lay, tmp_path / "out" / "skinned.xml", "mjcf", model=robot, body="link")
+    m = mujoco.MjModel.from_xml_path(str(tmp_path / "out" / "skinned.xml"))
+    assert m.nsensor == len(lay) and m.nmesh == 1
+
+
+# --- URDF -------------------------------------------------------------------------------------------
+def frames_of(urdf_path, parent):
+    import yourdfpy
+
+    robot = yourdfpy.URDF.load(str(urdf_path), load_meshes=False, build_scene_graph=True)
+    return robot, {name: robot.get_transform(name, parent) for name in robot.link_map if "_skin_" in name}
+
+
+def check_frames(frames, parent, on_parent):
+    """Every taxel frame: origin at the taxel, z along its normal (in the parent link)."""
+    assert len(frames) == len(on_parent)
+    for k, i in enumerate(on_parent.taxel_ids):
+        f = frames[f"{parent}_skin_{i}"]
+        np.testing.assert_allclose(f[:3, 3], on_parent.positions[k], atol=1e-10)
+        np.testing.assert_allclose(f[:3, 2], on_parent.normals[k], atol=1e-10)
+        np.testing.assert_allclose(f[:3, :3] @ f[:3, :3].T, np.eye(3), atol=1e-10)
+
+
+def test_urdf_fragment_frames(tmp_path, forearm_skin):
+    on_link, patch = forearm_skin
+    save(patch, tmp_path / "skin.urdf", "urdf", parent="l_forearm")
+    robot, frames = frames_of(tmp_path / "skin.urdf", "l_forearm")
+    assert robot.base_link == "l_forearm"
+    check_frames(frames, "l_forearm", on_link)  # the patch frame's transform is applied
+
+
+def test_urdf_merged_into_a_robot(tmp_path, forearm_skin):
+    on_link, patch = forearm_skin
+    robot = tmp_path / "arm.urdf"
+    robot.write_text("""<?xml version="1.0"?>
+<robot name="arm">
+  <link name="base"/>
+  <link name="l_forearm"><visual><geometry><cylinder radius="0.04" length="0.2"/></geometry></visual></link>
+  <joint name="elbow" type="revolute"><parent link="base"/><child link="l_forearm"/>
+    <origin xyz="0 0 0.3" rpy="0 0.3 0"/><axis xyz="0 1 0"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+</robot>
+""")
+    save(patch, tmp_path / "arm_skin.urdf", "urdf", parent="l_forearm", model=robot)
+    urdf, frames = frames_of(tmp_path / "arm_skin.urdf", "l_forearm")
+    assert "elbow" in urdf.joint_map and len(urdf.actuated_joints) == 1  # skin joints are fixed
+    check_frames(frames, "l_forearm", on_link)
+    with pytest.raises(InputError, match="no link named 'r_forearm'"):
+        save(patch, tmp_path / "x.urdf", "urdf", parent="r_forearm", model=robot)
+    with pytest.raises(InputError, match="already has"):
+        save(patch, tmp_path / "x.urdf", "urdf", parent="l_forearm", model=tmp_path / "arm_skin.urdf")
+
+
+def test_urdf_vertical_and_flipped_normals(tmp_path):
+    """Normals along +-x (the tangent helper switches axis) and -z (a planar CySkin patch)."""
+    lay = make_patch("triangle").flat_layout()
+    n = len(lay)
+    lay.normals = np.tile([0.0, 0.0, -1.0], (n, 1))
+    lay.normals[:3] = [[1, 0, 0], [-1, 0, 0], [0.6, 0.8, 0]]
+    save(lay, tmp_path / "s.urdf", "urdf", parent="hand")
+    _, frames = frames_of(tmp_path / "s.urdf", "hand")
+    check_frames(frames, "hand", lay)
+
+
+def test_cli_export_mjcf_and_urdf(tmp_path, forearm_skin, capsys):
+    from vtcore.cli import main
+
+    _, patch = forearm_skin
+    save(patch, tmp_path / "p.json")
+    robot = robot_xml(tmp_path / "robot.xml", CYLINDER, SLIDE)
+    assert main(["layout", "export", str(tmp_path / "p.json"), "--format", "mjcf", "--model", str(robot),
+                 "--body", "forearm", "--footprint", "tile", "--out", str(tmp_path / "s.xml")]) == 0
+    assert "forearm_skin_" in (tmp_path / "s.xml").read_text()
+    assert main(["layout", "export", str(tmp_path / "p.json"), "--format", "urdf", "--parent", "l_forearm",
+                 "--out", str(tmp_path / "s.urdf")]) == 0
+    assert main(["layout", "export", str(tmp_path / "p.json"), "--format", "csv", "--body", "x",
+                 "--out", str(tmp_path / "s.csv")]) == 2
+    assert "--body: not an option of --format csv" in capsys.readouterr().err
+    assert not (tmp_path / "s.csv").exists()
