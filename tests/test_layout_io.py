@@ -304,6 +304,11 @@ def test_mjcf_sites_and_touch_sensors(tmp_path, curved):
     assert len(sites) == len(touch) == len(curved)
     assert {t.get("site") for t in touch} == {s.get("name") for s in sites}
     p = np.array([list(map(float, s.get("pos").split())) for s in sites])
+    np.testing.assert_allclose(p, curved.positions + 5e-4 * curved.normals, atol=1e-8)  # on its 1 mm pad
+    assert len(root.findall(".//geom")) == len(curved)  # the fragment's pads (it senses when attached)
+    save(curved, tmp_path / "bare.xml", "mjcf", pad=False)
+    sites = ET.parse(tmp_path / "bare.xml").getroot().findall(".//site")
+    p = np.array([list(map(float, s.get("pos").split())) for s in sites])
     np.testing.assert_allclose(p, curved.positions, atol=1e-8)
     with pytest.raises(InputError, match="cannot read"):
         load(tmp_path / "skin.xml", "mjcf")
