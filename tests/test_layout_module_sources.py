@@ -207,3 +207,16 @@ def test_scene_mirror_key(tmp_path):
         lays.append(build_layout(load_scene(f)))
     np.testing.assert_allclose(lays[1].positions[:, 0], -lays[0].positions[:, 0], atol=1e-12)
     assert lays[1].meta["module_mirror"] is True
+
+
+def test_icub10_positions_file_rows_are_slots(tmp_path):
+    """An icub10 layout written as an iCub positions file: row = triangle * 12 + slot (the iCub
+    numbering), thermal pads kept at slots 6 and 10, positions back within the file's precision."""
+    from vtcore.layout import save
+
+    lay = make_patch("strip:2", "icub10", mirror=True).flat_layout()
+    save(lay, tmp_path / "p.txt", "icub")
+    back = load(tmp_path / "p.txt", "icub")
+    np.testing.assert_array_equal(back.taxel_ids, np.arange(24))
+    np.testing.assert_allclose(back.positions, lay.positions, atol=1e-6)
+    assert set(np.flatnonzero(back.roles == "thermal")) == {6, 10, 18, 22}
