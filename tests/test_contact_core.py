@@ -354,7 +354,7 @@ def test_sparse_taxel_sampler_equals_bilinear_sampling_and_is_reused():
     that hang over the grid's border and taxels facing away, and be built once per layout."""
     from scipy.ndimage import map_coordinates
 
-    from vtcore.contact.press import ContactField, _SAMPLER_CACHE, disc_offsets, taxel_means, taxel_sampler
+    from vtcore.contact.grid import ContactField, _SAMPLER_CACHE, disc_offsets, taxel_means, taxel_sampler
 
     lay = _layout(radius=0.02)  # curved: some taxels face away from the grid normal
     rng = np.random.default_rng(4)

@@ -8,18 +8,19 @@ to a target, seed 000), the proximity back-ends (:func:`lower_envelope`,
 """
 
 from . import sensor
-from .elastic import MODELS, layer_factor, solve_pk
+from .elastic import MODELS, boussinesq_kernel, layer_factor, solve_pk
 from .analytic import footprint_pressure
 from .force import ProbeResult, probe, solve_monotone
 from .materials import MATERIALS, SoftLayer
 from .objects import make_object, placement_pose
-from .press import (ContactField, ContactGrid, PressResult, boussinesq_kernel, median_taxel_area, press,
-                    press_sequence, spread_field, spread_through_layer, taxel_means)
+from .finish import PressResult
+from .grid import ContactField, ContactGrid, spread_field, taxel_means
+from .press import press, press_sequence
 from .proximity import lower_envelope, prepare_mesh, signed_distance
 
 __all__ = [
     "SoftLayer", "MATERIALS", "footprint_pressure", "make_object", "placement_pose", "press", "press_sequence", "PressResult",
     "ContactGrid", "ContactField", "probe", "ProbeResult", "solve_monotone", "MODELS", "layer_factor",
     "solve_pk", "lower_envelope", "signed_distance", "prepare_mesh", "spread_field", "taxel_means", "sensor",
-    "spread_through_layer", "boussinesq_kernel", "median_taxel_area",
+    "boussinesq_kernel",
 ]

@@ -34,6 +34,12 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InputError, UnreachableTargetError
+from . import elastic
+from .finish import check_compression, finish_press, footprint, moved, press_frame, require_contact, \
+    travel_and_indentation
+from .grid import ContactField, digest, grid_cells
+from .proximity import envelope_posed
+from .roots import illinois
 
 _CACHE: dict = {}
 
@@ -87,15 +93,13 @@ def unrolled_skin(layout, h, layer_extent, grid, taxel_radius):
     """The contact grid on the layout's flat coordinates, cached per layout: cell centres ``x, y``,
     outer-surface points ``pts (mx, my, 3)``, normals ``nrm (mx, my, 3)``, outer-surface area per
     flat area ``area_factor (mx, my)`` and the ``skin`` mask (inside the layer's extent)."""
-    from .press import _digest, grid_cells
-
     if layout.flat is None:
         raise InputError("geometry = \"unrolled\" needs the layout's flat coordinates (Layout.flat)",
                          key="geometry")
     flat = np.asarray(layout.flat, float)
     pos = np.asarray(layout.positions, float)
     nrm = np.asarray(layout.normals, float)
-    key = (_digest(flat, pos, nrm), float(h), layer_extent, grid.spacing, grid.margin, grid.extent,
+    key = (digest(flat, pos, nrm), float(h), layer_extent, grid.spacing, grid.margin, grid.extent,
            float(taxel_radius))
     hit = _CACHE.get(key)
     if hit is not None:
@@ -141,35 +145,25 @@ def _local_force_travel(g, w, force):
     return float((force + S[m - 1]) / W[m - 1])
 
 
-def press_unrolled(layout, local, scene, pose, layer, *, force, indentation, direction, model, grid, spread,
-                   spreading, samples_per_taxel, taxel_radius, backend, warm_start, tol, maxiter):
+def press_unrolled(layout, local, scene, pose, layer, *, force, indentation, direction, model, compliance, grid,
+                   spread, spreading, samples_per_taxel, taxel_radius, backend, warm_start, tol, maxiter):
     """:func:`vtcore.contact.press` with ``geometry="unrolled"`` (arguments already checked)."""
-    from . import elastic
-    from .press import ContactField, PressResult, _envelope_posed, _frame, taxel_readings
-
     h = layer.thickness
     sk = unrolled_skin(layout, h, layer.extent, grid, taxel_radius)
-    u, n, e1, e2 = _frame(layout, direction)
+    u, n, e1, e2 = press_frame(layout, direction)
     pts, nr, dx = sk["pts"], sk["nrm"], grid.spacing
     c = np.einsum("xyi,i->xy", nr, n)  # cos of the tilt between cell normal and motion
     ok = sk["skin"] & (c > 0.1) & np.all(np.isfinite(pts), axis=-1)
     gap = np.full(c.shape, np.inf)
     # only cells under the object's footprint (projected along u) can meet it
-    from .press import _CORNERS
-
-    box = local.bounds[0] + _CORNERS * (local.bounds[1] - local.bounds[0])
-    box = box @ pose[:3, :3].T + pose[:3, 3]
-    b1, b2 = box @ e1, box @ e2
+    b1, b2 = footprint(local, pose, e1, e2)
     p1, p2 = np.einsum("xyi,i->xy", pts, e1), np.einsum("xyi,i->xy", pts, e2)  # einsum: no BLAS threads
     cand = ok & (p1 >= b1.min() - dx) & (p1 <= b1.max() + dx) & (p2 >= b2.min() - dx) & (p2 <= b2.max() + dx)
     if cand.any():
-        gap[cand] = _envelope_posed(pts[cand], n, local, scene, pose, backend)
+        gap[cand] = envelope_posed(pts[cand], n, local, scene, pose, backend)
     finite = np.isfinite(gap)
     gmin = float(gap[finite].min()) if finite.any() else np.inf
-    if force is not None and force > 0 and not finite.any():
-        raise UnreachableTargetError(
-            f"the object never meets the skin along the press direction {np.round(u, 3).tolist()}: "
-            f"no force can be reached (target {force} N)")
+    require_contact(finite, force, u)
     cell = dx * dx
     afac = sk["area_factor"]
     cf = np.where(finite, c, 0.0)
@@ -198,12 +192,13 @@ def press_unrolled(layout, local, scene, pose, layer, *, force, indentation, dir
         i0, j0 = max(i1 - bi, 0), max(j1 - bj, 0)
         win = (slice(i0, i1), slice(j0, j1))
         op = elastic.compliance_operator((i1 - i0, j1 - j0), dx, dx, layer, model)
-        state = {"p": None}
+        state = {"p": None, "pflat": None}
         if warm_start is not None and warm_start.field is not None and warm_start.field.domain == "flat" \
                 and warm_start.field.pressure.shape == gap.shape:
             state["p"] = (warm_start.field.pressure * afac)[win]
 
         def solve(d):
+            """Force (N) along the press after a travel d; keeps the pressure per flat area in state."""
             nonlocal iters, conv_ok
             sol = elastic.solve_pk(normal_gap(d)[win], op, cell, approach=0.0, p0=state["p"], tol=tol,
                                    maxiter=maxiter)
@@ -213,16 +208,17 @@ def press_unrolled(layout, local, scene, pose, layer, *, force, indentation, dir
             p[win] = sol.pressure            # force per flat area, along the cell normals
             if p.any():
                 state["p"] = sol.pressure
-            return p, float((p * cf).sum() * cell)
+            state["pflat"] = p
+            return float((p * cf).sum() * cell)
 
         if force is None:
             d = gmin + indentation if indentation is not None else 0.0
-            pflat, _ = solve(d)
+            solve(d)
         else:
             # the local model's travel is a bracket start; the elastic layer is stiffer or softer
             lo, f_lo = gmin, 0.0
             d = _local_force_travel(gap[finite], (layer.e_star / h * cf * cf * afac * cell)[finite], force)
-            pflat, f = solve(d)
+            f = solve(d)
             step = max(d - gmin, 1e-6)
             hi, f_hi = (d, f) if f >= force else (None, None)
             while hi is None:
@@ -232,59 +228,25 @@ def press_unrolled(layout, local, scene, pose, layer, *, force, indentation, dir
                 if d - gmin > 20 * h:
                     raise UnreachableTargetError(
                         f"{force} N not reached by a travel of {20 * h * 1e3:.3g} mm (model {model}, unrolled)")
-                pflat, f = solve(d)
+                f = solve(d)
                 if f >= force:
                     hi, f_hi = d, f
-            # Illinois (regula falsi with halving): F(d) is monotone and piecewise smooth
-            side = 0
-            for _ in range(60):
-                if abs(f - force) <= 1e-9 * force or hi - lo < 1e-13:
-                    break
-                d = (lo * (f_hi - force) - hi * (f_lo - force)) / (f_hi - f_lo)
-                pflat, f = solve(d)
-                if f < force:
-                    lo, f_lo = d, f
-                    if side == -1:
-                        f_hi = force + (f_hi - force) / 2
-                    side = -1
-                else:
-                    hi, f_hi = d, f
-                    if side == 1:
-                        f_lo = force + (f_lo - force) / 2
-                    side = 1
+            # F(d) is monotone and piecewise smooth; the last solve is at the returned d
+            d, f, _ = illinois(solve, force, lo, f_lo, hi, f_hi, ftol=1e-9 * force, xtol=1e-13, max_steps=60)
             if f > 0:
-                pflat = pflat * (force / f)  # removes the last 1e-9 of force mismatch
+                state["pflat"] = state["pflat"] * (force / f)  # removes the last 1e-9 of force mismatch
+        pflat = state["pflat"]
     pflat = np.where(np.isfinite(pflat) & (pflat > 0), pflat, 0.0)
     p = pflat / afac                          # pressure on the outer surface, Pa
-    total = float((pflat * cf).sum() * cell)  # force along the press direction, N
-    comp = np.where(p > 0, -normal_gap(d), 0.0)
-    max_c = float(comp.max()) if p.any() else 0.0
-    bottomed = max_c > h * (1 + 1e-9)
-    if force is not None and force > 0 and bottomed:
-        raise UnreachableTargetError(
-            f"{force} N would compress the {h * 1e3:.3g} mm layer by {max_c * 1e3:.3g} mm along its normal "
-            f"(model {model}, unrolled): the object bottoms out on the end-effector before reaching the target "
-            "force; use a thicker or stiffer layer or a lower force")
-    travel = float(d) if (force is not None or indentation is not None) and np.isfinite(d) else 0.0
-    new_pose = np.asarray(pose, float).copy()
-    new_pose[:3, 3] += travel * u
-    indent = max(travel - gmin, 0.0) if np.isfinite(gmin) else 0.0
-    if force is None and indentation is None and np.isfinite(gmin):
-        indent = max(-gmin, 0.0)
+    max_c, bottomed = check_compression(np.where(p > 0, -normal_gap(d), 0.0), h, force, model,
+                                        where=" along its normal (unrolled)")
+    travel, indent = travel_and_indentation(d, gmin, force, indentation)
     fld = ContactField(sk["x"], sk["y"], np.zeros(3), np.array([1.0, 0, 0]), np.array([0, 1.0, 0]), n,
                        np.zeros_like(gap), np.where(finite, normal_gap(travel), np.inf), p, thickness=h,
                        domain="flat", points_3d=pts)
-    surf, taxel = taxel_readings(layout, fld, p, layer, spread, spreading, samples_per_taxel, taxel_radius)
-    cpt = np.full(3, np.nan)
-    cpt_obj = np.full(3, np.nan)
-    if total > 0:
-        on = p > 0
-        wgt = pflat[on] * cf[on]
-        cpt = np.einsum("m,mi->i", wgt, pts[on]) / wgt.sum()
-        cpt_obj = new_pose[:3, :3].T @ (cpt - new_pose[:3, 3])
-    return PressResult(
-        pressure=taxel, surface_pressure=surf, force=total, indentation=indent,
-        contact_area=float(afac[p > 0].sum() * cell), pose=new_pose,
-        travel=travel, displacement=indent, object_deflection=0.0, bottomed_out=bool(bottomed),
-        max_compression=max_c, model=model, iterations=iters, converged=bool(conv_ok), direction=u, field=fld,
-        spread=spread, contact_point=cpt, contact_point_object=cpt_obj)
+    return finish_press(layout, fld, pflat * cf, pts, pose=moved(pose, travel, u), u=u, layer=layer,
+                        force=float((pflat * cf).sum() * cell), indent=indent, travel=travel,
+                        contact_area=float(afac[p > 0].sum() * cell), max_compression=max_c, bottomed=bottomed,
+                        model=model, iterations=iters, converged=conv_ok, spread=spread, spreading=spreading,
+                        samples_per_taxel=samples_per_taxel, taxel_radius=taxel_radius, compliance=compliance,
+                        local=local)

@@ -17,7 +17,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError, UnreachableTargetError
-from .press import PressResult, press
+from .finish import PressResult
+from .press import press
+from .roots import illinois
 from .sensor import gain as _gain
 
 DEFAULT_COUNTS_PER_PA = 0.1
@@ -93,33 +95,8 @@ def solve_monotone(fn, target, x0=1.0, x_max=1e3, rtol=1e-3, max_steps=60):
             f"target {target:g} not reachable: the response reaches only {best:.6g} at {lo:.4g}{why}")
     if f_lo is None:
         f_lo = 0.0
-    side = 0
-    x, fx = hi, f_hi
-    while abs(fx - target) > rtol * abs(target) and steps < max_steps:
-        # Illinois regula falsi on [lo, hi]: always inside the bracket
-        if f_hi == f_lo:
-            x = 0.5 * (lo + hi)
-        else:
-            x = hi - (f_hi - target) * (hi - lo) / (f_hi - f_lo)
-            if not lo < x < hi:
-                x = 0.5 * (lo + hi)
-        steps += 1
-        try:
-            fx = float(fn(x))
-        except UnreachableTargetError:
-            hi, f_hi = x, np.inf
-            x = 0.5 * (lo + x)
-            continue
-        if fx >= target:
-            hi, f_hi = x, fx
-            if side == 1:
-                f_lo = target + (f_lo - target) / 2
-            side = 1
-        else:
-            lo, f_lo = x, fx
-            if side == -1:
-                f_hi = target + (f_hi - target) / 2
-            side = -1
+    x, fx, steps = illinois(fn, target, lo, f_lo, hi, f_hi, ftol=rtol * abs(target), max_steps=max_steps,
+                            steps=steps)
     if abs(fx - target) > rtol * abs(target):
         raise UnreachableTargetError(f"target {target:g} not met within {max_steps} steps (last {fx:.6g})")
     return x, fx, steps

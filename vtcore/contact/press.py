@@ -24,150 +24,18 @@ there and in docs/contact.md).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from dataclasses import field as dc_field
-
 import numpy as np
 
-from ..errors import InputError, UnreachableTargetError
-from ..geometry import tangent_basis
+from ..errors import InputError
 from . import elastic
+from .curved import press_unrolled
+from .finish import (PressResult, check_compression, finish_press, footprint, moved, press_frame, require_contact,
+                     travel_and_indentation)
+from .grid import TAXEL_RADIUS, ContactField, ContactGrid, digest, grid_cells
 from .materials import SoftLayer
-from .proximity import lower_envelope, prepare_mesh
+from .proximity import envelope_posed, prepared_mesh
 
-TAXEL_RADIUS = 2e-3  # m, CySkin taxels are 4 mm discs (seed 000, 001)
 GEOMETRIES = ("plane", "unrolled")
-
-
-@dataclass
-class ContactGrid:
-    """Resolution and extent of the contact grid on the skin's outer surface.
-
-    spacing : m, cell size. margin : m of skin simulated beyond the outermost
-    taxel discs. extent : m or None, radius of the layer around the patch centre
-    (e.g. 0.04 for seed 001's 80 mm disc); None: the taxels' bounding box + margin.
-    """
-
-    spacing: float = 1e-3
-    margin: float = 4e-3
-    extent: float | None = None
-
-    def __post_init__(self):
-        for k in ("spacing", "margin"):
-            v = float(getattr(self, k))
-            if not (v > 0 if k == "spacing" else v >= 0) or not np.isfinite(v):
-                raise InputError(f"must be {'> 0' if k == 'spacing' else '>= 0'} m, got {v}", key=f"grid.{k}")
-            setattr(self, k, v)
-        if self.extent is not None and not float(self.extent) > 0:
-            raise InputError(f"must be > 0 m, got {self.extent}", key="grid.extent")
-
-
-@dataclass
-class ContactField:
-    """The contact on the grid: everything needed to re-read or re-spread it.
-
-    x (mx,), y (my,) : m, cell centres along e1, e2. origin (3,) m; e1, e2, n (3,):
-    the grid frame (n = -press direction). surface (mx, my) : m, height of the
-    layer's outer surface along n. gap (mx, my) : m, object above the surface
-    along n at the solution pose before deformation (inf: no object; negative:
-    interference). pressure (mx, my) : Pa on the surface. stress (mx, my) or None :
-    Pa at depth h. thickness : m, the layer's (taxels are read below the surface point
-    above them along their normal).
-    """
-
-    x: np.ndarray
-    y: np.ndarray
-    origin: np.ndarray
-    e1: np.ndarray
-    e2: np.ndarray
-    n: np.ndarray
-    surface: np.ndarray
-    gap: np.ndarray
-    pressure: np.ndarray
-    stress: np.ndarray | None = None
-    thickness: float = 0.0
-    #: "plane": x, y are coordinates on the plane normal to the press direction (e1, e2, origin);
-    #: "flat": x, y are the layout's flat (unrolled) coordinates, see vtcore.contact.curved
-    domain: str = "plane"
-    #: (mx, my, 3) m, the outer-surface points (flat domain; None: derived from the plane)
-    points_3d: np.ndarray | None = None
-
-    @property
-    def spacing(self) -> float:
-        return float(self.x[1] - self.x[0]) if len(self.x) > 1 else 0.0
-
-    def points(self) -> np.ndarray:
-        """(mx, my, 3) m, the grid's points on the layer's outer surface."""
-        if self.points_3d is not None:
-            return self.points_3d
-        X, Y = np.meshgrid(self.x, self.y, indexing="ij")
-        return (self.origin + X[..., None] * self.e1 + Y[..., None] * self.e2
-                + self.surface[..., None] * self.n)
-
-    def taxel_xy(self, layout) -> np.ndarray:
-        """(N, 2) m, where each taxel's disc centre lies in the grid's (x, y) coordinates: its flat
-        coordinates in the flat domain, else the projection of the point above it on the outer surface."""
-        if self.domain == "flat":
-            return np.asarray(layout.flat, float)
-        rel = np.asarray(layout.positions, float) + self.thickness * np.asarray(layout.normals, float) - self.origin
-        return np.column_stack([rel @ self.e1, rel @ self.e2])
-
-
-@dataclass
-class PressResult:
-    """Outcome of one press.
-
-    pressure : (N,) Pa, stress at the taxels (base of the layer), mean over each
-        taxel's disc (after spreading through the layer when ``spread=True``;
-        equal to ``surface_pressure`` otherwise).
-    surface_pressure : (N,) Pa on the layer's outer surface above each taxel (disc mean).
-    force : N, total normal force. indentation : m, travel of the object beyond first
-        contact. contact_area : m^2. pose : (4, 4), the object's pose at the solution.
-    travel : m, distance moved along ``direction`` from the given pose.
-    displacement : m, end-effector displacement from first contact, = indentation +
-        the object's own deflection (object compliance; seed 000 Eq. 1).
-    bottomed_out : bool, the layer would be compressed by more than its thickness.
-    max_compression : m. model : str. iterations, converged : solver report.
-    field : ContactField on the grid. contact_point, contact_point_object : (3,) m,
-    the force-weighted centre of the contact in the end-effector / object frame (NaN without contact).
-    """
-
-    pressure: np.ndarray
-    surface_pressure: np.ndarray
-    force: float
-    indentation: float
-    contact_area: float
-    pose: np.ndarray
-    travel: float = 0.0
-    displacement: float = 0.0
-    object_deflection: float = 0.0
-    bottomed_out: bool = False
-    max_compression: float = 0.0
-    model: str = "finite_layer"
-    iterations: int = 0
-    converged: bool = True
-    direction: np.ndarray = dc_field(default_factory=lambda: np.array([0.0, 0.0, -1.0]))
-    field: ContactField | None = None
-    spread: bool = True
-    contact_point: np.ndarray = dc_field(default_factory=lambda: np.full(3, np.nan))
-    contact_point_object: np.ndarray = dc_field(default_factory=lambda: np.full(3, np.nan))
-
-
-def _frame(layout, direction):
-    nrm = np.asarray(layout.normals, float)
-    if direction is None:
-        m = nrm.mean(axis=0)
-        if np.linalg.norm(m) < 1e-9:
-            raise InputError("taxel normals cancel out; give the press direction explicitly", key="direction")
-        u = -m / np.linalg.norm(m)
-    else:
-        u = np.asarray(direction, float).reshape(3)
-        if not np.all(np.isfinite(u)) or np.linalg.norm(u) < 1e-12:
-            raise InputError(f"must be a non-zero 3-vector, got {direction}", key="direction")
-        u = u / np.linalg.norm(u)
-    n = -u
-    e1, e2 = tangent_basis(n)
-    return u, n, e1, e2
 
 
 def _surface_height(xy, z, X, Y):
@@ -192,267 +60,18 @@ def _surface_height(xy, z, X, Y):
     return base
 
 
-def disc_offsets(samples: int, radius: float = TAXEL_RADIUS) -> np.ndarray:
-    """(S, 2) m, ``samples`` points covering a disc evenly (the centre, then a sunflower spiral)."""
-    if samples < 1:
-        raise InputError(f"must be >= 1, got {samples}", key="samples_per_taxel")
-    if samples == 1:
-        return np.zeros((1, 2))
-    k = np.arange(samples)
-    r = radius * np.sqrt((k + 0.5) / samples)
-    a = k * np.pi * (3 - np.sqrt(5))
-    return np.column_stack([r * np.cos(a), r * np.sin(a)])
-
-
-def _sample(field_xy, values, x, y):
-    """Bilinear interpolation of cell-centred ``values`` (mx, my) at points (..., 2); 0 outside."""
-    from scipy.ndimage import map_coordinates
-
-    dx = x[1] - x[0] if len(x) > 1 else 1.0
-    dy = y[1] - y[0] if len(y) > 1 else 1.0
-    ci = (field_xy[..., 0] - x[0]) / dx
-    cj = (field_xy[..., 1] - y[0]) / dy
-    return map_coordinates(values, [ci.ravel(), cj.ravel()], order=1, mode="constant", cval=0.0).reshape(ci.shape)
-
-
-def _bilinear_matrix(field_xy, x, y, weights=None):
-    """Sparse (M, mx*my) matrix of :func:`_sample`'s bilinear interpolation (zero outside, as
-    ``map_coordinates(order=1, mode="constant")``), so a fixed set of points is read from any
-    field with one sparse product instead of re-deriving the weights per frame.
-
-    field_xy : (M, S, 2) m, S points per row averaged with ``weights`` (S,) (default: uniform).
-    """
-    from scipy.sparse import csr_matrix
-
-    m, k = field_xy.shape[:2]
-    mx, my = len(x), len(y)
-    dx = x[1] - x[0] if mx > 1 else 1.0
-    dy = y[1] - y[0] if my > 1 else 1.0
-    ci = (field_xy[..., 0] - x[0]) / dx
-    cj = (field_xy[..., 1] - y[0]) / dy
-    # mode="constant": a point outside [0, n - 1] in either index reads 0 (no partial cells)
-    valid = (ci >= 0) & (ci <= mx - 1) & (cj >= 0) & (cj <= my - 1)
-    i0 = np.clip(np.floor(ci), 0, max(mx - 2, 0))
-    j0 = np.clip(np.floor(cj), 0, max(my - 2, 0))
-    fi, fj = ci - i0, cj - j0
-    w = np.full(k, 1.0 / k) if weights is None else np.asarray(weights, float)
-    rows, cols, vals = [], [], []
-    row = np.broadcast_to(np.arange(m)[:, None], (m, k))
-    for di, wi in ((0, 1 - fi), (1, fi)):
-        for dj, wj in ((0, 1 - fj), (1, fj)):
-            ii, jj = (i0 + di).astype(np.int64), (j0 + dj).astype(np.int64)
-            ok = valid & (ii < mx) & (jj < my) & (wi * wj != 0)
-            rows.append(row[ok])
-            cols.append(ii[ok] * my + jj[ok])
-            vals.append((wi * wj * w[None, :])[ok])
-    a = csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(m, mx * my))
-    a.sum_duplicates()
-    return a
-
-
-_SAMPLER_CACHE: dict = {}
-
-
-def taxel_sampler(layout, fld: ContactField, samples_per_taxel=7, radius=TAXEL_RADIUS):
-    """Sparse (N, mx*my) matrix that averages a grid field over each taxel's disc (zero rows for
-    taxels facing away), cached per layout, grid and sampling: built once along a trajectory."""
-    pos = np.asarray(layout.positions, float)
-    nrm = np.asarray(layout.normals, float)
-    flat = fld.domain == "flat"
-    key = (_digest(pos, nrm, fld.origin, fld.e1, fld.e2, fld.n, *([layout.flat] if flat else [])), fld.domain,
-           float(fld.x[0]), float(fld.y[0]), len(fld.x), len(fld.y), fld.spacing, float(fld.thickness),
-           int(samples_per_taxel), float(radius))
-    a = _SAMPLER_CACHE.get(key)
-    if a is None:
-        pts = fld.taxel_xy(layout)[:, None, :] + disc_offsets(samples_per_taxel, radius)[None, :, :]
-        a = _bilinear_matrix(pts, fld.x, fld.y)
-        # on the plane, taxels facing away have no point above them; in the flat domain every
-        # taxel has its own patch of the layer
-        facing = nrm @ fld.n > 0.1 if not flat else np.ones(len(pos), bool)
-        if not facing.all():
-            from scipy.sparse import diags
-
-            a = (diags(facing.astype(float)) @ a).tocsr()
-            a.eliminate_zeros()
-        if len(_SAMPLER_CACHE) > 32:
-            _SAMPLER_CACHE.clear()
-        _SAMPLER_CACHE[key] = a
-    return a
-
-
-def taxel_means(layout, fld: ContactField, values, samples_per_taxel=7, radius=TAXEL_RADIUS):
-    """Mean of a grid field (mx, my) over each taxel's disc -> (N,). Taxels facing away read 0.
-
-    The disc is sampled at ``samples_per_taxel`` points (:func:`disc_offsets`) around the point
-    below the taxel on the layer's outer surface, bilinearly (zero outside the grid).
-    """
-    a = taxel_sampler(layout, fld, samples_per_taxel, radius)
-    return a @ np.asarray(values, float).ravel()
-
-
-def taxel_readings(layout, fld: ContactField, surface_pressure, layer, spread: bool, spreading: str,
-                   samples_per_taxel: int, radius: float):
-    """Per-taxel ``(surface, taxel)`` pressures (N,) Pa: the surface pressure over each taxel disc,
-    and (when ``spread``) the stress carried through the layer to it, else a copy of the surface's.
-    Sets ``fld.stress`` when spreading."""
-    surf = taxel_means(layout, fld, surface_pressure, samples_per_taxel, radius)
-    if not spread:
-        return surf, surf.copy()
-    fld.stress = spread_field(fld, layer, spreading)
-    return surf, taxel_means(layout, fld, fld.stress, samples_per_taxel, radius)
-
-
-def spread_field(fld: ContactField, layer, spreading: str = "layer") -> np.ndarray:
-    """Stress (Pa) at the layer's base under the surface pressure of ``fld``.
-
-    layer : SoftLayer (or a thickness in metres, then Boussinesq is used).
-    spreading : "layer" (exact base stress of the layer on its rigid base) or
-    "boussinesq" (half-space stress at depth h).
-    """
-    if not isinstance(layer, SoftLayer):
-        h, nu, base, spreading = float(layer), 0.49, "bonded", "boussinesq"
-    else:
-        h, nu, base = layer.thickness, layer.poisson, layer.base
-    if h <= 0:
-        return fld.pressure.copy()
-    dx = fld.spacing or 1.0
-    op = elastic.spreading_operator(fld.pressure.shape, dx, dx, h, spreading, nu, base)
-    return op(fld.pressure)
-
-
-def _object_stiffness(compliance, mesh_local, pose, point_world):
-    """Stiffness (N/m) of the object at a contact point; None when no compliance is given."""
-    if compliance is None:
-        return None
-    inv = np.linalg.inv(pose)
-    p_obj = inv[:3, :3] @ point_world + inv[:3, 3]
-    if callable(compliance):
-        k = float(np.asarray(compliance(p_obj[None, :]), float).reshape(-1)[0])
-    elif np.ndim(compliance) == 0:
-        k = float(compliance)
-    else:
-        vals = np.asarray(compliance, float).reshape(-1)
-        if len(vals) != len(mesh_local.vertices):
-            raise InputError(f"per-vertex compliance has {len(vals)} values but the mesh has "
-                             f"{len(mesh_local.vertices)} vertices", key="compliance")
-        from scipy.spatial import cKDTree
-
-        _, i = cKDTree(np.asarray(mesh_local.vertices, float)).query(p_obj, k=min(4, len(vals)))
-        k = float(np.mean(vals[np.atleast_1d(i)]))
-    if not (k > 0 and np.isfinite(k)):
-        raise InputError(f"object stiffness must be > 0 N/m, got {k}", key="compliance")
-    return k
-
-
-# --- caches: what stays fixed along a trajectory is built once ---------------------------
-
-_CORNERS = np.array([[a, b, c] for a in (0, 1) for b in (0, 1) for c in (0, 1)], float)
-_MESH_CACHE: dict = {}
 _SKIN_CACHE: dict = {}
-
-
-def _digest(*arrays) -> int:
-    import zlib
-
-    c = 0
-    for a in arrays:
-        a = np.ascontiguousarray(a)
-        c = zlib.crc32(a.view(np.uint8).reshape(-1), c)
-        c = zlib.crc32(str(a.shape).encode(), c)
-    return c
-
-
-def _prepared(mesh, open_mesh):
-    """(checked float64 mesh, lazily built open3d scene holder) for ``mesh``, cached by content."""
-    try:  # trimesh keeps a content hash that is cached until the arrays change: ~10 us
-        content = hash(mesh)
-    except TypeError:
-        content = _digest(np.asarray(mesh.vertices), np.asarray(mesh.faces))
-    key = (id(mesh), content, open_mesh)
-    hit = _MESH_CACHE.get(key)
-    if hit is None:
-        if len(_MESH_CACHE) > 16:
-            _MESH_CACHE.clear()
-        hit = (prepare_mesh(mesh, open_mesh=open_mesh), {})
-        _MESH_CACHE[key] = hit
-    return hit
-
-
-def _envelope_posed(points, n, local, scene, pose, backend):
-    """lower_envelope of the posed mesh, computed in the object's frame (distances are rigid-invariant),
-    so the object's BVH is built once per mesh, not once per pose."""
-    from .proximity import default_backend
-
-    r, t = pose[:3, :3], pose[:3, 3]
-    # einsum, not @: OpenBLAS threads a (M, 3) x (3, 3) product for large M and its idle
-    # threads then spin, doubling the CPU time on a shared machine for no gain
-    p_obj = np.einsum("mi,ij->mj", np.asarray(points, float) - t, r)
-    n_obj = np.asarray(n, float) @ r
-    backend = backend or default_backend()
-    if backend == "open3d":
-        return _envelope_open3d(p_obj, n_obj, local, scene)
-    return lower_envelope(p_obj, n_obj, local, backend)
-
-
-def _envelope_open3d(pts, n, local, holder):
-    import open3d as o3d
-
-    if "scene" not in holder:
-        v = np.asarray(local.vertices, float)
-        f = np.asarray(local.faces, np.int64)
-        o = v.mean(axis=0)
-        sc = o3d.t.geometry.RaycastingScene()
-        sc.add_triangles(o3d.core.Tensor((v - o).astype(np.float32)), o3d.core.Tensor(f.astype(np.uint32)))
-        tri = v[f]
-        holder.update(scene=sc, o=o, tri=tri, nrm=np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]),
-                      radius=float(np.linalg.norm(v - o, axis=1).max()))
-    o = holder["o"]
-    n = n / np.linalg.norm(n)
-    pl = pts - o
-    # start every ray below the mesh's bounding sphere (any start below the mesh is exact: t is
-    # recomputed in float64 from the hit triangle's plane); cheaper than projecting the vertices
-    start = max(0.0, float(np.einsum("mi,i->m", pl, n).max()) + holder["radius"]) + 1e-3
-    rays = np.hstack([pl - start * n, np.broadcast_to(n, pl.shape)]).astype(np.float32)
-    # few rays (a footprint of a few thousand cells): one thread; waking open3d's pool costs more
-    # than the casting on a loaded machine (0.9 ms wall for 0.2 ms of work at 350 rays)
-    ans = holder["scene"].cast_rays(o3d.core.Tensor(rays), nthreads=1 if len(rays) < 20000 else 0)
-    hit = ans["t_hit"].numpy().astype(np.float64)
-    out = np.full(len(pts), np.inf)
-    ok = np.isfinite(hit)
-    if ok.any():
-        prim = ans["primitive_ids"].numpy().astype(np.int64)[ok]
-        nrm, a = holder["nrm"][prim], holder["tri"][prim, 0]
-        den = np.einsum("mi,i->m", nrm, n)
-        good = np.abs(den) > 1e-30
-        exact = np.einsum("ij,ij->i", nrm, a - pts[ok]) / np.where(good, den, 1.0)
-        out[ok] = np.where(good, exact, hit[ok] - start)  # float64 plane intersection
-    return out
-
-
-def grid_cells(lo, hi, dx):
-    """Cell centres ``X, Y`` (mx, my) metres of a grid of spacing ``dx`` covering [lo, hi] (2,).
-
-    An even number of cells centred on the box: cell centres sit half a cell off the
-    box's axes, so the edges of objects centred on the patch fall between cells.
-    """
-    mx, my = 2 * np.ceil((np.asarray(hi) - np.asarray(lo)) / (2 * dx)).astype(int)
-    if mx * my > 4_000_000:
-        raise InputError(f"grid of {mx} x {my} cells is too large; increase grid.spacing", key="grid.spacing")
-    cx, cy = (np.asarray(lo) + np.asarray(hi)) / 2
-    xs = cx + dx * (np.arange(mx) - (mx - 1) / 2)
-    ys = cy + dx * (np.arange(my) - (my - 1) / 2)
-    return np.meshgrid(xs, ys, indexing="ij")
 
 
 def _skin_grid(layout, h, layer_extent, direction, grid, taxel_radius):
     """The grid on the layer's outer surface (frame, cells, surface heights), cached per layout."""
-    key = (_digest(np.asarray(layout.positions, float), np.asarray(layout.normals, float)), float(h),
+    key = (digest(np.asarray(layout.positions, float), np.asarray(layout.normals, float)), float(h),
            layer_extent, None if direction is None else tuple(np.asarray(direction, float).ravel()),
            grid.spacing, grid.margin, grid.extent, float(taxel_radius))
     hit = _SKIN_CACHE.get(key)
     if hit is not None:
         return hit
-    u, n, e1, e2 = _frame(layout, direction)
+    u, n, e1, e2 = press_frame(layout, direction)
     pos = np.asarray(layout.positions, float)
     nrm = np.asarray(layout.normals, float)
     outer = pos + h * nrm
@@ -536,27 +155,19 @@ def press(layout, mesh, pose, layer: SoftLayer, *, force=None, indentation=None,
         raise InputError("pose has non-finite entries", key="pose")
     if geometry not in GEOMETRIES:
         raise InputError(f"geometry must be one of {', '.join(GEOMETRIES)}, got {geometry!r}", key="geometry")
-    local, scene = _prepared(mesh, open_mesh)
+    local, scene = prepared_mesh(mesh, open_mesh)
     if geometry == "unrolled":
-        from .curved import press_unrolled
-
-        res = press_unrolled(layout, local, scene, pose, layer, force=force, indentation=indentation,
-                             direction=direction, model=model, grid=grid, spread=spread, spreading=spreading,
-                             samples_per_taxel=samples_per_taxel, taxel_radius=taxel_radius, backend=backend,
-                             warm_start=warm_start, tol=tol, maxiter=maxiter)
-        if compliance is not None and res.force > 0:
-            res.object_deflection = res.force / _object_stiffness(compliance, local, res.pose, res.contact_point)
-            res.displacement = res.indentation + res.object_deflection
-        return res
+        return press_unrolled(layout, local, scene, pose, layer, force=force, indentation=indentation,
+                              direction=direction, model=model, compliance=compliance, grid=grid, spread=spread,
+                              spreading=spreading, samples_per_taxel=samples_per_taxel, taxel_radius=taxel_radius,
+                              backend=backend, warm_start=warm_start, tol=tol, maxiter=maxiter)
     sk = _skin_grid(layout, h, layer.extent, direction, grid, taxel_radius)
     u, n, e1, e2, origin = sk["u"], sk["n"], sk["e1"], sk["e2"], sk["origin"]
     xs, ys, S, dx = sk["x"], sk["y"], sk["S"], grid.spacing
     gap = np.full(S.shape, np.inf)
     # only cells under the object's footprint can meet it: cast rays there alone (a window of
     # the regular grid, found by bisection rather than comparing every cell)
-    box = local.bounds[0] + _CORNERS * (local.bounds[1] - local.bounds[0])
-    box = box @ pose[:3, :3].T + pose[:3, 3] - origin
-    bx, by = box @ e1, box @ e2
+    bx, by = footprint(local, pose, e1, e2, origin)
     wx = slice(int(np.searchsorted(xs, bx.min() - dx, side="left")),
                int(np.searchsorted(xs, bx.max() + dx, side="right")))
     wy = slice(int(np.searchsorted(ys, by.min() - dx, side="left")),
@@ -564,7 +175,7 @@ def press(layout, mesh, pose, layer: SoftLayer, *, force=None, indentation=None,
     win = sk["skin"][wx, wy]
     if win.any():
         sub = np.full(win.shape, np.inf)
-        sub[win] = _envelope_posed(sk["pts"][wx, wy][win], n, local, scene, pose, backend)
+        sub[win] = envelope_posed(sk["pts"][wx, wy][win], n, local, scene, pose, backend)
         gap[wx, wy] = sub
     finite = np.isfinite(gap)
     area = dx * dx
@@ -572,10 +183,7 @@ def press(layout, mesh, pose, layer: SoftLayer, *, force=None, indentation=None,
 
     fld = ContactField(xs, ys, origin, e1, e2, n, S, gap, np.zeros_like(gap), thickness=h)
     gmin = float(gap[finite].min()) if finite.any() else np.inf
-    if force is not None and force > 0 and not finite.any():
-        raise UnreachableTargetError(
-            f"the object never meets the skin along the press direction {np.round(u, 3).tolist()}: "
-            f"no force can be reached (target {force} N)")
+    require_contact(finite, force, u)
 
     # --- contact solve -----------------------------------------------------------
     iters, conv_ok = 0, True
@@ -627,42 +235,15 @@ def press(layout, mesh, pose, layer: SoftLayer, *, force=None, indentation=None,
             thresh = d + 2 * dx + (d - gmin)
     p = np.where(np.isfinite(p) & (p > 0), p, 0.0)
     fld.pressure = p
-    total = float(p.sum() * area)
-    compress = np.where(p > 0, d - np.where(finite, gap, d), 0.0)
-    max_c = float(compress.max()) if p.any() else 0.0
-    bottomed = max_c > h * (1 + 1e-9)
-    if force is not None and force > 0 and bottomed:
-        raise UnreachableTargetError(
-            f"{force} N would compress the {h * 1e3:.3g} mm layer by {max_c * 1e3:.3g} mm (model {model}): "
-            "the object bottoms out on the end-effector before reaching the target force; use a thicker or "
-            "stiffer layer or a lower force (docs/contact.md, 'The mug rim at 15 N')")
-    travel = float(d) if np.isfinite(d) else 0.0
-    if force is None and indentation is None:
-        travel = 0.0
-    new_pose = pose.copy()
-    new_pose[:3, 3] += travel * u
+    max_c, bottomed = check_compression(np.where(p > 0, d - np.where(finite, gap, d), 0.0), h, force, model)
+    travel, indent = travel_and_indentation(d, gmin, force, indentation)
     fld.gap = np.where(finite, gap - travel, np.inf)
-    indent = max(travel - gmin, 0.0) if np.isfinite(gmin) else 0.0
-    if force is None and indentation is None and np.isfinite(gmin):
-        indent = max(-gmin, 0.0)
-    surf, taxel = taxel_readings(layout, fld, p, layer, spread, spreading, samples_per_taxel, taxel_radius)
-    defl = 0.0
-    cpt = np.full(3, np.nan)
-    cpt_obj = np.full(3, np.nan)
-    if total > 0:
-        on = p > 0  # the contact cells only: the grid can be large and the contact small
-        cpt = np.einsum("m,mi->i", p[on], sk["pts"][on]) / p[on].sum()
-        r_, t_ = new_pose[:3, :3], new_pose[:3, 3]
-        cpt_obj = r_.T @ (cpt - t_)  # rigid inverse
-    if compliance is not None and total > 0:
-        k_obj = _object_stiffness(compliance, local, new_pose, cpt)
-        defl = total / k_obj
-    return PressResult(
-        pressure=taxel, surface_pressure=surf, force=total, indentation=indent,
-        contact_area=float((p > 0).sum() * area), pose=new_pose, travel=travel,
-        displacement=indent + defl, object_deflection=defl, bottomed_out=bool(bottomed),
-        max_compression=max_c, model=model, iterations=iters, converged=bool(conv_ok),
-        direction=u, field=fld, spread=spread, contact_point=cpt, contact_point_object=cpt_obj)
+    return finish_press(layout, fld, p, sk["pts"], pose=moved(pose, travel, u), u=u, layer=layer,
+                        force=float(p.sum() * area), indent=indent, travel=travel,
+                        contact_area=float((p > 0).sum() * area), max_compression=max_c, bottomed=bottomed,
+                        model=model, iterations=iters, converged=conv_ok, spread=spread, spreading=spreading,
+                        samples_per_taxel=samples_per_taxel, taxel_radius=taxel_radius, compliance=compliance,
+                        local=local)
 
 
 def press_sequence(layout, mesh, poses, layer: SoftLayer, *, force=None, indentation=None, **kw):
@@ -682,32 +263,3 @@ def press_sequence(layout, mesh, poses, layer: SoftLayer, *, force=None, indenta
         prev = press(layout, mesh, poses[i], layer, force=fs[i], indentation=ds[i], warm_start=prev, **kw)
         out.append(prev)
     return out
-
-
-# --- foundation helpers, kept for callers of the first skeleton -------------------------
-
-def boussinesq_kernel(r: np.ndarray, h: float) -> np.ndarray:
-    """Vertical stress at depth h under a unit point load at radial distance r (1/m^2)."""
-    return elastic.boussinesq_kernel(r, h)
-
-
-def spread_through_layer(positions, surface_pressure, thickness, taxel_area):
-    """Stress reaching the taxels at depth ``thickness`` from per-taxel surface pressure (dense Boussinesq).
-
-    positions : (N, 3) metres. surface_pressure : (N,) or (T, N) pascals. Returns the same shape.
-    """
-    p = np.asarray(positions, float)
-    q = np.asarray(surface_pressure, float)
-    if thickness <= 0:
-        return q.copy()
-    r = np.linalg.norm(p[:, None, :] - p[None, :, :], axis=-1)
-    kernel = boussinesq_kernel(r, thickness) * taxel_area
-    return q @ kernel.T
-
-
-def median_taxel_area(positions) -> float:
-    """Skin area (m^2) one taxel stands for on a triangular lattice of its median spacing."""
-    from scipy.spatial import cKDTree
-
-    d, _ = cKDTree(positions).query(positions, k=2)
-    return float(np.sqrt(3) / 2 * np.median(d[:, 1]) ** 2)

@@ -32,6 +32,7 @@ from scipy.spatial import cKDTree
 
 from ..errors import FormatError, InputError
 from ..geometry import closest_point_on_triangles, tangent_basis
+from .grid import digest
 
 BACKENDS = ("open3d", "numpy")
 #: How open meshes are treated: refuse them, close their holes, or use only the
@@ -228,3 +229,74 @@ def signed_distance(points, mesh, backend: str | None = None) -> np.ndarray:
     crossings = np.bincount(hp[ht > 0], minlength=len(pts))
     inside = crossings % 2 == 1
     return np.where(inside, dist, -dist)
+
+
+# --- the posed object, cached along a trajectory ----------------------------------------
+
+_MESH_CACHE: dict = {}
+
+
+def prepared_mesh(mesh, open_mesh):
+    """(checked float64 mesh, lazily built open3d scene holder) for ``mesh``, cached by content."""
+    try:  # trimesh keeps a content hash that is cached until the arrays change: ~10 us
+        content = hash(mesh)
+    except TypeError:
+        content = digest(np.asarray(mesh.vertices), np.asarray(mesh.faces))
+    key = (id(mesh), content, open_mesh)
+    hit = _MESH_CACHE.get(key)
+    if hit is None:
+        if len(_MESH_CACHE) > 16:
+            _MESH_CACHE.clear()
+        hit = (prepare_mesh(mesh, open_mesh=open_mesh), {})
+        _MESH_CACHE[key] = hit
+    return hit
+
+
+def envelope_posed(points, n, local, scene, pose, backend):
+    """lower_envelope of the posed mesh, computed in the object's frame (distances are rigid-invariant),
+    so the object's BVH is built once per mesh, not once per pose."""
+    r, t = pose[:3, :3], pose[:3, 3]
+    # einsum, not @: OpenBLAS threads a (M, 3) x (3, 3) product for large M and its idle
+    # threads then spin, doubling the CPU time on a shared machine for no gain
+    p_obj = np.einsum("mi,ij->mj", np.asarray(points, float) - t, r)
+    n_obj = np.asarray(n, float) @ r
+    backend = backend or default_backend()
+    if backend == "open3d":
+        return _envelope_open3d(p_obj, n_obj, local, scene)
+    return lower_envelope(p_obj, n_obj, local, backend)
+
+
+def _envelope_open3d(pts, n, local, holder):
+    import open3d as o3d
+
+    if "scene" not in holder:
+        v = np.asarray(local.vertices, float)
+        f = np.asarray(local.faces, np.int64)
+        o = v.mean(axis=0)
+        sc = o3d.t.geometry.RaycastingScene()
+        sc.add_triangles(o3d.core.Tensor((v - o).astype(np.float32)), o3d.core.Tensor(f.astype(np.uint32)))
+        tri = v[f]
+        holder.update(scene=sc, o=o, tri=tri, nrm=np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]),
+                      radius=float(np.linalg.norm(v - o, axis=1).max()))
+    o = holder["o"]
+    n = n / np.linalg.norm(n)
+    pl = pts - o
+    # start every ray below the mesh's bounding sphere (any start below the mesh is exact: t is
+    # recomputed in float64 from the hit triangle's plane); cheaper than projecting the vertices
+    start = max(0.0, float(np.einsum("mi,i->m", pl, n).max()) + holder["radius"]) + 1e-3
+    rays = np.hstack([pl - start * n, np.broadcast_to(n, pl.shape)]).astype(np.float32)
+    # few rays (a footprint of a few thousand cells): one thread; waking open3d's pool costs more
+    # than the casting on a loaded machine (0.9 ms wall for 0.2 ms of work at 350 rays)
+    ans = holder["scene"].cast_rays(o3d.core.Tensor(rays), nthreads=1 if len(rays) < 20000 else 0)
+    hit = ans["t_hit"].numpy().astype(np.float64)
+    out = np.full(len(pts), np.inf)
+    ok = np.isfinite(hit)
+    if ok.any():
+        prim = ans["primitive_ids"].numpy().astype(np.int64)[ok]
+        nrm, a = holder["nrm"][prim], holder["tri"][prim, 0]
+        den = np.einsum("mi,i->m", nrm, n)
+        good = np.abs(den) > 1e-30
+        exact = np.einsum("ij,ij->i", nrm, a - pts[ok]) / np.where(good, den, 1.0)
+        out[ok] = np.where(good, exact, hit[ok] - start)  # float64 plane intersection
+    return out
+

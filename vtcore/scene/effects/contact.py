@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...contact.elastic import SPREADINGS
-from ...contact.press import spread_field, taxel_means
+from ...contact.grid import spread_field, taxel_means
 from ..registry import EffectSpec, register_effect
 from ..schema import Field, Section
 
@@ -51,10 +51,10 @@ class ObjectCompliance:
 
     def stiffness(self, compliance, mesh, result):
         """k (N/m) at the contact of ``result``; ``compliance`` as for vtcore.contact.press."""
-        from ...contact.press import _object_stiffness
+        from ...contact.finish import object_stiffness
 
         spec = compliance if compliance is not None else self.default
-        return _object_stiffness(spec, mesh, result.pose, result.contact_point)
+        return object_stiffness(spec, mesh, result.pose, result.contact_point)
 
     def apply(self, state, ctx):
         comp, mesh = state.get("compliance"), state["mesh"]

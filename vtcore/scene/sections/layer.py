@@ -50,7 +50,7 @@ def build_layer(scene) -> SoftLayer:
 
 def layer_options(scene) -> dict:
     """Keyword arguments for vtcore.contact.press from ``[layer]``: model, grid, samples, backend."""
-    from ...contact.press import ContactGrid
+    from ...contact.grid import ContactGrid
 
     t = scene["layer"] or LAYER.defaults()
     return {"model": t["model"], "grid": ContactGrid(spacing=t["grid_spacing"]),

@@ -100,7 +100,7 @@ def profile_cut(fld, layout, taxel_values, *, angle_deg=0.0, samples=7, radius=N
     ``centre (3,)`` m and ``direction (3,)`` unit, both in the end-effector frame (for a contact
     solved in the layout's flat domain, ``geometry = "unrolled"``: in the flat coordinates, z = 0).
     """
-    from ...contact.press import TAXEL_RADIUS, _sample, disc_offsets
+    from ...contact.grid import TAXEL_RADIUS, disc_offsets, sample_bilinear
 
     radius = TAXEL_RADIUS if radius is None else radius
     p = fld.pressure
@@ -120,7 +120,7 @@ def profile_cut(fld, layout, taxel_values, *, angle_deg=0.0, samples=7, radius=N
     s, pts = s[inside], pts[inside]
     read = fld.stress if fld.stress is not None else fld.pressure
     off = disc_offsets(samples, radius)
-    disc = _sample(pts[:, None, :] + off[None, :, :], read, fld.x, fld.y).mean(axis=1)
+    disc = sample_bilinear(pts[:, None, :] + off[None, :, :], read, fld.x, fld.y).mean(axis=1)
     # taxels where taxel_means reads them
     txy = fld.taxel_xy(layout) - c
     ts, to = txy @ t, txy @ o
@@ -133,8 +133,8 @@ def profile_cut(fld, layout, taxel_values, *, angle_deg=0.0, samples=7, radius=N
         idx = np.flatnonzero(np.abs(to) < max(radius, 0.5 * pitch))
     idx = idx[np.argsort(ts[idx], kind="stable")]
     centre = fld.origin + c[0] * fld.e1 + c[1] * fld.e2
-    return {"s": s, "surface": _sample(pts, fld.pressure, fld.x, fld.y),
-            "stress": _sample(pts, fld.stress, fld.x, fld.y) if fld.stress is not None else None,
+    return {"s": s, "surface": sample_bilinear(pts, fld.pressure, fld.x, fld.y),
+            "stress": sample_bilinear(pts, fld.stress, fld.x, fld.y) if fld.stress is not None else None,
             "disc_mean": disc, "taxel_index": idx, "taxel_s": ts[idx], "taxel_offset": to[idx],
             "taxel_value": np.asarray(taxel_values, float)[idx], "centre": centre,
             "direction": t[0] * fld.e1 + t[1] * fld.e2, "domain": fld.domain}

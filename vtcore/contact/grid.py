@@ -1,0 +1,251 @@
+"""The contact grid and what is read from it, shared by both press solvers (plane and unrolled).
+
+:class:`ContactGrid` (resolution and extent), :class:`ContactField` (the solved contact on the
+grid), :func:`grid_cells` (cell centres of a box), :func:`disc_offsets` (points covering a taxel
+disc), bilinear reading of a grid field (:func:`sample_bilinear`, :func:`bilinear_matrix`), the
+per-taxel disc means (:func:`taxel_sampler`, :func:`taxel_means`, :func:`taxel_readings`), the
+stress spread through the layer (:func:`spread_field`) and :func:`digest`, the content key of the
+caches that keep what stays fixed along a trajectory.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import InputError
+from . import elastic
+from .materials import SoftLayer
+
+TAXEL_RADIUS = 2e-3  # m, CySkin taxels are 4 mm discs (seed 000, 001)
+
+
+@dataclass
+class ContactGrid:
+    """Resolution and extent of the contact grid on the skin's outer surface.
+
+    spacing : m, cell size. margin : m of skin simulated beyond the outermost
+    taxel discs. extent : m or None, radius of the layer around the patch centre
+    (e.g. 0.04 for seed 001's 80 mm disc); None: the taxels' bounding box + margin.
+    """
+
+    spacing: float = 1e-3
+    margin: float = 4e-3
+    extent: float | None = None
+
+    def __post_init__(self):
+        for k in ("spacing", "margin"):
+            v = float(getattr(self, k))
+            if not (v > 0 if k == "spacing" else v >= 0) or not np.isfinite(v):
+                raise InputError(f"must be {'> 0' if k == 'spacing' else '>= 0'} m, got {v}", key=f"grid.{k}")
+            setattr(self, k, v)
+        if self.extent is not None and not float(self.extent) > 0:
+            raise InputError(f"must be > 0 m, got {self.extent}", key="grid.extent")
+
+
+@dataclass
+class ContactField:
+    """The contact on the grid: everything needed to re-read or re-spread it.
+
+    x (mx,), y (my,) : m, cell centres along e1, e2. origin (3,) m; e1, e2, n (3,):
+    the grid frame (n = -press direction). surface (mx, my) : m, height of the
+    layer's outer surface along n. gap (mx, my) : m, object above the surface
+    along n at the solution pose before deformation (inf: no object; negative:
+    interference). pressure (mx, my) : Pa on the surface. stress (mx, my) or None :
+    Pa at depth h. thickness : m, the layer's (taxels are read below the surface point
+    above them along their normal).
+    """
+
+    x: np.ndarray
+    y: np.ndarray
+    origin: np.ndarray
+    e1: np.ndarray
+    e2: np.ndarray
+    n: np.ndarray
+    surface: np.ndarray
+    gap: np.ndarray
+    pressure: np.ndarray
+    stress: np.ndarray | None = None
+    thickness: float = 0.0
+    #: "plane": x, y are coordinates on the plane normal to the press direction (e1, e2, origin);
+    #: "flat": x, y are the layout's flat (unrolled) coordinates, see vtcore.contact.curved
+    domain: str = "plane"
+    #: (mx, my, 3) m, the outer-surface points (flat domain; None: derived from the plane)
+    points_3d: np.ndarray | None = None
+
+    @property
+    def spacing(self) -> float:
+        return float(self.x[1] - self.x[0]) if len(self.x) > 1 else 0.0
+
+    def points(self) -> np.ndarray:
+        """(mx, my, 3) m, the grid's points on the layer's outer surface."""
+        if self.points_3d is not None:
+            return self.points_3d
+        X, Y = np.meshgrid(self.x, self.y, indexing="ij")
+        return (self.origin + X[..., None] * self.e1 + Y[..., None] * self.e2
+                + self.surface[..., None] * self.n)
+
+    def taxel_xy(self, layout) -> np.ndarray:
+        """(N, 2) m, where each taxel's disc centre lies in the grid's (x, y) coordinates: its flat
+        coordinates in the flat domain, else the projection of the point above it on the outer surface."""
+        if self.domain == "flat":
+            return np.asarray(layout.flat, float)
+        rel = np.asarray(layout.positions, float) + self.thickness * np.asarray(layout.normals, float) - self.origin
+        return np.column_stack([rel @ self.e1, rel @ self.e2])
+
+
+def digest(*arrays) -> int:
+    """CRC-32 of the arrays' bytes and shapes: the cache key of what a layout or grid derives."""
+    import zlib
+
+    c = 0
+    for a in arrays:
+        a = np.ascontiguousarray(a)
+        c = zlib.crc32(a.view(np.uint8).reshape(-1), c)
+        c = zlib.crc32(str(a.shape).encode(), c)
+    return c
+
+
+def grid_cells(lo, hi, dx):
+    """Cell centres ``X, Y`` (mx, my) metres of a grid of spacing ``dx`` covering [lo, hi] (2,).
+
+    An even number of cells centred on the box: cell centres sit half a cell off the
+    box's axes, so the edges of objects centred on the patch fall between cells.
+    """
+    mx, my = 2 * np.ceil((np.asarray(hi) - np.asarray(lo)) / (2 * dx)).astype(int)
+    if mx * my > 4_000_000:
+        raise InputError(f"grid of {mx} x {my} cells is too large; increase grid.spacing", key="grid.spacing")
+    cx, cy = (np.asarray(lo) + np.asarray(hi)) / 2
+    xs = cx + dx * (np.arange(mx) - (mx - 1) / 2)
+    ys = cy + dx * (np.arange(my) - (my - 1) / 2)
+    return np.meshgrid(xs, ys, indexing="ij")
+
+
+def disc_offsets(samples: int, radius: float = TAXEL_RADIUS) -> np.ndarray:
+    """(S, 2) m, ``samples`` points covering a disc evenly (the centre, then a sunflower spiral)."""
+    if samples < 1:
+        raise InputError(f"must be >= 1, got {samples}", key="samples_per_taxel")
+    if samples == 1:
+        return np.zeros((1, 2))
+    k = np.arange(samples)
+    r = radius * np.sqrt((k + 0.5) / samples)
+    a = k * np.pi * (3 - np.sqrt(5))
+    return np.column_stack([r * np.cos(a), r * np.sin(a)])
+
+
+def sample_bilinear(field_xy, values, x, y):
+    """Bilinear interpolation of cell-centred ``values`` (mx, my) at points (..., 2); 0 outside."""
+    from scipy.ndimage import map_coordinates
+
+    dx = x[1] - x[0] if len(x) > 1 else 1.0
+    dy = y[1] - y[0] if len(y) > 1 else 1.0
+    ci = (field_xy[..., 0] - x[0]) / dx
+    cj = (field_xy[..., 1] - y[0]) / dy
+    return map_coordinates(values, [ci.ravel(), cj.ravel()], order=1, mode="constant", cval=0.0).reshape(ci.shape)
+
+
+def bilinear_matrix(field_xy, x, y, weights=None):
+    """Sparse (M, mx*my) matrix of :func:`sample_bilinear`'s bilinear interpolation (zero outside, as
+    ``map_coordinates(order=1, mode="constant")``), so a fixed set of points is read from any
+    field with one sparse product instead of re-deriving the weights per frame.
+
+    field_xy : (M, S, 2) m, S points per row averaged with ``weights`` (S,) (default: uniform).
+    """
+    from scipy.sparse import csr_matrix
+
+    m, k = field_xy.shape[:2]
+    mx, my = len(x), len(y)
+    dx = x[1] - x[0] if mx > 1 else 1.0
+    dy = y[1] - y[0] if my > 1 else 1.0
+    ci = (field_xy[..., 0] - x[0]) / dx
+    cj = (field_xy[..., 1] - y[0]) / dy
+    # mode="constant": a point outside [0, n - 1] in either index reads 0 (no partial cells)
+    valid = (ci >= 0) & (ci <= mx - 1) & (cj >= 0) & (cj <= my - 1)
+    i0 = np.clip(np.floor(ci), 0, max(mx - 2, 0))
+    j0 = np.clip(np.floor(cj), 0, max(my - 2, 0))
+    fi, fj = ci - i0, cj - j0
+    w = np.full(k, 1.0 / k) if weights is None else np.asarray(weights, float)
+    rows, cols, vals = [], [], []
+    row = np.broadcast_to(np.arange(m)[:, None], (m, k))
+    for di, wi in ((0, 1 - fi), (1, fi)):
+        for dj, wj in ((0, 1 - fj), (1, fj)):
+            ii, jj = (i0 + di).astype(np.int64), (j0 + dj).astype(np.int64)
+            ok = valid & (ii < mx) & (jj < my) & (wi * wj != 0)
+            rows.append(row[ok])
+            cols.append(ii[ok] * my + jj[ok])
+            vals.append((wi * wj * w[None, :])[ok])
+    a = csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(m, mx * my))
+    a.sum_duplicates()
+    return a
+
+
+_SAMPLER_CACHE: dict = {}
+
+
+def taxel_sampler(layout, fld: ContactField, samples_per_taxel=7, radius=TAXEL_RADIUS):
+    """Sparse (N, mx*my) matrix that averages a grid field over each taxel's disc (zero rows for
+    taxels facing away), cached per layout, grid and sampling: built once along a trajectory."""
+    pos = np.asarray(layout.positions, float)
+    nrm = np.asarray(layout.normals, float)
+    flat = fld.domain == "flat"
+    key = (digest(pos, nrm, fld.origin, fld.e1, fld.e2, fld.n, *([layout.flat] if flat else [])), fld.domain,
+           float(fld.x[0]), float(fld.y[0]), len(fld.x), len(fld.y), fld.spacing, float(fld.thickness),
+           int(samples_per_taxel), float(radius))
+    a = _SAMPLER_CACHE.get(key)
+    if a is None:
+        pts = fld.taxel_xy(layout)[:, None, :] + disc_offsets(samples_per_taxel, radius)[None, :, :]
+        a = bilinear_matrix(pts, fld.x, fld.y)
+        # on the plane, taxels facing away have no point above them; in the flat domain every
+        # taxel has its own patch of the layer
+        facing = nrm @ fld.n > 0.1 if not flat else np.ones(len(pos), bool)
+        if not facing.all():
+            from scipy.sparse import diags
+
+            a = (diags(facing.astype(float)) @ a).tocsr()
+            a.eliminate_zeros()
+        if len(_SAMPLER_CACHE) > 32:
+            _SAMPLER_CACHE.clear()
+        _SAMPLER_CACHE[key] = a
+    return a
+
+
+def taxel_means(layout, fld: ContactField, values, samples_per_taxel=7, radius=TAXEL_RADIUS):
+    """Mean of a grid field (mx, my) over each taxel's disc -> (N,). Taxels facing away read 0.
+
+    The disc is sampled at ``samples_per_taxel`` points (:func:`disc_offsets`) around the point
+    below the taxel on the layer's outer surface, bilinearly (zero outside the grid).
+    """
+    a = taxel_sampler(layout, fld, samples_per_taxel, radius)
+    return a @ np.asarray(values, float).ravel()
+
+
+def taxel_readings(layout, fld: ContactField, surface_pressure, layer, spread: bool, spreading: str,
+                   samples_per_taxel: int, radius: float):
+    """Per-taxel ``(surface, taxel)`` pressures (N,) Pa: the surface pressure over each taxel disc,
+    and (when ``spread``) the stress carried through the layer to it, else a copy of the surface's.
+    Sets ``fld.stress`` when spreading."""
+    surf = taxel_means(layout, fld, surface_pressure, samples_per_taxel, radius)
+    if not spread:
+        return surf, surf.copy()
+    fld.stress = spread_field(fld, layer, spreading)
+    return surf, taxel_means(layout, fld, fld.stress, samples_per_taxel, radius)
+
+
+def spread_field(fld: ContactField, layer, spreading: str = "layer") -> np.ndarray:
+    """Stress (Pa) at the layer's base under the surface pressure of ``fld``.
+
+    layer : SoftLayer (or a thickness in metres, then Boussinesq is used).
+    spreading : "layer" (exact base stress of the layer on its rigid base) or
+    "boussinesq" (half-space stress at depth h).
+    """
+    if not isinstance(layer, SoftLayer):
+        h, nu, base, spreading = float(layer), 0.49, "bonded", "boussinesq"
+    else:
+        h, nu, base = layer.thickness, layer.poisson, layer.base
+    if h <= 0:
+        return fld.pressure.copy()
+    dx = fld.spacing or 1.0
+    op = elastic.spreading_operator(fld.pressure.shape, dx, dx, h, spreading, nu, base)
+    return op(fld.pressure)
+
