@@ -15,6 +15,7 @@ _TYPES = {
     "FLOAT": (np.float32, 1, "value"),
     "INT": (np.int32, 1, "value"),
     "BOOLEAN": (bool, 1, "value"),
+    "FLOAT2": (np.float32, 2, "vector"),
     "FLOAT_VECTOR": (np.float32, 3, "vector"),
     "FLOAT_COLOR": (np.float32, 4, "color"),
 }
@@ -24,6 +25,8 @@ TAXEL_ATTRIBUTES = {
     "taxel_id": "INT",
     "module_id": "INT",
     "normal": "FLOAT_VECTOR",
+    "flat": "FLOAT2",
+    "can_id": "INT",
     "pressure": "FLOAT",
     "response": "FLOAT",
     "edge": "BOOLEAN",

@@ -138,7 +138,10 @@ def _tri_faces(ee):
 
 
 def _selected_face_centre(ee, frame):
-    """Centre (skin frame) and (F,) polygon selection of the selected faces of ``ee``."""
+    """Anchor (skin frame, vtcore.scene.interactive.selection_anchor) and (F,) polygon
+    selection of the selected faces of ``ee``."""
+    from vtcore.scene import interactive
+
     if ee.mode == "EDIT":
         ee.update_from_editmode()
     me = ee.data
@@ -149,12 +152,7 @@ def _selected_face_centre(ee, frame):
     me.polygons.foreach_get("center", centres)
     areas = np.empty(len(me.polygons), np.float32)
     me.polygons.foreach_get("area", areas)
-    c = centres.reshape(-1, 3)[sel].astype(np.float64)
-    w = areas[sel].astype(np.float64) + 1e-30
-    mean = (c * w[:, None]).sum(0) / w.sum()
-    # The area-weighted mean of a curved selection lies inside the body and may snap to a face
-    # outside the selection (then a fill finds no room): anchor on the selected face nearest it.
-    local = c[np.argmin(((c - mean) ** 2).sum(1))]
+    local = interactive.selection_anchor(centres.reshape(-1, 3), areas, sel)
     m = bridge.matrix(ee)
     world = m[:3, :3] @ local + m[:3, 3]
     inv = np.linalg.inv(frame)
@@ -362,7 +360,7 @@ class VTSKIN_OT_simulate(_Op, bpy.types.Operator):
         with _failing("Contact failed"):
             c = interactive.simulate(layout, tri, verts, faces, pose, thickness=s.thickness, material=s.material,
                                      force=s.force if s.use_force else None, counts_per_pa=s.counts_per_pa,
-                                     edge_fraction=s.edge_fraction)
+                                     edge_fraction=s.edge_fraction, geometry=s.geometry)
         me = ob.data
         bridge.set_attribute(me, "pressure", c.pressure)
         bridge.set_attribute(me, "response", c.response)
@@ -413,7 +411,7 @@ class VTSKIN_OT_bake(_Op, bpy.types.Operator):
                 res = interactive.bake(layout, tri, verts, faces, np.stack(poses), thickness=s.thickness,
                                        material=s.material, forces=np.array(forces) if s.use_force else None,
                                        counts_per_pa=s.counts_per_pa, edge_fraction=s.edge_fraction,
-                                       callback=lambda i, t: wm.progress_update(i + 1))
+                                       callback=lambda i, t: wm.progress_update(i + 1), geometry=s.geometry)
         finally:
             wm.progress_end()
         if "edge" not in ob.data.attributes:

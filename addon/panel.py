@@ -86,7 +86,7 @@ class VTSKIN_PT_layer(_Panel, bpy.types.Panel):
 class VTSKIN_PT_contact(_Panel, bpy.types.Panel):
     bl_idname = "VTSKIN_PT_contact"
     bl_label = "Contact"
-    props = ("indenter",)
+    props = ("indenter", "geometry")
 
     def draw_more(self, col, s, context):
         row = col.row(align=True)

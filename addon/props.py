@@ -120,6 +120,10 @@ class VTSKIN_PG_scene(bpy.types.PropertyGroup):
     use_force: BoolProperty(name="Target force", default=True,
                             description="Press to the target force (off: use the indenter's pose as it is)")
     force: FloatProperty(name="Force (N)", default=2.0, min=0.0, description="Target normal force, newtons")
+    geometry: EnumProperty(name="Solve on", default="plane", items=[
+        ("plane", "Plane", "The plane normal to the press: fast, exact for flat patches"),
+        ("unrolled", "Unrolled skin", "The patch's own flat coordinates, the layer compressed along its normals: "
+                                      "curved patches (one laid patch; merged patches have no common unrolling)")])
     counts_per_pa: FloatProperty(name="Gain (counts/Pa)", default=0.1, min=1e-6)
     frame_start: IntProperty(name="Start", default=1)
     frame_end: IntProperty(name="End", default=24)

@@ -2,7 +2,8 @@
 
 Vertex positions are the taxel positions in the skin frame (the object's local
 frame, metres); the skin mesh is the object's faces; attributes carry
-``taxel_id``, ``module_id``, ``normal``, ``pressure``, ``response`` and ``edge``.
+``taxel_id``, ``module_id``, ``normal``, ``pressure``, ``response`` and ``edge``,
+and when the layout has them ``flat`` (2-D unrolled coordinates, metres) and ``can_id``.
 """
 
 from __future__ import annotations
@@ -41,6 +42,13 @@ def write_layout(ob, layout, triangles=None, pressure=None, response=None, edge=
     bridge.set_attribute(me, "pressure", np.zeros(n) if pressure is None else pressure)
     bridge.set_attribute(me, "response", np.zeros(n) if response is None else response)
     bridge.set_attribute(me, "edge", np.zeros(n, bool) if edge is None else edge)
+    # Optional per-taxel data of the layout: written when it has them, else left out, so
+    # read_layout gives back what was written (the unrolled contact solve needs ``flat``).
+    for name, values in (("flat", layout.flat), ("can_id", layout.can_ids)):
+        if values is not None:
+            bridge.set_attribute(me, name, values)
+        elif name in me.attributes:
+            me.attributes.remove(me.attributes[name])
     ob.vtskin.role = "TAXELS"
 
 
@@ -56,10 +64,12 @@ def read_layout(ob):
     normals = bridge.get_attribute(me, "normal") if "normal" in names else np.tile([0.0, 0.0, 1.0], (n, 1))
     ids = bridge.get_attribute(me, "taxel_id") if "taxel_id" in names else np.arange(n)
     mods = bridge.get_attribute(me, "module_id") if "module_id" in names else np.zeros(n, np.int64)
+    flat = bridge.get_attribute(me, "flat").astype(np.float64) if "flat" in names else None
+    can = bridge.get_attribute(me, "can_id") if "can_id" in names else None
     normals = np.asarray(normals, np.float64)
     normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-12)
-    return Layout(co.reshape(-1, 3).astype(np.float64), normals, ids, mods, frame=ob.name,
-                  transform=bridge.matrix(ob))
+    return Layout(co.reshape(-1, 3).astype(np.float64), normals, ids, mods, flat, frame=ob.name,
+                  transform=bridge.matrix(ob), can_ids=can)
 
 
 def triangles(ob) -> np.ndarray:

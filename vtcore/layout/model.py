@@ -96,3 +96,61 @@ class Layout:
         out.frame = frame or self.frame
         out.transform = self.transform @ np.linalg.inv(m)
         return out
+
+    def renumber(self, first_module: int = 0) -> "Layout":
+        """The layout with its modules numbered ``first_module``, ``first_module + 1``, ...
+
+        Modules keep their order (by current id). Taxel ids that are CySkin UIDs of
+        their modules (:func:`vtcore.layout.uids.follows_cyskin`) are rebuilt for the
+        new module ids with the same sensor numbers; any other ids (iCub rows, a file's
+        own numbering) are kept as they are. ``flat``, ``can_ids``, roles and the rest
+        are kept.
+        """
+        from .uids import cyskin_sensors, cyskin_uids, follows_cyskin
+
+        out = self.subset(slice(None))
+        if len(out) == 0:
+            return out
+        _, rank = np.unique(self.module_ids, return_inverse=True)
+        out.module_ids = rank.astype(np.int64) + int(first_module)
+        if follows_cyskin(self.taxel_ids, self.module_ids):
+            out.taxel_ids = cyskin_uids(out.module_ids, cyskin_sensors(self.taxel_ids))
+        return out
+
+    @classmethod
+    def concat(cls, layouts, *, renumber: bool = True) -> "Layout":
+        """The taxels of ``layouts`` one after another, as one layout.
+
+        The first layout keeps its module ids; with ``renumber`` each following one is
+        renumbered (:meth:`renumber`) to start after the largest module id before it, so
+        module ids stay distinct (CySkin taxel ids follow; other ids are kept); without,
+        every id is kept as it is (the caller knows they are distinct). Positions are taken
+        to be in the first layout's frame: its ``frame``, ``transform`` and ``meta`` are
+        the result's. ``flat`` is kept when every layout has it (the coordinates are
+        concatenated as they are: meaningful in one chart, e.g. pieces of one unrolled
+        layout); ``can_ids`` and ``normals_estimated`` are kept when any layout has them,
+        -1 (unknown) and False for the taxels of those that do not.
+        """
+        layouts = list(layouts)
+        if not layouts:
+            raise InputError("concat needs at least one layout", key="layouts")
+        parts, top = [], None
+        for lay in layouts:
+            if renumber and top is not None and len(lay):
+                lay = lay.renumber(top + 1)
+            parts.append(lay)
+            if len(lay):
+                top = int(lay.module_ids.max()) if top is None else max(top, int(lay.module_ids.max()))
+
+        def joined(name, fill):
+            if all(getattr(p, name) is None for p in parts):
+                return None
+            return np.concatenate([getattr(p, name) if getattr(p, name) is not None else np.full(len(p), fill)
+                                   for p in parts])
+
+        first = layouts[0]
+        flat = np.vstack([p.flat for p in parts]) if all(p.flat is not None for p in parts) else None
+        return cls(np.vstack([p.positions for p in parts]), np.vstack([p.normals for p in parts]),
+                   np.concatenate([p.taxel_ids for p in parts]), np.concatenate([p.module_ids for p in parts]),
+                   flat, np.concatenate([p.roles for p in parts]), first.frame, first.transform.copy(),
+                   dict(first.meta), joined("can_ids", -1), joined("normals_estimated", False))

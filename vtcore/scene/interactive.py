@@ -111,28 +111,47 @@ def _trimesh(vertices, triangles):
     return trimesh.Trimesh(v, f, process=False)
 
 
-def renumber(layout: Layout, first_module: int) -> Layout:
-    """``layout`` with module ids shifted to start at ``first_module`` and CySkin taxel
-    ids ``(module + 1) << 4 | sensor`` rebuilt to match (sensor = old id & 15)."""
-    out = layout.subset(slice(None))
-    if len(out) == 0:
-        return out
-    _, inv = np.unique(out.module_ids, return_inverse=True)
-    out.module_ids = inv.astype(np.int64) + int(first_module)
-    out.taxel_ids = (out.module_ids + 1) * 16 + (layout.taxel_ids & 15)
+def merge(base: Layout | None, extra: Layout) -> Layout:
+    """Taxels of ``base`` followed by those of ``extra``, whose modules are numbered after
+    base's (from 0 without a base): :meth:`Layout.concat`.
+
+    Without a base, ``extra`` keeps its flat coordinates. With one, the result has none:
+    ``extra`` was unrolled about its own anchor and ``base`` about another, so their flat
+    coordinates are in different charts and together would overlap.
+    """
+    if base is None or len(base) == 0:
+        return extra.renumber(0)
+    out = Layout.concat([base, extra])
+    out.flat = None
     return out
 
 
-def merge(base: Layout | None, extra: Layout) -> Layout:
-    """Taxels of ``base`` followed by ``extra`` renumbered after base's modules."""
-    if base is None or len(base) == 0:
-        return renumber(extra, 0)
-    extra = renumber(extra, int(base.module_ids.max()) + 1)
-    flat = None
-    return Layout(np.vstack([base.positions, extra.positions]), np.vstack([base.normals, extra.normals]),
-                  np.concatenate([base.taxel_ids, extra.taxel_ids]),
-                  np.concatenate([base.module_ids, extra.module_ids]), flat,
-                  np.concatenate([base.roles, extra.roles]), base.frame, base.transform, dict(base.meta))
+def selection_anchor(face_centres, face_areas, selected) -> np.ndarray:
+    """Where a patch or a fill over selected faces is anchored: (3,) metres.
+
+    face_centres : (F, 3) metres, any frame (the result is in the same one);
+    face_areas : (F,) m^2; selected : (F,) bool mask or indices of the selected faces.
+    The anchor is the selected face centre nearest the area-weighted mean of the selected
+    centres: the mean itself lies inside the body when the selection is curved (the top and
+    a flank) and snaps to a face outside the selection, where a fill finds no room.
+    """
+    c = np.asarray(face_centres, dtype=np.float64).reshape(-1, 3)
+    w = np.asarray(face_areas, dtype=np.float64).reshape(-1)
+    if len(w) != len(c):
+        raise InputError(f"{len(w)} face areas for {len(c)} face centres", key="face_areas")
+    sel = np.asarray(selected)
+    if sel.dtype == bool:
+        if len(sel) != len(c):
+            raise InputError(f"a mask of {len(sel)} faces for {len(c)} faces", key="selected")
+        sel = np.flatnonzero(sel)
+    sel = sel.astype(np.int64).reshape(-1)
+    if len(sel) and (sel.min() < 0 or sel.max() >= len(c)):
+        raise InputError(f"face indices must be in 0..{len(c) - 1}", key="selected")
+    if len(sel) == 0:
+        raise InputError("select at least one face", key="selected")
+    c, w = c[sel], w[sel] + 1e-30  # zero-area faces still count when all are zero
+    mean = (c * w[:, None]).sum(0) / w.sum()
+    return c[np.argmin(((c - mean) ** 2).sum(1))]
 
 
 @dataclass
@@ -244,11 +263,11 @@ def move_module(layout: Layout, module: int, vertices, triangles, at, direction=
         raise InputError(f"module {module} has {len(old)} taxels, a placed module {len(new)}", key="module")
     new.module_ids[:] = int(module)
     new.taxel_ids = old.taxel_ids.copy()
-    rest = layout.subset(~mask)
-    moved = Layout(np.vstack([rest.positions, new.positions]), np.vstack([rest.normals, new.normals]),
-                   np.concatenate([rest.taxel_ids, new.taxel_ids]),
-                   np.concatenate([rest.module_ids, new.module_ids]), None,
-                   np.concatenate([rest.roles, new.roles]), layout.frame, layout.transform, dict(layout.meta))
+    new.can_ids = old.can_ids  # the same board, wired to the same bus
+    # Flat coordinates are dropped: the module was unrolled about its new place, the rest
+    # about the old anchor.
+    moved = Layout.concat([layout.subset(~mask), new], renumber=False)
+    moved.flat = None
     return _edit(moved, rep.as_dict())
 
 
@@ -313,7 +332,7 @@ def _edges(layout, triangles, response, edge_fraction):
 
 def simulate(layout: Layout, triangles, indenter_vertices, indenter_triangles, pose, *, thickness: float,
              material: str = "ecoflex_00_20", force: float | None = 5.0, counts_per_pa: float = 0.1,
-             edge_fraction: float = 0.3) -> Contact:
+             edge_fraction: float = 0.3, geometry: str = "plane") -> Contact:
     """Press an indenter onto the skin at a target force and read taxels and edges.
 
     layout : the skin (skin frame, metres); triangles : (F, 3) its skin mesh.
@@ -322,7 +341,9 @@ def simulate(layout: Layout, triangles, indenter_vertices, indenter_triangles, p
     (it moves towards the skin until ``force`` newtons; ``force=None`` uses the
     pose as it is). thickness : m; material : a vtcore.contact.MATERIALS key.
     counts_per_pa : sensor gain. edge_fraction : edge threshold as a fraction of
-    the frame's largest edge response (Eq. 7 with a relative epsilon).
+    the frame's largest edge response (Eq. 7 with a relative epsilon). geometry : "plane"
+    or "unrolled" (solved on the layout's flat coordinates: curved patches; see
+    :func:`vtcore.contact.press`).
     """
     from ..contact import press
 
@@ -330,7 +351,7 @@ def simulate(layout: Layout, triangles, indenter_vertices, indenter_triangles, p
         raise InputError("the skin has no taxels", key="layout")
     layer = soft_layer(thickness, material)
     mesh = _trimesh(indenter_vertices, indenter_triangles)
-    res = press(layout, mesh, np.asarray(pose, float), layer, force=force if force else None)
+    res = press(layout, mesh, np.asarray(pose, float), layer, force=force if force else None, geometry=geometry)
     response = _response(res.pressure, counts_per_pa)
     er, edge = _edges(layout, triangles, response, edge_fraction)
     return Contact(res.pressure, response, er, edge, float(res.force), float(res.indentation),
@@ -339,12 +360,13 @@ def simulate(layout: Layout, triangles, indenter_vertices, indenter_triangles, p
 
 def bake(layout: Layout, triangles, indenter_vertices, indenter_triangles, poses, *, thickness: float,
          material: str = "ecoflex_00_20", forces=None, counts_per_pa: float = 0.1,
-         edge_fraction: float = 0.3, callback=None) -> dict:
+         edge_fraction: float = 0.3, callback=None, geometry: str = "plane") -> dict:
     """Simulate a trajectory: one press per pose, warm-started from the previous frame.
 
     poses : (T, 4, 4) indenter poses in the skin frame. forces : None (each pose
     as it is: the animation decides the indentation) or (T,) newtons (target
     force per frame, 0 for no contact). callback(i, T) is called after each frame.
+    geometry : as for :func:`simulate`.
     Returns ``pressure``, ``response``, ``edge_response`` (T, N) float, ``edge``
     (T, N) bool and ``force`` (T,) newtons.
     """
@@ -367,7 +389,7 @@ def bake(layout: Layout, triangles, indenter_vertices, indenter_triangles, poses
             prev = None  # no contact asked for this frame
         else:
             try:
-                res = press(layout, mesh, poses[i], layer, force=target, warm_start=prev)
+                res = press(layout, mesh, poses[i], layer, force=target, warm_start=prev, geometry=geometry)
             except UnreachableTargetError as exc:
                 raise InputError(f"frame {i}: {exc}", key="force") from exc
             pressure[i], force[i], prev = res.pressure, res.force, res
