@@ -13,7 +13,8 @@ Main entry points:
 """
 
 from .codecs import (ICUB_NOLOAD, ICUB_SHIFT, Codec, Cyskin16Codec, IcubCodec, get_codec, icub_counts_to_wire,
-                     icub_taxel_id, icub_wire_to_counts, icub_board_ids, describe_icub_ids, icub_wire_to_response)
+                     icub_wire_to_counts, icub_wire_to_response)
+from .icub_ids import describe_icub_ids, icub_board_ids, icub_taxel_id
 from .decode import Block, DecodeResult, StreamDecoder, collect, decode_batches, estimate_period, iter_decode
 from .encode import encode
 from .frames import REASONS, FrameBatch, Summary

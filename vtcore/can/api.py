@@ -8,7 +8,8 @@ import numpy as np
 
 from .._io import save_npz
 from ..errors import FormatError, InputError
-from .codecs import Codec, get_codec, icub_board_ids
+from .codecs import Codec, get_codec
+from .icub_ids import SLOTS_PER_TRIANGLE, TAXELS_PER_BOARD, icub_board_ids, icub_taxel_id
 from .decode import DecodeResult, collect, iter_decode
 from .encode import encode
 from .frames import Summary
@@ -46,7 +47,7 @@ def layout_taxel_ids(layout, codec: str | Codec | None = None, boards=None) -> n
         if np.any(can > 0xFF):
             raise InputError(f"can_ids holds {int(can.max())}; iCub addresses are board << 4 | triangle "
                              "(0..255)", key="can_ids")
-        return np.where(can >= 0, 192 * (can >> 4) + 12 * (can & 0xF) + ids % 12, ids)
+        return np.where(can >= 0, icub_taxel_id(can >> 4, can & 0xF, ids % SLOTS_PER_TRIANGLE), ids)
     return ids
 
 
@@ -88,8 +89,8 @@ def decode_log(path, codec: str | Codec = "icub", layout=None, taxel_ids=None, p
         if not np.array_equal(taxel_ids, layout.taxel_ids):
             res.extra["layout_taxel_ids"] = np.asarray(layout.taxel_ids, np.int64)
         if codec.name == "icub" and summary.unmapped_taxel_ids:
-            seen = sorted({int(i) // 192 for i in summary.unmapped_taxel_ids})
-            mapped = sorted({int(i) // 192 for i in np.asarray(taxel_ids)})
+            seen = sorted({int(i) // TAXELS_PER_BOARD for i in summary.unmapped_taxel_ids})
+            mapped = sorted({int(i) // TAXELS_PER_BOARD for i in np.asarray(taxel_ids)})
             other = [b for b in seen if b not in mapped]
             if other:
                 summary.notes.append(f"the log has iCub board(s) {other} that the layout does not cover (it maps "

@@ -201,7 +201,7 @@ class Summary:
         if self.unmapped_taxel_ids:
             ids = sorted(self.unmapped_taxel_ids)
             if self.id_scheme == "icub":
-                from .codecs import describe_icub_ids
+                from .icub_ids import describe_icub_ids
 
                 what = describe_icub_ids(ids)
             else:

@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import FormatError, InputError
+from ..layout.uids import cyskin_sensors
 
 
 @dataclass
@@ -65,7 +66,7 @@ def read_cyskin_txt(path, layout=None, taxel_ids=None) -> Recording:
         raise FormatError("line 1 lists no UIDs", file=path, line=1)
     if layout is not None:
         taxel_ids = layout.taxel_ids
-    ids = np.asarray(taxel_ids if taxel_ids is not None else np.unique(uids[(uids & 0xF) != 0]), np.int64)
+    ids = np.asarray(taxel_ids if taxel_ids is not None else np.unique(uids[cyskin_sensors(uids) != 0]), np.int64)
 
     # rows: vectorised conversion of all well-formed lines at once
     good, rejected = [], []
@@ -105,7 +106,7 @@ def read_cyskin_txt(path, layout=None, taxel_ids=None) -> Recording:
     # (the first column when the file repeats a UID), so taxels sharing a UID all get data
     uniq, first = np.unique(uids, return_index=True)           # first file column of each UID
     dup = np.setdiff1d(np.arange(n), first)
-    is_temp = (uids & 0xF) == 0
+    is_temp = cyskin_sensors(uids) == 0
     pos = np.clip(np.searchsorted(uniq, ids), 0, len(uniq) - 1)
     got = uniq[pos] == ids                                       # (N,) layout taxel recorded
     src = first[pos[got]]

@@ -59,6 +59,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import InputError
+from .uids import cyskin_uids
 
 PITCH = 7.5e-3  #: m, CySkin taxel pitch (seeds 001, 002)
 MIL = 25.4e-6  #: m per mil (1/1000 inch), the unit of skinGui's triangle_10pad offsets
@@ -202,7 +203,7 @@ def taxel_uids(module: ModuleType, module_ids, sensors) -> np.ndarray:
     sensors = np.asarray(sensors, dtype=np.int64)
     if module.id_scheme == "icub":
         return module_ids * module.slots + sensors
-    return ((module_ids + 1) << 4) | sensors
+    return cyskin_uids(module_ids, sensors)
 
 
 # --- CySkin: a 4-per-side triangle of lattice sites ------------------------------------------

@@ -10,6 +10,7 @@ import numpy as np
 from ..._io import atomic_write
 from ...errors import FormatError
 from ..model import Layout
+from ..uids import cyskin_modules
 from .common import ImportReport, check_repeats, clean_normals, finish, parse_number, units_scale
 
 NAME = "csv"
@@ -114,7 +115,7 @@ def read(path, units: str | None = None) -> Layout:
     check_repeats(pos, report)
     ids = numeric("taxel_id", True) if "taxel_id" in col else np.arange(n)
     mods = numeric("module_id", True) if "module_id" in col else (
-        np.where(ids > 0, (ids >> 4) - 1, -1) if "taxel_id" in col else np.zeros(n, np.int64))
+        cyskin_modules(ids) if "taxel_id" in col else np.zeros(n, np.int64))
     flat = np.column_stack([numeric("u"), numeric("v")]) * scale if ("u" in col and "v" in col) else None
     roles = np.asarray([toks[col["role"]] or "pressure" for _, toks in rows], dtype=object) \
         if "role" in col else None

@@ -10,6 +10,7 @@ import numpy as np
 from ..._io import atomic_write
 from ...errors import FormatError
 from ..model import Layout
+from ..uids import cyskin_modules
 from .common import ImportReport, check_repeats, clean_normals, default_faces, finish, parse_number, units_scale
 
 NAME = "cyskin"
@@ -122,7 +123,7 @@ def read(path, units: str | None = None) -> Layout:
         if len(parents) > 1:
             report.warn(f"{len(parents)} parent frames; used the first")
     # UID = module_uid << 4 | sensor; our module ids are 0-based (module_uid - 1), -1 unknown
-    mods = np.where(ids > 0, (ids >> 4) - 1, -1)
+    mods = cyskin_modules(ids)
     meta = {"info": info, "id_scheme": "cyskin", "parent_frame": parents[0] if parents else None,
             "faces": faces.tolist(), "maps": [{k: m.get(k) for k in ("key", "name", "type", "description")}
                                               for m in maps]}

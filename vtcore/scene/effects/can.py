@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...layout.uids import cyskin_uids
 from ..registry import EffectSpec, register_effect
 from ..schema import Field, Section
 
@@ -29,7 +30,7 @@ class CanTransport:
             if n > 16 * 192:
                 raise ValueError(f"the iCub protocol addresses at most 3072 taxels (16 boards), got {n}")
             return j
-        return ((j // 10 + 1) << 4) | (j % 10 + 1)      # 10-taxel modules 1, 2, ...
+        return cyskin_uids(j // 10, j % 10 + 1)      # 10-taxel modules with UIDs 1, 2, ...
 
     def apply(self, frames, ctx):
         from ...can import decode_batches, encode, icub_counts_to_wire, icub_wire_to_counts
