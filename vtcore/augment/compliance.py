@@ -19,9 +19,10 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import FormatError, InputError
+from ..tolerances import EPS, LENGTH_TOL
 
 #: Displacements at or below this (metres) count as zero: no deformation was measured.
-MIN_DISPLACEMENT = 1e-9
+MIN_DISPLACEMENT = LENGTH_TOL
 
 
 def compliance(p_mean, v_ss, v, direction=None, *, min_displacement: float = MIN_DISPLACEMENT):
@@ -66,7 +67,7 @@ def compliance(p_mean, v_ss, v, direction=None, *, min_displacement: float = MIN
     else:
         d = np.atleast_2d(np.asarray(direction, dtype=np.float64))
         norm = np.linalg.norm(d, axis=1, keepdims=True)
-        if d.shape[-1] != 3 or np.any(~np.isfinite(norm)) or np.any(norm < 1e-12):
+        if d.shape[-1] != 3 or np.any(~np.isfinite(norm)) or np.any(norm < EPS):
             raise InputError("must be non-zero (3,) or (n, 3) vectors", key="direction")
         disp = np.einsum("ij,ij->i", delta, np.broadcast_to(d / norm, (n, 3)))
     bad = ~np.isfinite(disp) | (disp <= min_displacement)

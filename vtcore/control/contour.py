@@ -26,6 +26,7 @@ import numpy as np
 
 from ..contact.analytic import footprint_pressure
 from ..errors import InputError
+from ..tolerances import EPS
 
 
 def rot_z(a: float) -> np.ndarray:
@@ -451,14 +452,14 @@ def taxel_position_error(layout, rms: float, rng, model: str = "module") -> np.n
     count = np.bincount(inv, minlength=k)[:, None]
     centre = np.column_stack([np.bincount(inv, pos[:, j], k) for j in range(3)]) / count
     normal = np.column_stack([np.bincount(inv, nrm[:, j], k) for j in range(3)])
-    normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-12)
+    normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), EPS)
     r = pos - centre[inv]
     r_rms = np.sqrt(np.bincount(inv, np.sum(r**2, axis=1), k) / count[:, 0])
     t = rng.normal(0.0, 1.0, (k, 3))
     t -= normal * np.sum(t * normal, axis=1, keepdims=True)  # in the tangent plane: E|t|^2 = 2
     # rotation about the module normal by an angle whose arc is rms/sqrt(2) on average;
     # Rodrigues' formula, so the module stays exactly rigid
-    a = rng.normal(0.0, 1.0, k) * (rms / np.sqrt(2.0)) / np.maximum(r_rms, 1e-12)
+    a = rng.normal(0.0, 1.0, k) * (rms / np.sqrt(2.0)) / np.maximum(r_rms, EPS)
     ai, ni = a[inv, None], normal[inv]
     rot = (r * (np.cos(ai) - 1.0) + np.cross(ni, r) * np.sin(ai)
            + ni * np.sum(ni * r, axis=1, keepdims=True) * (1.0 - np.cos(ai)))

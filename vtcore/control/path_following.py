@@ -24,6 +24,7 @@ from typing import Callable
 import numpy as np
 
 from ..errors import InputError
+from ..tolerances import EPS
 
 
 def force_setpoint(c, p_max: float, c_max: float) -> np.ndarray:
@@ -122,14 +123,14 @@ class ResponseTable:
         uu, pp = self.u[j], self.p[j]
         if p_target <= pp[-1]:
             return float(np.interp(p_target, pp, uu))
-        slope = (pp[-1] - pp[-2]) / max(uu[-1] - uu[-2], 1e-12)
-        return float(uu[-1] + (p_target - pp[-1]) / max(slope, 1e-12))
+        slope = (pp[-1] - pp[-2]) / max(uu[-1] - uu[-2], EPS)
+        return float(uu[-1] + (p_target - pp[-1]) / max(slope, EPS))
 
     def _curve(self, j, u):
         uu, pp = self.u[j], self.p[j]
         if u <= uu[-1]:
             return float(np.interp(u, uu, pp, left=0.0))
-        slope = (pp[-1] - pp[-2]) / max(uu[-1] - uu[-2], 1e-12)
+        slope = (pp[-1] - pp[-2]) / max(uu[-1] - uu[-2], EPS)
         return float(pp[-1] + slope * (u - uu[-1]))
 
 
@@ -153,7 +154,7 @@ def contact_response_table(mesh, start, end, normal, layer, *, stiffness=None, c
     a, b = np.asarray(start, float), np.asarray(end, float)
     length = float(np.linalg.norm(b - a))
     s = np.linspace(0.0, length, max(int(stations), 1))
-    pts = a + s[:, None] * (b - a) / max(length, 1e-12)
+    pts = a + s[:, None] * (b - a) / max(length, EPS)
     nrm = normal(pts) if callable(normal) else np.broadcast_to(np.asarray(normal, float), pts.shape)
     counts = counts or (lambda pr: 0.1 * pr)
     pre = 2e-3                                   # start 2 mm off the planned point, subtract it after
@@ -225,7 +226,7 @@ def follow_path(start, end, query: Callable[[np.ndarray], np.ndarray],
         def plant(i, u):
             pen = u - g[i]
             return c_true[i] * pen if pen > 0 else 0.0, pen
-        u = setpoint[0] / max(c_true[0], 1e-12) + g[0]   # start at equilibrium
+        u = setpoint[0] / max(c_true[0], EPS) + g[0]   # start at equilibrium
     else:
         def plant(i, u):
             return response.response(s[i], u), u - response.response_gap(s[i])

@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
+from ..tolerances import EPS, LENGTH_TOL
 
 
 @dataclass
@@ -52,7 +53,7 @@ class Obstacle:
         if self.kind == "circle":
             d = x - c
             dist = float(np.hypot(*d))
-            n = d / dist if dist > 1e-12 else np.array([0.0, 1.0])
+            n = d / dist if dist > EPS else np.array([0.0, 1.0])
             return float(self.size) + r_link - dist, n
         if self.kind == "box":
             h = np.asarray(self.size, float)
@@ -60,7 +61,7 @@ class Obstacle:
             closest = np.clip(q, -h, h)
             d = q - closest
             dist = float(np.hypot(*d))
-            if dist > 1e-12:
+            if dist > EPS:
                 return r_link - dist, d / dist
             # centre inside the box: push out through the nearest face
             gaps = h - np.abs(q)
@@ -125,7 +126,7 @@ def reach(start, goal, obstacles: list[Obstacle], *, use_colours: bool, r_max: f
             break
         to_goal = b - ref
         dist = float(np.hypot(*to_goal))
-        vel = np.zeros(2) if dist < 1e-12 else min(speed / (1.0 + f_total / f_slow), dist / dt) * to_goal / dist
+        vel = np.zeros(2) if dist < EPS else min(speed / (1.0 + f_total / f_slow), dist / dt) * to_goal / dist
         if use_colours:
             for o, e, c in zip(obstacles, eps, cols):
                 r = x - np.asarray(o.centre, float)
@@ -164,7 +165,7 @@ def _equilibrium(ref, x0, obstacles, r_link, k_robot, iterations: int = 12):
                 hess += o.stiffness * np.outer(n, n)
         step = np.linalg.solve(hess, grad)
         x = x - step
-        if float(np.hypot(*step)) < 1e-9:
+        if float(np.hypot(*step)) < LENGTH_TOL:
             break
     forces = np.array([o.stiffness * max(o.penetration(x, r_link)[0], 0.0) for o in obstacles])
     return x, forces

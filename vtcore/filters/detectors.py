@@ -18,6 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InputError
+from ..tolerances import TINY
 from .extract import EdgeFeatures, features, mesh_components
 from .image import TactileImage, canny_edges
 from .local import EdgeFilter, relative_threshold
@@ -151,7 +152,7 @@ class SubtaxelEdgeDetector:
         self.S, tri = loop_subdivision(self.n, mesh.triangles, levels)
         pos = self.S @ np.asarray(mesh.positions, dtype=np.float64)
         nrm = self.S @ np.asarray(mesh.normals, dtype=np.float64)
-        nrm /= np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), 1e-300)
+        nrm /= np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), TINY)
         self.fine = mesh_from_triangles(pos, nrm, tri)
         self.filter = EdgeFilter(self.fine)
         self.fraction = float(fraction)

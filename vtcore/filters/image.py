@@ -18,6 +18,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import InputError
+from ..tolerances import EPS, TINY
 
 
 def flatten(positions, triangles, flat=None) -> np.ndarray:
@@ -115,7 +116,7 @@ class TactileImage:
         p = np.column_stack([px[inside], py[inside]])
         v0, v1, v2 = b - a, c - a, p - a
         den = v0[:, 0] * v1[:, 1] - v1[:, 0] * v0[:, 1]
-        den = np.where(np.abs(den) > 1e-300, den, 1e-300)
+        den = np.where(np.abs(den) > TINY, den, TINY)
         l1 = (v2[:, 0] * v1[:, 1] - v1[:, 0] * v2[:, 1]) / den
         l2 = (v0[:, 0] * v2[:, 1] - v2[:, 0] * v0[:, 1]) / den
         bary = np.clip(np.column_stack([1.0 - l1 - l2, l1, l2]), 0.0, 1.0)
@@ -160,6 +161,6 @@ def canny_edges(img, inside, sigma: float = 1.5, low: float = 0.1, high: float =
     sm = ndimage.gaussian_filter(x, sigma, mode="nearest")
     mag = np.hypot(ndimage.sobel(sm, axis=0), ndimage.sobel(sm, axis=1))[inside]
     gmax = float(mag.max()) if mag.size else 0.0
-    if gmax <= 1e-12:
+    if gmax <= EPS:
         return np.zeros(img.shape, dtype=bool)
     return canny(x, sigma=sigma, low_threshold=low * gmax, high_threshold=high * gmax, mask=inside)

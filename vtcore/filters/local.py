@@ -26,9 +26,10 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import InputError, InputTypeError
+from ..tolerances import LENGTH_TOL
 
 #: Edges shorter than this (metres) join coincident taxels: no direction, no weight.
-MIN_EDGE_LENGTH = 1e-9
+MIN_EDGE_LENGTH = LENGTH_TOL
 
 #: Below this many multiply-adds per call the exact per-edge form of Eq. 6 is used
 #: (fast for single frames and small batches, no cancellation); above it the

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..tolerances import LENGTH_TOL
 from .model import Layout
 from .patches import fill_patch, make_patch
 from .modules import get_module
@@ -115,7 +116,7 @@ def seed002_curved(flat_length: float = 0.066, radius: float = 0.045, arc_angle:
     u0 = -flat_length + max(0.0, (flat_length + arc - L) / 2)
     lo, hi = np.array([u0, -W / 2]), np.array([u0 + L, W / 2])
     # the taxel centres fill the unrolled rectangle (the 1 mm tactile image spans them)
-    patch = fill_patch(mod, lambda f: np.all((f >= lo - 1e-9) & (f <= hi + 1e-9), axis=1), lo, hi,
+    patch = fill_patch(mod, lambda f: np.all((f >= lo - LENGTH_TOL) & (f <= hi + LENGTH_TOL), axis=1), lo, hi,
                        angles=(0.0,), offsets=10)
     u, v = patch.flat[:, 0], patch.flat[:, 1]
     pos, nrm = _profile_point(u, flat_length, radius)

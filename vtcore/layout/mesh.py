@@ -29,6 +29,7 @@ from scipy.spatial import Delaunay, cKDTree
 
 from ..errors import InputError
 from ..geometry import cross2
+from ..tolerances import TINY
 from .model import Layout
 
 
@@ -122,7 +123,7 @@ def _rank2(uv: np.ndarray, rtol: float = 1e-9) -> bool:
         return False
     c = uv - uv.mean(axis=0)
     s = np.linalg.svd(c, compute_uv=False)
-    return s[1] > rtol * max(s[0], 1e-300)
+    return s[1] > rtol * max(s[0], TINY)
 
 
 def _chain(points: np.ndarray) -> np.ndarray:
@@ -364,7 +365,7 @@ def surface_triangulation(positions: np.ndarray, normals: np.ndarray, spacing: n
     flip = np.einsum("ij,ij->i", fn, vn) < 0
     tri[flip] = tri[flip][:, [0, 2, 1]]
     # a triangle must itself face like its vertices: drops the few that fold across a crease
-    fnu = fn / np.maximum(np.linalg.norm(fn, axis=1, keepdims=True), 1e-300)
+    fnu = fn / np.maximum(np.linalg.norm(fn, axis=1, keepdims=True), TINY)
     ok = np.all(np.abs(np.einsum("ij,ikj->ik", fnu, nrm[tri])) > 0.3, axis=1)
     return tri[ok]
 

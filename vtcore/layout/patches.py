@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import InputError
+from ..tolerances import LENGTH_TOL
 from .model import Layout
 from .modules import PITCH, ModuleType, get_module, taxel_uids
 
@@ -115,7 +116,7 @@ def patch_from_poses(module: str | ModuleType, poses, kind: str = "", extra: dic
         # or the hexagon centre) are taxels of the first module only
         from scipy.spatial import cKDTree
 
-        pairs = cKDTree(flat).query_pairs(1e-9, output_type="ndarray")
+        pairs = cKDTree(flat).query_pairs(LENGTH_TOL, output_type="ndarray")
         if len(pairs):
             drop = np.zeros(len(flat), bool)
             drop[pairs.max(axis=1)] = True

@@ -25,6 +25,7 @@ import numpy as np
 
 from ...contact import press, press_sequence, probe
 from ...plots import skin_3d, taxel_map
+from ...tolerances import EPS
 from ..registry import TaskSpec, register_task
 from ..runner import TaskResult
 from ..schema import Field, Section
@@ -63,7 +64,7 @@ def _field_figure(fld, layout, title, cut=None):
     fig, axes = plt.subplots(1, len(panels), figsize=(5.2 * len(panels), 4.4), squeeze=False)
     txy = fld.taxel_xy(layout) * 1e3
     ext = [fld.x[0] * 1e3, fld.x[-1] * 1e3, fld.y[0] * 1e3, fld.y[-1] * 1e3]
-    vmax = max(float(fld.pressure.max()), 1e-12)
+    vmax = max(float(fld.pressure.max()), EPS)
     for ax, (name, img) in zip(axes[0], panels):
         im = ax.imshow(img.T, origin="lower", extent=ext, cmap="magma", vmin=0, vmax=vmax)
         ax.scatter(txy[:, 0], txy[:, 1], s=16, facecolors="none", edgecolors="c", linewidths=0.6)
@@ -269,7 +270,7 @@ def run(scene, ctx) -> TaskResult:
         "contact_area_mm2": float(area[-1]) * 1e6 if len(area) else 0.0,
         "taxels": len(layout),
         "frames": int(len(frames)),
-        "active_taxels": int((per[-1] > 1e-3 * max(pmax, 1e-12)).sum()) if len(per) else 0,
+        "active_taxels": int((per[-1] > 1e-3 * max(pmax, EPS)).sum()) if len(per) else 0,
         "pressure_max_pa": pmax,
         "surface_pressure_max_pa": float(fld.pressure.max()),
         "response_max": float(mean.max()),
