@@ -25,6 +25,7 @@ from typing import Callable
 import numpy as np
 
 from ..errors import InputError
+from ..tolerances import EPS
 from .formation import CategoryFormation, kmeans_splits
 from .tasks import Task, task_accuracies
 
@@ -57,7 +58,7 @@ class LayerSweep:
 
     def solved(self) -> np.ndarray:
         """(H, K) bool, the thickness solves the task (solve rate >= threshold)."""
-        return self.solve_rate() >= self.threshold - 1e-12
+        return self.solve_rate() >= self.threshold - EPS
 
     def mean_accuracy(self) -> np.ndarray:
         """(H, K) expected accuracy, mean over the noise draws."""

@@ -30,6 +30,7 @@ from ...categorize import (PAPER_FIG8, PAPER_TASK_NOTES, CategoryFormation, conf
 from ...categorize import plots as cplots
 from ...categorize.variants import variant_grid, variant_sweep, variants_summary, variants_table
 from ...errors import UnreachableTargetError
+from ...tolerances import EPS
 from ..registry import TaskSpec, register_task
 from ..runner import TaskResult
 from ..schema import Field, Section
@@ -403,7 +404,7 @@ def run_sweep(scene, ctx) -> TaskResult:
             if claim in idx and len(paper_rows) > 1:
                 col = acc[[idx[round(h, 6)] for _, _, h in paper_rows], k - 1]
                 mine = acc[idx[claim], k - 1]
-                best = mine >= col.max() - 1e-12 and solved[idx[claim], k - 1]
+                best = mine >= col.max() - EPS and solved[idx[claim], k - 1]
                 lines.append(f"\nTask {k} ({PAPER_TASK_NOTES[k]}): seed 001 finds {claim * 1e3:g} mm best "
                              f"(accuracy 1). Here the expected accuracy is "
                              + ", ".join(f"{lab} {a:.2f}" for (lab, _, _), a in zip(paper_rows, col))

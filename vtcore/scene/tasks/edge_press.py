@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...tolerances import LENGTH_TOL
 from ..registry import TaskSpec, register_task
 from ..runner import TaskResult
 from ..schema import Field, Section
@@ -97,7 +98,7 @@ def _figure(layout, frame, response, edge, name):
     xyz = layout.positions * 1e3
     ax = fig.add_subplot(1, 3, 1, projection="3d")
     ax.scatter(*xyz.T, c=frame, cmap="Greys", s=14, edgecolor="0.6", linewidth=0.3)
-    ax.set_box_aspect(np.ptp(xyz, axis=0) + 1e-9)
+    ax.set_box_aspect(np.ptp(xyz, axis=0) + LENGTH_TOL)
     ax.set_title("(b) skin and contact, 3-D (mm)")
     # top view: the skin unrolled (its flat coordinates), which is how seed 002 draws it
     xyz = np.column_stack([layout.flat * 1e3, np.zeros(len(layout))]) if layout.flat is not None else xyz
