@@ -22,3 +22,8 @@ EPS = 1e-12
 #: (a nanometre: far below any taxel pitch or mesh feature, far above float64
 #: rounding of coordinates of a metre-sized scene, ~1e-16 m).
 LENGTH_TOL = 1e-9
+
+#: A normal vector (meant to be unit length) shorter than this is missing: a file
+#: gave zeros, or nobody estimated it. Readers estimate it; writers that need an
+#: axis refuse it.
+ZERO_NORMAL = 1e-9

@@ -8,6 +8,7 @@ import warnings
 import numpy as np
 
 from ...errors import FormatError, InputError
+from ...tolerances import ZERO_NORMAL
 from ..mesh import LayoutWarning, _nn_spacing, estimate_normals
 from ..model import Layout
 
@@ -51,7 +52,7 @@ def clean_normals(normals: np.ndarray, positions: np.ndarray, report: ImportRepo
     """Unit normals; zero ones estimated from the neighbours; non-unit ones normalised (warned)."""
     normals = np.array(normals, dtype=np.float64)
     norm = np.linalg.norm(normals, axis=1)
-    zero = norm < 1e-9
+    zero = norm < ZERO_NORMAL
     off = ~zero & (np.abs(norm - 1) > 1e-3)
     if off.any():
         report.warn(f"{int(off.sum())} {what}s are not unit length (norm {norm[off].min():.3g}-"

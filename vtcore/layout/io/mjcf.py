@@ -48,6 +48,7 @@ import numpy as np
 
 from ..._io import atomic_write
 from ...errors import FormatError, InputError
+from ...tolerances import ZERO_NORMAL
 from ..model import Layout
 from .common import default_faces, taxel_labels
 
@@ -142,8 +143,8 @@ def add_skin(layout: Layout, parent: ET.Element, sensor: ET.Element, *, position
     if not (pad_thickness > 0):
         raise InputError(f"pad thickness must be > 0 m, got {pad_thickness}", key="pad_thickness")
     nz = np.linalg.norm(normals, axis=1)
-    if np.any(nz < 1e-9):
-        raise InputError(f"{int((nz < 1e-9).sum())} taxels have a zero normal; a site needs an axis "
+    if np.any(nz < ZERO_NORMAL):
+        raise InputError(f"{int((nz < ZERO_NORMAL).sum())} taxels have a zero normal; a site needs an axis "
                          "(estimate the normals first)", key="normals")
     normals = normals / nz[:, None]
     names = [f"{prefix}{lab}" for lab in taxel_labels(layout)]

@@ -28,6 +28,7 @@ import numpy as np
 
 from ..._io import atomic_write
 from ...errors import FormatError, InputError
+from ...tolerances import ZERO_NORMAL
 from ..model import Layout
 from .common import taxel_labels
 
@@ -54,8 +55,8 @@ def taxel_rotations(normals: np.ndarray) -> np.ndarray:
 def taxel_poses(layout: Layout) -> tuple[np.ndarray, np.ndarray]:
     """Taxel frames in the parent link: origins (N, 3) m and rotations (N, 3, 3)."""
     nz = np.linalg.norm(layout.normals, axis=1)
-    if np.any(nz < 1e-9):
-        raise InputError(f"{int((nz < 1e-9).sum())} taxels have a zero normal; a taxel frame needs a z axis "
+    if np.any(nz < ZERO_NORMAL):
+        raise InputError(f"{int((nz < ZERO_NORMAL).sum())} taxels have a zero normal; a taxel frame needs a z axis "
                          "(estimate the normals first)", key="normals")
     t = layout.transform
     return layout.positions @ t[:3, :3].T + t[:3, 3], taxel_rotations(layout.normals @ t[:3, :3].T)
