@@ -25,6 +25,7 @@ ALLOWED = {
     "can": {"layout", "contact", "filters"},
     "control": {"layout", "contact", "filters", "augment", "categorize"},
     "scene": set(PACKAGES) - {"cli", "scene"},
+    "sweep": set(PACKAGES) - {"cli", "sweep"},
     "cli": set(PACKAGES) - {"cli"},
 }
 

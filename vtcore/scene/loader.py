@@ -6,6 +6,8 @@ A scene file has these top-level tables:
 ``[task]``      the task's own parameters (validated by the task)
 ``[effects.X]`` one table per effect to simulate, with its parameters
 ``[output]``    what to write besides ``result.json``
+``[sweep]``     the grid and seeds of ``vtcore sweep`` (read by ``vtcore.sweep``; a plain
+                run ignores it and runs the scene's own values once)
 and the tables that sections register (``end_effector``, ``layout``, ``layer``,
 ``[[objects]]``, ...). Every table is checked; unknown keys are errors.
 """
@@ -126,7 +128,8 @@ def load_scene(path: str | Path, overrides: list[str] | None = None) -> Scene:
     data: dict[str, Any] = {}
     top = {"scene": Field("table", section=SCENE_SECTION), "task": Field("any", default={}),
            "effects": Field("any", default={}),
-           "output": Field("table", default=None, section=OUTPUT_SECTION), **registry.SECTIONS}
+           "output": Field("table", default=None, section=OUTPUT_SECTION),
+           "sweep": Field("any", default={}), **registry.SECTIONS}
     for key in raw:
         if key not in top:
             known = ", ".join(sorted(top))
@@ -138,6 +141,9 @@ def load_scene(path: str | Path, overrides: list[str] | None = None) -> Scene:
     task = registry.TASKS.get(data["scene"].get("task") or "")
 
     data["output"] = OUTPUT_SECTION.validate(raw.get("output", {}), ctx, prefix="output")
+    data["sweep"] = raw.get("sweep", {})
+    if not isinstance(data["sweep"], dict):
+        ctx.fail("sweep", "must be a table ([sweep] with grid and seeds)")
     if task is not None:
         if not isinstance(raw.get("task", {}), dict):
             ctx.fail("task", "must be a table")

@@ -48,6 +48,9 @@ class TaskSpec:
 
     ``run(scene, ctx) -> TaskResult``; ``params`` validates the ``[task]`` table;
     ``sections`` names the top-level tables the task needs (validated as required).
+    ``sweep_summary(scene, rows, grid_keys) -> str`` (optional): a markdown block for
+    ``vtcore sweep``'s report, built from the sweep's rows (``vtcore.sweep``'s records:
+    ``grid`` values, ``seed``, ``status``, ``metrics``), e.g. the categorize designer's table.
     """
 
     name: str
@@ -55,6 +58,7 @@ class TaskSpec:
     params: Section = field(default_factory=lambda: Section({}))
     sections: tuple[str, ...] = ()
     doc: str = ""
+    sweep_summary: Callable | None = None
 
 
 SECTIONS: dict[str, Field] = {}
