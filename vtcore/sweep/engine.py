@@ -31,7 +31,7 @@ from .. import __version__
 from .._progress import progress
 from ..errors import InputError
 from . import report
-from .point import completed, run_point, worker_info
+from .point import completed, run_point, thread_counts, worker_info
 from .spec import Plan
 
 #: Seconds to wait for a named scheduler to answer (and to show at least one worker).
@@ -122,7 +122,6 @@ def run_sweep(plan: Plan, out: str | Path, *, workers: int | None = None, schedu
     ``KeyboardInterrupt`` goes on to the caller.
     """
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
     records: dict[str, dict] = {}
     if resume:
         for p in plan.points:
@@ -132,6 +131,7 @@ def run_sweep(plan: Plan, out: str | Path, *, workers: int | None = None, schedu
     todo = [p for p in plan.points if p.name not in records]
     t0 = time.perf_counter()
     cluster = own = None
+    started = False
     try:
         if todo:
             if client is None:
@@ -141,8 +141,12 @@ def run_sweep(plan: Plan, out: str | Path, *, workers: int | None = None, schedu
                     client, cluster = local_client(workers, retries)
                     own = client
             check_workers(client)
+            out.mkdir(parents=True, exist_ok=True)  # only once a cluster is there to fill it
+            started = True
             _gather(client, plan, todo, out, records, command)
     except BaseException as exc:  # Ctrl-C, or the cluster went away: record every point, then stop
+        if not started:  # no cluster came up (unreachable scheduler): nothing was started or written
+            raise
         stop = (lost_record(KeyboardInterrupt("stopped by Ctrl-C before it finished"), "interrupted")
                 if isinstance(exc, KeyboardInterrupt) else lost_record(exc))
         for p in todo:
@@ -166,8 +170,9 @@ def _gather(client, plan, todo, out, records, command):
     from distributed import as_completed
 
     futures = {}
+    threads = thread_counts()
     for p in todo:
-        fut = client.submit(run_point, str(plan.scene), list(p.overrides), str((out / p.name).resolve()),
+        fut = client.submit(run_point, str(plan.scene), list(p.overrides), str((out / p.name).resolve()), threads,
                             key=f"vtcore-point-{p.name}-{os.getpid()}-{time.time_ns()}", pure=False)
         futures[fut] = p
     bar = progress(total=len(todo), desc="sweep", unit="point")

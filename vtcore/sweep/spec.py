@@ -236,9 +236,10 @@ def plan_sweep(scene: str | Path, grid_args: list[str] | None = None, seeds: str
             raise SceneError("sweep seeds with --seeds (or [sweep] seeds), not as a grid key", key=key)
         if key.split(".")[0] == "sweep":
             raise SceneError("the [sweep] table cannot be swept", key=key)
-        texts = [toml_literal(v) for v in values]
-        if len(set(texts)) != len(texts):
-            raise SceneError(f"values repeat: {', '.join(texts)}", key=key)
+        # 1 and 1.0 are the same run of a float key: compare numbers as floats
+        same = [toml_literal(float(v) if isinstance(v, int) and not isinstance(v, bool) else v) for v in values]
+        if len(set(same)) != len(same):
+            raise SceneError(f"values repeat: {', '.join(toml_literal(v) for v in values)}", key=key)
     size = math.prod(len(v) for v in grid.values()) * (len(seed_list) if seed_list else 1)
     if size > MAX_POINTS:
         raise SceneError(f"the sweep has {size} points; at most {MAX_POINTS} are allowed: "
