@@ -87,7 +87,7 @@ def test_sweep_presses_each_object_once_per_thickness_and_writes_the_plot(tmp_pa
         return real(layout, mesh, pose, layer, **kw)
 
     monkeypatch.setattr(contact, "press", counting)
-    res = run_scene(scenes_dir / "category_sweep.toml", tmp_path,
+    res = run_scene(scenes_dir / "category_variants.toml", tmp_path,
                     overrides=["task.thicknesses=[0.003, 0.010]", "task.repeats=3", "task.readings=3",
                                "task.trials=1", "task.variant_thicknesses=[0.010]",
                                "task.variant_p_halfs=[0, 5000]"])
@@ -134,7 +134,7 @@ def test_one_object_is_a_scene_error(tmp_path, scenes_dir):
 
 def test_sweep_rejects_repeated_thicknesses(tmp_path, scenes_dir):
     with pytest.raises(SceneError, match="task.thicknesses"):
-        run_scene(scenes_dir / "category_sweep.toml", tmp_path, overrides=["task.thicknesses=[0.003, 0.003]"])
+        run_scene(scenes_dir / "category_variants.toml", tmp_path, overrides=["task.thicknesses=[0.003, 0.003]"])
 
 
 def test_identical_objects_give_a_degenerate_outcome_not_nan(tmp_path, scenes_dir):

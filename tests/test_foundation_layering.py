@@ -24,7 +24,7 @@ ALLOWED = {
     "categorize": {"layout", "contact"},
     "can": {"layout", "contact", "filters"},
     "control": {"layout", "contact", "filters", "augment", "categorize"},
-    "scene": set(PACKAGES) - {"cli", "scene"},
+    "scene": set(PACKAGES) - {"cli", "scene", "sweep"},
     "sweep": set(PACKAGES) - {"cli", "sweep"},
     "cli": set(PACKAGES) - {"cli"},
 }

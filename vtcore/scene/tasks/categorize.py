@@ -49,6 +49,9 @@ _COMMON = {
 
 PARAMS = Section({
     **_COMMON,
+    "solve_probability": Field("float", default=0.5, gt=0, le=1,
+                               doc="chance of forming exactly a task's split that counts as solving it, "
+                                   "averaged over a sweep's seeds (`vtcore sweep` designer table)"),
     "resolution_sizes": Field("list", default=[6, 12, 18, 24, 30, 36], item=Field("int", ge=1),
                               doc="taxels per random subset (seed 001: 6, 12, ..., 36)"),
     "resolution_runs": Field("int", default=100, ge=0, doc="random subsets per size (0: no study)"),
@@ -57,6 +60,9 @@ PARAMS = Section({
 
 SWEEP_PARAMS = Section({
     **_COMMON,
+    "solve_probability": Field("float", default=0.5, gt=0, le=1,
+                               doc="chance of forming exactly a task's split that counts as solving it, "
+                                   "averaged over a sweep's seeds (`vtcore sweep` designer table)"),
     "thicknesses": Field("vec", default=[i * 1e-3 for i in range(1, 16)], length=(1, 200), unit="m",
                          doc="layer thicknesses to try"),
     "repeats": Field("int", default=5, ge=1, doc="noise draws per thickness"),
@@ -253,6 +259,14 @@ def run(scene, ctx) -> TaskResult:
                 if valid else np.full(len(tasks), np.nan))  # undefined when no split exists
     for task, a in zip(tasks, expected):
         metrics[f"expected_accuracy_task{task.number}"] = a
+    # The chance that the procedure returns exactly each task's split (exact over the starts); its
+    # mean over seeds (noise draws) is the soft-layer designer's solve probability (sweep_summary).
+    targets = np.stack([task.target for task in tasks])
+    p_solve = np.zeros(len(tasks))
+    for r in valid:
+        p_solve += r["p_accepted"] * ((targets == r["labels"]).all(axis=1) | (targets == 1 - r["labels"]).all(axis=1))
+    for task, p in zip(tasks, p_solve):
+        metrics[f"solve_probability_task{task.number}"] = p
 
     arrays = {"positions": src.layout.positions, "normals": src.layout.normals,
               "taxel_ids": src.layout.taxel_ids, "object_pressure": pressure, "tactile_images": images,
@@ -467,7 +481,71 @@ def run_sweep(scene, ctx) -> TaskResult:
     return TaskResult(metrics=metrics, arrays=arrays, figures=figures, sections=["\n".join(lines)])
 
 
+# -- the designer as a sweep: `vtcore sweep` over layer.thickness x seeds ----------------------------
+
+def sweep_summary(scene, rows, keys) -> str:
+    """The soft-layer designer's table from ``vtcore sweep`` rows of ``categorize`` points.
+
+    rows : the sweep's finished points (``grid``, ``seed``, ``metrics``); keys : the grid keys.
+    For every value of the first key (a thickness, for ``category_sweep``), the solve probability
+    and expected accuracy of each task are averaged over the seeds (the noise draws), and a value
+    solves a task when that mean is at least ``task.solve_probability``. One table per
+    combination of the other grid keys. Nothing for a sweep without grid keys.
+    """
+    def shown(v):
+        return v if isinstance(v, str) else f"{v:g}" if isinstance(v, float) else str(v)
+
+    if not keys:
+        return ""
+    tasks = make_tasks([o["name"] for o in scene["objects"]])
+    threshold = scene["task"]["solve_probability"]
+    first, rest = keys[0], keys[1:]
+    thick = first == "layer.thickness"
+    groups: dict[tuple, dict] = {}
+    for r in rows:
+        g = groups.setdefault(tuple(r["grid"][k] for k in rest), {})
+        g.setdefault(r["grid"][first], []).append(r["metrics"])
+
+    def mean(ms, name):
+        v = np.array([np.nan if m.get(name) is None else float(m[name]) for m in ms])
+        return float(np.nanmean(v)) if np.isfinite(v).any() else np.nan
+
+    out = ["## Soft-layer designer" if thick else f"## Tasks solved against {first}"]
+    for combo, by_value in groups.items():
+        values = list(by_value)
+        if thick:
+            values = sorted(values)
+        n_seeds = sorted({len(ms) for ms in by_value.values()})
+        rate = np.array([[mean(by_value[v], f"solve_probability_task{t.number}") for t in tasks] for v in values])
+        acc = np.array([[mean(by_value[v], f"expected_accuracy_task{t.number}") for t in tasks] for v in values])
+        solved = np.nan_to_num(rate, nan=0.0) >= threshold - 1e-12
+        label = ", ".join(f"{k}={shown(v)}" for k, v in zip(rest, combo))
+        out += ["", *([f"### {label}", ""] if label else []),
+                f"{len(values)} values of `{first}`, {'/'.join(map(str, n_seeds))} seed(s) each (noise draws). "
+                "*Solve probability*: the chance that category formation returns exactly the task's two "
+                "categories (exact over the random K-Means starts, averaged over the seeds). A value solves a "
+                f"task when that chance is at least {threshold:.2f}.", "",
+                "| task | groups | solved by | best solve probability |", "|---|---|---|---|"]
+        for k, task in enumerate(tasks):
+            note = f" ({PAPER_TASK_NOTES[task.number]})" if len(tasks) == 7 and task.number in PAPER_TASK_NOTES \
+                else ""
+            col = np.nan_to_num(rate[:, k], nan=-1.0)
+            best = int(np.argmax(col))
+            hit = [v for v, ok in zip(values, solved[:, k]) if ok]
+            where = (format_ranges_mm(hit, min(np.diff(values)) if len(values) > 1 else None) if thick
+                     else ", ".join(shown(v) for v in hit) or "none")
+            at = f"{values[best] * 1e3:g} mm" if thick else shown(values[best])
+            out.append(f"| {task.number}{note} | {task.label} | {where} | {rate[best, k]:.2f} at {at} |")
+        paper = [(f"{h * 1e3:g} mm", acc[i], h) for i, h in enumerate(values)
+                 if thick and round(h, 6) in PAPER_FIG8]
+        if paper and len(tasks) == 7:
+            out += ["", "Seed 001's layers (Fig. 8; expected accuracy, mean over the seeds):", "",
+                    _fig8_table(paper, tasks)]
+    return "\n".join(out)
+
+
 register_task(TaskSpec("categorize", run, PARAMS, sections=("objects",),
-                       doc="seed 001: tactile images, PCA + K-Means categories, 7 tasks, resolution study"))
+                       doc="seed 001: tactile images, PCA + K-Means categories, 7 tasks, resolution study",
+                       sweep_summary=sweep_summary))
 register_task(TaskSpec("categorize_sweep", run_sweep, SWEEP_PARAMS, sections=("objects",),
                        doc="soft-layer designer: which layer thickness solves which task"))
