@@ -356,3 +356,37 @@ def test_ctrl_c_keeps_finished_points_and_writes_nothing_half(tmp_path):
     assert finished and all(json.loads((out / p / "result.json").read_text())["metrics"] for p in finished)
     assert not list(out.rglob(".*.tmp"))  # atomic writes: no half-written file anywhere
     assert (out / "report.md").is_file()
+
+
+# -- the sweeps that live in scenes/ ---------------------------------------------------------
+
+def test_every_sweep_scene_plans(scenes_dir):
+    files = [f for f in sorted(scenes_dir.glob("*.toml")) if "\n[sweep" in f.read_text()]
+    names = {f.stem: len(plan_sweep(f).points) for f in files}
+    assert names["category_sweep"] == 15 * 5 and names["contour_mug_curved_seeds"] == 2 * 8
+
+
+def test_the_designer_table_is_built_from_the_seeds_means(scenes_dir):
+    """categorize's sweep_summary: a thickness solves a task when its solve probability, averaged
+    over the seeds, reaches task.solve_probability (0.5), as the in-process designer decides."""
+    from vtcore.scene import load_scene
+    from vtcore.scene.registry import TASKS
+
+    scene = load_scene(scenes_dir / "category_sweep.toml")
+    p5 = {0.002: [1.0, 0.2], 0.003: [0.5, 0.5], 0.004: [0.9, 0.0], 0.006: [0.0, 0.0]}  # task 5, per seed
+    rows = []
+    for h, ps in p5.items():
+        for seed, p in enumerate(ps, 1):
+            m = {f"solve_probability_task{k}": 0.0 for k in range(1, 8)}
+            m.update({f"expected_accuracy_task{k}": 0.5 for k in range(1, 8)})
+            m["solve_probability_task5"] = p
+            m["solve_probability_task6"] = 1.0 - p
+            m["expected_accuracy_task5"] = 0.5 + p / 2
+            rows.append({"grid": {"layer.thickness": h}, "seed": seed, "status": "ok", "metrics": m})
+    text = TASKS["categorize"].sweep_summary(scene, rows, ["layer.thickness"])
+    line5 = next(x for x in text.splitlines() if x.startswith("| 5 (edged vs round)"))
+    line6 = next(x for x in text.splitlines() if x.startswith("| 6 "))
+    assert "| 2-3 mm | 0.60 at 2 mm |" in line5  # means 0.6, 0.5, 0.45, 0: 2 and 3 mm solve it
+    assert "| 3-4, 6 mm | 1.00 at 6 mm |" in line6  # means 0.4, 0.5, 0.55, 1 (5 mm not swept)
+    assert "| 3 mm (simulated) |" in text and "| 6 mm (seed 001, Fig. 8) |" in text
+    assert "| 3 mm (simulated) | 0.50 | 0.50 | 0.50 | 0.50 | 0.75 |" in text
