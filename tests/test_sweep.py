@@ -390,3 +390,10 @@ def test_the_designer_table_is_built_from_the_seeds_means(scenes_dir):
     assert "| 3-4, 6 mm | 1.00 at 6 mm |" in line6  # means 0.4, 0.5, 0.55, 1 (5 mm not swept)
     assert "| 3 mm (simulated) |" in text and "| 6 mm (seed 001, Fig. 8) |" in text
     assert "| 3 mm (simulated) | 0.50 | 0.50 | 0.50 | 0.50 | 0.75 |" in text
+
+
+@pytest.mark.parametrize("args, key", [(["--workers", "0"], "--workers"), (["--retries", "-1"], "--retries")])
+def test_bad_cluster_options_exit_2(tmp_path, capsys, args, key):
+    code = main(["sweep", str(DEMO), "--out", str(tmp_path / "out"), *args])
+    err = capsys.readouterr().err
+    assert code == 2 and key in err and not (tmp_path / "out").exists()

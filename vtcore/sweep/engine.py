@@ -52,9 +52,11 @@ def local_client(workers: int | None = None, retries: int = 2):
     import dask
     from distributed import Client, LocalCluster
 
+    if workers is not None and (isinstance(workers, bool) or int(workers) < 1):
+        raise InputError(f"needs at least 1 worker, got {workers}", key="--workers")
+    if int(retries) < 0:
+        raise InputError(f"must be >= 0, got {retries}", key="--retries")
     n = int(workers or os.cpu_count() or 1)
-    if n < 1:
-        raise InputError(f"needs at least 1 worker, got {n}", key="--workers")
     # worker-saturation 1.0: a worker holds only the point it runs, so a point waits in the
     # scheduler's queue (not behind a slow point on a busy worker) and a dead worker takes one point with it.
     with dask.config.set({"distributed.scheduler.allowed-failures": int(retries),
