@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import hashlib
 import math
 import warnings
 
@@ -48,8 +49,14 @@ def units_scale(positions: np.ndarray, units: str | None, report: ImportReport, 
     return 1.0
 
 
-def clean_normals(normals: np.ndarray, positions: np.ndarray, report: ImportReport, what: str = "normal"):
-    """Unit normals; zero ones estimated from the neighbours; non-unit ones normalised (warned)."""
+def clean_normals(normals: np.ndarray, positions: np.ndarray, report: ImportReport, what: str = "normal"
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """Unit normals (N, 3) and the (N,) bool mask of the ones estimated.
+
+    Zero normals (the file has none) are estimated from the neighbours and flagged;
+    non-unit ones are normalised (warned); ones already unit to 1e-12 are kept bit for
+    bit, so a layout read back from our own files has the same digests (:func:`row_digests`).
+    """
     normals = np.array(normals, dtype=np.float64)
     norm = np.linalg.norm(normals, axis=1)
     zero = norm < ZERO_NORMAL
@@ -57,7 +64,8 @@ def clean_normals(normals: np.ndarray, positions: np.ndarray, report: ImportRepo
     if off.any():
         report.warn(f"{int(off.sum())} {what}s are not unit length (norm {norm[off].min():.3g}-"
                     f"{norm[off].max():.3g}); normalised")
-    normals[~zero] /= norm[~zero, None]
+    rescale = ~zero & (np.abs(norm - 1) > 1e-12)
+    normals[rescale] /= norm[rescale, None]
     if zero.any():
         if len(positions) >= 3:
             est = estimate_normals(positions, reference=np.where(zero[:, None], 0.0, normals)
@@ -65,13 +73,14 @@ def clean_normals(normals: np.ndarray, positions: np.ndarray, report: ImportRepo
             normals[zero] = est[zero]
         else:
             normals[zero] = [0.0, 0.0, 1.0]
-        report.warn(f"{int(zero.sum())} taxels have no {what} (all zeros); estimated from their neighbours")
+        report.warn(f"{int(zero.sum())} taxels have no {what} (all zeros); estimated from their neighbours "
+                    "(layout.normals_estimated; written back as zeros unless asked to estimate)")
     if len(normals) > 3 and len(np.unique(np.round(normals, 9), axis=0)) == 1:
         c = positions - positions.mean(axis=0)
         if np.linalg.svd(c, compute_uv=False)[2] > 1e-3 * np.linalg.svd(c, compute_uv=False)[0]:
             report.warn(f"every {what} is {normals[0].round(6).tolist()} on a non-planar layout: "
                         "placeholder normals? kept as given")
-    return normals
+    return normals, zero
 
 
 def check_repeats(positions: np.ndarray, report: ImportReport):
@@ -127,3 +136,39 @@ def taxel_labels(layout: Layout) -> np.ndarray:
     if len(ids) and ids.min() >= 0 and len(np.unique(ids)) == len(ids):
         return ids
     return np.arange(len(layout))
+
+
+def row_digests(layout: Layout) -> list[str]:
+    """One short hash per taxel row of its position and normal (float64 bits).
+
+    A reader stores them with the file's own text of each row; a writer of the same
+    format writes a row's text as read when its digest still matches (the row was not
+    moved, transformed or re-estimated), and formats it afresh otherwise. That is what
+    makes import then export byte-for-byte on the number tables, through our JSON too.
+    """
+    a = np.ascontiguousarray(np.column_stack([layout.positions, layout.normals]), dtype="<f8")
+    return [hashlib.blake2b(r.tobytes(), digest_size=8).hexdigest() for r in a]
+
+
+def unchanged_rows(layout: Layout, digests) -> np.ndarray:
+    """(N,) bool: rows whose position and normal are still what the reader produced."""
+    out = np.zeros(len(layout), bool)
+    if not digests:
+        return out
+    now = row_digests(layout)
+    m = min(len(now), len(digests))
+    out[:m] = [a == b for a, b in zip(now[:m], digests[:m])]
+    return out
+
+
+def array_digest(a: np.ndarray) -> str:
+    """Hash of an array's float64 bits (has a transform, the ids or the flat map changed since reading?)."""
+    return hashlib.blake2b(np.ascontiguousarray(a, dtype="<f8").tobytes(), digest_size=8).hexdigest()
+
+
+def number(v: float) -> str:
+    """The shortest text that reads back as exactly ``v`` (Python's float repr; ints as ints)."""
+    v = float(v)
+    if v == 0:
+        return "-0" if math.copysign(1.0, v) < 0 else "0"
+    return str(int(v)) if v.is_integer() and abs(v) < 1e15 else repr(v)

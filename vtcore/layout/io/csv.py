@@ -111,7 +111,7 @@ def read(path, units: str | None = None) -> Layout:
     else:
         nrm = np.zeros((n, 3))
     scale = units_scale(pos, units, report, declared)
-    nrm = clean_normals(nrm, pos, report)
+    nrm, estimated = clean_normals(nrm, pos, report)
     check_repeats(pos, report)
     ids = numeric("taxel_id", True) if "taxel_id" in col else np.arange(n)
     mods = numeric("module_id", True) if "module_id" in col else (
@@ -120,7 +120,7 @@ def read(path, units: str | None = None) -> Layout:
     roles = np.asarray([toks[col["role"]] or "pressure" for _, toks in rows], dtype=object) \
         if "role" in col else None
     can = numeric("can_id", True) if "can_id" in col else None
-    layout = Layout(pos * scale, nrm, ids, mods, flat, roles, can_ids=can)
+    layout = Layout(pos * scale, nrm, ids, mods, flat, roles, can_ids=can, normals_estimated=estimated)
     return finish(layout, report, path, "csv")
 
 

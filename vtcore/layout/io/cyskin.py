@@ -1,7 +1,18 @@
-"""CySkin calibration JSON (``file_version`` "2"): variants with ``skin``, ``tactile_maps`` or both."""
+"""CySkin calibration JSON (``file_version`` "2"): variants with ``skin``, ``tactile_maps`` or both.
+
+Lossless: the reader keeps the document as read (``meta["cyskin_doc"]``: ``info``, every
+``tactile_maps`` entry, bare object or list, map keys, names and types, ``parent_frames``
+with ``tf_matrix`` in the file's unit), the file's length unit and digests of the taxel
+rows, the flat coordinates and the transform. The writer gives back the document as read
+wherever the layout still holds what was read, and writes afresh only what changed (a
+moved taxel, a new transform, new flat coordinates): maps-only files stay maps-only, a file
+in millimetres stays in millimetres, zero normals stay zero (``estimate_normals=True``
+writes the estimates). A layout from elsewhere is written as variant B.
+"""
 
 from __future__ import annotations
 
+import copy
 import json
 from pathlib import Path
 
@@ -11,7 +22,8 @@ from ..._io import atomic_write
 from ...errors import FormatError
 from ..model import Layout
 from ..uids import cyskin_modules
-from .common import ImportReport, check_repeats, clean_normals, default_faces, finish, parse_number, units_scale
+from .common import (ImportReport, array_digest, check_repeats, clean_normals, default_faces, finish, parse_number,
+                     row_digests, unchanged_rows, units_scale)
 
 NAME = "cyskin"
 SUFFIXES = (".json",)
@@ -103,7 +115,9 @@ def read(path, units: str | None = None) -> Layout:
         flat = uv * scale
     elif flat is not None:
         flat = flat * scale
-    nrm = clean_normals(nrm, pos, report)
+    nrm, estimated = clean_normals(nrm, pos, report)
+    if skin is None:
+        estimated[:] = True  # (0, 0, 1) was invented for a maps-only file
     check_repeats(pos, report)
     transform = np.eye(4)
     frame = "end_effector"
@@ -126,43 +140,136 @@ def read(path, units: str | None = None) -> Layout:
     mods = cyskin_modules(ids)
     meta = {"info": info, "id_scheme": "cyskin", "parent_frame": parents[0] if parents else None,
             "faces": faces.tolist(), "maps": [{k: m.get(k) for k in ("key", "name", "type", "description")}
-                                              for m in maps]}
-    layout = Layout(pos * scale, nrm, ids, mods, flat, types, frame, transform, meta)
+                                              for m in maps],
+            "cyskin_doc": doc, "cyskin_units": "mm" if scale == 1e-3 else "m"}
+    layout = Layout(pos * scale, nrm, ids, mods, flat, types, frame, transform, meta,
+                    normals_estimated=estimated)
+    layout.meta.update(_digests(layout))
     return finish(layout, report, path, "cyskin")
 
 
-def write(layout: Layout, path, faces: np.ndarray | None = None) -> None:
-    """Write the CySkin calibration JSON (variant B: info, skin, tactile_maps).
+def _digests(layout: Layout) -> dict:
+    """What the writer compares with to tell what changed since reading."""
+    return {"cyskin_digests": row_digests(layout), "cyskin_transform": array_digest(layout.transform),
+            "cyskin_flat": None if layout.flat is None else array_digest(layout.flat),
+            "cyskin_ids": array_digest(layout.taxel_ids)}
 
-    faces : (F, 3) taxel indices; default: the faces the layout was read with, else its skin
-    mesh triangles.
-    """
-    if faces is None:
-        faces = default_faces(layout)
-    faces = np.asarray(faces, dtype=np.int64).reshape(-1, 3).tolist()
+
+def _fresh_doc(layout: Layout, faces: list, estimate_normals: bool) -> dict:
+    """Variant B for a layout that was not read from a CySkin file."""
     info = dict(layout.meta.get("info") or {})
+    source = layout.meta.get("source")
     info = {"file_version": "2", "type": info.get("type", "rigid_body"),
             "name": str(info.get("name", layout.meta.get("name", layout.frame))),
             "application": str(info.get("application", "vtcore")),
-            "description": str(info.get("description", layout.meta.get("source", "")))}
-    parent = dict(layout.meta.get("parent_frame") or {"key": 0, "id": 0, "type": "", "name": ""})
-    parent["name"] = parent.get("name") or layout.frame
-    parent["tf_matrix"] = layout.transform.T.reshape(-1).tolist()  # column-major
-    taxels = [{"id": int(i), "x": p.tolist(), "n": q.tolist(), "type": str(r), "cut": 0}
-              for i, p, q, r in zip(layout.taxel_ids, layout.positions, layout.normals, layout.roles)]
-    doc = {"info": info,
-           "skin": {"n_taxels": len(layout), "n_faces": len(faces), "parent_frames": [parent],
-                    "taxels": taxels, "faces": faces}}
-    if layout.flat is not None:
-        doc["tactile_maps"] = [{
-            "key": 0, "name": "isomap", "type": "isomap",
-            "description": ["flat (unrolled) patch coordinates, metres"],
-            "n_taxels": len(layout), "n_faces": len(faces),
-            "taxels": [{"id": int(i), "x": f.tolist(), "type": str(r), "cut": 0}
-                       for i, f, r in zip(layout.taxel_ids, layout.flat, layout.roles)],
-            "faces": faces}]
+            # the file name, never a local absolute path
+            "description": str(info.get("description", f"vtcore layout from {Path(source).name}" if source else
+                                        "vtcore layout"))}
+    doc = {"info": info, "skin": _fresh_skin(layout, faces, estimate_normals, 1.0, None)}
+    maps = _fresh_maps(layout, faces)
+    if maps is not None:
+        doc["tactile_maps"] = maps
+    return doc
+
+
+def _normals_out(layout: Layout, estimate_normals: bool) -> np.ndarray:
+    est = layout.normals_estimated
+    if est is None or estimate_normals:
+        return layout.normals
+    return np.where(est[:, None], 0.0, layout.normals)  # as the file had them: zeros
+
+
+def _taxel(layout, k, normals, scale, cut=0) -> dict:
+    return {"id": int(layout.taxel_ids[k]), "x": [float(v) for v in layout.positions[k] / scale],
+            "n": [float(v) for v in normals[k]], "type": str(layout.roles[k]), "cut": cut}
+
+
+def _fresh_skin(layout, faces, estimate_normals, scale, parent) -> dict:
+    normals = _normals_out(layout, estimate_normals)
+    parent = dict(parent or {"key": 0, "id": 0, "type": "", "name": ""})
+    parent["name"] = layout.frame if layout.frame != "end_effector" or not parent.get("name") else parent["name"]
+    tf = layout.transform.copy()
+    tf[:3, 3] /= scale
+    parent["tf_matrix"] = tf.T.reshape(-1).tolist()  # column-major
+    return {"n_taxels": len(layout), "n_faces": len(faces), "parent_frames": [parent],
+            "taxels": [_taxel(layout, k, normals, scale) for k in range(len(layout))], "faces": faces}
+
+
+def _fresh_maps(layout, faces, scale: float = 1.0):
+    if layout.flat is None:
+        return None
+    return [{"key": 0, "name": "isomap", "type": "isomap",
+             "description": ["flat (unrolled) patch coordinates, " + ("millimetres" if scale == 1e-3 else "metres")],
+             "n_taxels": len(layout), "n_faces": len(faces),
+             "taxels": [{"id": int(i), "x": (f / scale).tolist(), "type": str(r), "cut": 0}
+                        for i, f, r in zip(layout.taxel_ids, layout.flat, layout.roles)],
+             "faces": faces}]
+
+
+def _as_read_doc(layout: Layout, faces_arg, estimate_normals: bool) -> dict:
+    """The document as read, with only what changed since reading written afresh."""
+    meta = layout.meta
+    doc = copy.deepcopy(meta["cyskin_doc"])
+    scale = 1e-3 if meta.get("cyskin_units") == "mm" else 1.0
+    now = _digests(layout)
+    same = unchanged_rows(layout, meta.get("cyskin_digests"))
+    skin = doc.get("skin")
+    n_read = len(meta.get("cyskin_digests") or [])
+    all_same = bool(same.all()) and len(layout) == n_read
+    est = layout.normals_estimated if layout.normals_estimated is not None else np.zeros(len(layout), bool)
+    rewrite_normals = estimate_normals and bool(est.any())
+    faces = default_faces(layout) if faces_arg is None else np.asarray(faces_arg, dtype=np.int64).reshape(-1, 3)
+    faces = faces.tolist()
+    if "info" in doc or meta.get("info"):
+        doc["info"] = meta.get("info") if meta.get("info") is not None else doc.get("info")
+    if skin is None:
+        if not all_same or rewrite_normals:  # the taxels were given 3-D places: the file gets a skin
+            doc["skin"] = _fresh_skin(layout, faces, estimate_normals, scale, None)
+    else:
+        normals = _normals_out(layout, estimate_normals)
+        raw = skin.get("taxels") or []
+        taxels = []
+        for k in range(len(layout)):
+            if same[k] and k < len(raw) and not (rewrite_normals and est[k]):
+                taxels.append(raw[k])
+            else:
+                cut = raw[k].get("cut", 0) if k < len(raw) and isinstance(raw[k], dict) else 0
+                taxels.append(_taxel(layout, k, normals, scale, cut))
+        skin["taxels"] = taxels
+        if not all_same or faces_arg is not None:
+            skin["faces"] = faces
+            skin["n_taxels"], skin["n_faces"] = len(layout), len(faces)
+        if now["cyskin_transform"] != meta.get("cyskin_transform"):
+            parents = skin.get("parent_frames") or [{}]
+            tf = layout.transform.copy()
+            tf[:3, 3] /= scale
+            parents[0] = dict(parents[0], name=layout.frame, tf_matrix=tf.T.reshape(-1).tolist())
+            skin["parent_frames"] = parents
+    # the maps are 2-D: they stay as read while the same taxels (ids, order) keep their flat coordinates
+    maps_same = all(now[k] == meta.get(k) for k in ("cyskin_flat", "cyskin_ids")) and len(layout) == n_read
+    if "tactile_maps" in doc and not maps_same:
+        fresh = _fresh_maps(layout, faces, scale)
+        if fresh is None:
+            del doc["tactile_maps"]
+        else:
+            doc["tactile_maps"] = fresh if isinstance(doc["tactile_maps"], list) else fresh[0]
+    elif "tactile_maps" not in doc and layout.flat is not None and now["cyskin_flat"] != meta.get("cyskin_flat"):
+        doc["tactile_maps"] = _fresh_maps(layout, faces, scale)
+    return doc
+
+
+def write(layout: Layout, path, faces: np.ndarray | None = None, *, estimate_normals: bool = False) -> None:
+    """Write the CySkin calibration JSON: as read for a layout read from one, else variant B.
+
+    faces : (F, 3) taxel indices; default: the faces the layout was read with, else its skin
+    mesh triangles. estimate_normals : write estimated normals (``layout.normals_estimated``)
+    instead of the zeros the file had.
+    """
+    if isinstance(layout.meta.get("cyskin_doc"), dict):
+        doc = _as_read_doc(layout, faces, estimate_normals)
+    else:
+        f = default_faces(layout) if faces is None else np.asarray(faces, dtype=np.int64).reshape(-1, 3)
+        doc = _fresh_doc(layout, f.tolist(), estimate_normals)
     with atomic_write(path, "w", encoding="utf-8") as fh:
         json.dump(doc, fh, indent=1)
         fh.write("\n")
-
-

@@ -1,4 +1,15 @@
-"""iCub skinGui positions text: ``name``, ``spatial_sampling``, ``taxel2Repr ( ... )``, ``[calibration]`` rows."""
+"""iCub skinGui positions text: ``name``, ``spatial_sampling``, ``taxel2Repr ( ... )``, ``[calibration]`` rows.
+
+Lossless: the reader keeps the header lines, ``name``, ``spatial_sampling`` and
+``taxel2Repr`` as read (``taxel2Repr`` is never regenerated for a file that has one; where
+it disagrees with the rows the reader warns), the text of every calibration row, the
+file's length unit and a digest of each taxel row (:func:`~.common.row_digests`). The
+writer writes a row's text as read while its taxel is unchanged, so import then export
+gives back the file's number tables byte for byte: normals as written (zero normals stay
+zero; ``estimate_normals=True`` writes the estimates, see ``Layout.normals_estimated``),
+non-unit normals unnormalised, empty slots as they were. Moved or new taxels are written
+afresh (shortest exact decimal, in the file's unit).
+"""
 
 from __future__ import annotations
 
@@ -11,7 +22,8 @@ import numpy as np
 from ..._io import atomic_write
 from ...errors import FormatError, InputError
 from ..model import Layout
-from .common import ImportReport, check_repeats, clean_normals, finish, parse_number, units_scale
+from .common import (ImportReport, check_repeats, clean_normals, finish, number, parse_number, row_digests,
+                     unchanged_rows, units_scale)
 
 NAME = "icub"
 SUFFIXES = (".txt", ".ini", "")
@@ -35,11 +47,13 @@ def read(path, units: str | None = None) -> Layout:
         t2r = np.array([int(float(tok)) for tok in toks if re.fullmatch(r"[-+]?\d+(\.0*)?", tok)], dtype=np.int64)
         if len(t2r) != len(toks):
             report.warn("taxel2Repr has entries that are not integers; ignored them")
-    rows, row_lines = [], []
+    rows, row_lines, row_text, header_lines = [], [], [], []
     in_cal = False
     names = []
     for ln, line in enumerate(lines, start=1):
         s = line.split("//")[0].split("#")[0].strip()
+        if not in_cal and not row_text:
+            header_lines.append(line.rstrip())  # trimmed to the lines before the table below
         if not s:
             continue
         if s.startswith("["):
@@ -71,6 +85,7 @@ def read(path, units: str | None = None) -> Layout:
             report.warn(f"calibration row has {len(toks)} values; used the first 6", line=ln)
         rows.append([parse_number(tok, path, ln, "calibration value") for tok in toks[:6]])
         row_lines.append(ln)
+        row_text.append(s)
     if not rows:
         raise FormatError("no [calibration] rows found", file=path)
     data = np.asarray(rows, dtype=np.float64)
@@ -92,19 +107,34 @@ def read(path, units: str | None = None) -> Layout:
         raise FormatError("every calibration row is zero (no taxel)", file=path)
     pos = data[keep, :3]
     scale = units_scale(pos, units, report)
-    nrm = clean_normals(data[keep, 3:], pos, report)
+    nrm, estimated = clean_normals(data[keep, 3:], pos, report)
     check_repeats(pos, report)
     roles = np.full(len(keep), "pressure", dtype=object)
     if t2r is not None:
         t = np.full(nrows, -3, dtype=np.int64)
         t[: min(len(t2r), nrows)] = t2r[:nrows]
         roles[t[keep] == -2] = "thermal"
+        # taxel2Repr is kept as read; say where it contradicts the rows
+        has = ~empty[: len(t2r)]
+        known = t[: len(has)]
+        odd = np.flatnonzero((has & (known == -1)) | (~has & (known >= 0)))
+        if len(odd):
+            k = int(odd[0])
+            report.warn(f"taxel2Repr disagrees with the calibration rows at {len(odd)} slots (e.g. slot {k}: "
+                        f"{int(known[k])}, but the row {'has a taxel' if has[k] else 'is empty'}); kept as read")
+    # the header: every line before the [calibration] line (or before the first row without one)
+    header_lines = header_lines[: row_lines[0] - 1]
+    cal = [i for i, h in enumerate(header_lines) if h.strip().lower().startswith("[calibration")]
+    header_lines = header_lines[: cal[0]] if cal else header_lines
     meta = {"name": header.get("name", ""), "spatial_sampling": header.get("spatial_sampling", "taxel"),
             "icub_rows": int(nrows), "id_scheme": "icub",
             "taxel2Repr": None if t2r is None else t2r.tolist(),
-            "icub_header": {k: v for k, v in header.items() if k not in ("name", "spatial_sampling", "frame")}}
+            "icub_header": {k: v for k, v in header.items() if k not in ("name", "spatial_sampling", "frame")},
+            "icub_names": names, "icub_header_lines": header_lines, "icub_row_text": row_text,
+            "icub_units": "mm" if scale == 1e-3 else "m"}
     layout = Layout(pos * scale, nrm, keep, keep // 12, roles=roles,
-                    frame=header.get("frame", "end_effector"), meta=meta)
+                    frame=header.get("frame", "end_effector"), meta=meta, normals_estimated=estimated)
+    layout.meta["icub_digests"] = row_digests(layout)
     return finish(layout, report, path, "icub")
 
 
@@ -126,22 +156,79 @@ def _icub_slots(layout: Layout) -> np.ndarray:
     return inv * 12 + rank
 
 
-def write(layout: Layout, path) -> None:
+def _header(layout: Layout, t2r: np.ndarray) -> list[str]:
+    """The header lines: as read where their values are unchanged, else written afresh."""
+    meta = layout.meta
+    name = str(meta.get("name") or layout.frame)
+    spatial = str(meta.get("spatial_sampling", "taxel"))
+    t2r_line = "taxel2Repr ( " + " ".join(map(str, t2r.tolist())) + " )"
+    lines = meta.get("icub_header_lines")
+    if not lines:
+        return [f"name {name}", f"spatial_sampling {spatial}", t2r_line, ""]
+    names = list(meta.get("icub_names") or [])
+    want_names = [name] + ([layout.frame] if len(names) > 1 else []) + names[2:]
+    out, seen_names, in_t2r, wrote = [], 0, False, set()
+    raw_t2r = []
+    for line in lines:
+        s = line.split("//")[0].split("#")[0].strip()
+        key = s.split(None, 1)[0] if s else ""
+        if in_t2r or key == "taxel2Repr":
+            raw_t2r.append(line)
+            in_t2r = ")" not in s
+            if not in_t2r:
+                m = _T2R.search("\n".join(raw_t2r))
+                toks = m.group(1).split() if m else []
+                same = [str(v) for v in t2r.tolist()] == toks
+                out += raw_t2r if same else [t2r_line]
+                wrote.add("taxel2Repr")
+            continue
+        if key == "name":
+            want = want_names[seen_names] if seen_names < len(want_names) else None
+            seen_names += 1
+            out.append(line if want == s[len(key):].strip() else f"name {want}" if want is not None else line)
+            wrote.add("name")
+        elif key == "spatial_sampling":
+            out.append(line if spatial == s[len(key):].strip() else f"spatial_sampling {spatial}")
+            wrote.add("spatial_sampling")
+        else:
+            out.append(line)
+    first = [f"name {name}"] if "name" not in wrote else []
+    first += [f"spatial_sampling {spatial}"] if "spatial_sampling" not in wrote else []
+    return first + out + ([t2r_line] if "taxel2Repr" not in wrote else [])
+
+
+def write(layout: Layout, path, *, estimate_normals: bool = False) -> None:
+    """Write the iCub positions text.
+
+    estimate_normals : write the estimated normals (``layout.normals_estimated``) instead
+    of the zeros the file had.
+    """
     slots = _icub_slots(layout)
-    nrows = int(max(slots.max() + 1, layout.meta.get("icub_rows", 0) or 0))
-    nrows = int(math.ceil(nrows / 12) * 12)
-    data = np.zeros((nrows, 6))
-    data[slots, :3] = layout.positions
-    data[slots, 3:] = layout.normals
-    t2r = np.full(nrows, -1, dtype=np.int64)
-    t2r[slots] = (slots // 12) * 12 + 3
-    t2r[slots[layout.roles == "thermal"]] = -2
-    out = [f"name {layout.meta.get('name') or layout.frame}",
-           f"spatial_sampling {layout.meta.get('spatial_sampling', 'taxel')}",
-           "taxel2Repr ( " + " ".join(map(str, t2r.tolist())) + " )", "", "[calibration]"]
-    fmt = lambda v: format(float(v), ".12g")  # noqa: E731 - 12 digits: well below 1e-9 m
-    out += [" ".join(fmt(v) for v in row) for row in data]
+    meta = layout.meta
+    ours = "icub_row_text" in meta  # read from an iCub file (perhaps through our JSON)
+    known_rows = int(meta.get("icub_rows", 0) or 0) if ours else 0
+    nrows = int(max(slots.max() + 1, known_rows))
+    if not known_rows:
+        nrows = int(math.ceil(nrows / 12) * 12)
+    scale = 1e-3 if (ours and meta.get("icub_units") == "mm") else 1.0
+    t2r = meta.get("taxel2Repr") if ours else None
+    if t2r is not None:
+        t2r = np.asarray(t2r, dtype=np.int64)
+    else:
+        t2r = np.full(nrows, -1, dtype=np.int64)
+        t2r[slots] = (slots // 12) * 12 + 3
+        t2r[slots[layout.roles == "thermal"]] = -2
+    raw = list(meta.get("icub_row_text") or []) if ours else []
+    same = unchanged_rows(layout, meta.get("icub_digests")) if ours else np.zeros(len(layout), bool)
+    est = layout.normals_estimated if layout.normals_estimated is not None else np.zeros(len(layout), bool)
+    rows = [raw[s] if s < len(raw) and not any(float(t) for t in raw[s].split()[:6]) else "0 0 0 0 0 0"
+            for s in range(nrows)]  # empty slots: as read
+    for k, s in enumerate(slots.tolist()):
+        if same[k] and s < len(raw) and (not est[k] or not estimate_normals):
+            rows[s] = raw[s]
+            continue
+        n = layout.normals[k] if (estimate_normals or not est[k]) else np.zeros(3)
+        rows[s] = " ".join(number(v) for v in np.concatenate([layout.positions[k] / scale, n]))
+    out = _header(layout, t2r) + ["[calibration]"] + rows
     with atomic_write(path, "w", encoding="utf-8", newline="\n") as fh:
         fh.write("\n".join(out) + "\n")
-
-

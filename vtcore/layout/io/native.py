@@ -46,6 +46,7 @@ def write(layout: Layout, path) -> None:
             "taxel_ids": layout.taxel_ids.tolist(), "module_ids": layout.module_ids.tolist(),
             "roles": [str(r) for r in layout.roles],
             "flat": as_list(layout.flat), "can_ids": as_list(layout.can_ids),
+            "normals_estimated": as_list(layout.normals_estimated),
         },
         "meta": _jsonable(layout.meta),
     }
@@ -85,12 +86,15 @@ def read(path, units: str | None = None) -> Layout:
         report.warn(f"n_taxels says {doc['n_taxels']} but there are {n} positions; using the list")
     scale = units_scale(pos, units, report, doc.get("units"))
     flat = t.get("flat")
-    layout = Layout(pos * scale, clean_normals(nrm, pos, report), t.get("taxel_ids", np.arange(n)),
+    nrm, estimated = clean_normals(nrm, pos, report)
+    if t.get("normals_estimated") is not None:  # estimated when first read, kept through our JSON
+        estimated = estimated | np.asarray(t["normals_estimated"], dtype=bool).reshape(-1)[:n]
+    layout = Layout(pos * scale, nrm, t.get("taxel_ids", np.arange(n)),
                     t.get("module_ids", np.zeros(n, int)),
                     None if flat is None else np.asarray(flat, dtype=np.float64) * scale,
                     t.get("roles"), doc.get("frame", "end_effector"),
                     np.asarray(doc.get("transform", np.eye(4)), dtype=np.float64), dict(doc.get("meta") or {}),
-                    t.get("can_ids"))
+                    t.get("can_ids"), estimated)
     return finish(layout, report, path, "json")
 
 

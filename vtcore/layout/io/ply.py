@@ -151,7 +151,7 @@ def read(path, units: str | None = None) -> Layout:
     nrm = np.column_stack([vert[c] for c in ("nx", "ny", "nz")]) if all(c in vert for c in ("nx", "ny", "nz")) \
         else np.zeros((n, 3))
     scale = units_scale(pos, units, report, "m" if "vtcore" in "".join(head) else None)
-    nrm = clean_normals(nrm, pos, report)
+    nrm, estimated = clean_normals(nrm, pos, report)
     ids = vert["taxel_id"].astype(np.int64) if "taxel_id" in vert else np.arange(n)
     mods = vert["module_id"].astype(np.int64) if "module_id" in vert else np.zeros(n, np.int64)
     inv = {v: k for k, v in _ROLE_CODE.items()}
@@ -161,7 +161,7 @@ def read(path, units: str | None = None) -> Layout:
     if len(faces) and (faces.min() < 0 or faces.max() >= n):
         raise FormatError("face indices out of range", file=path)
     layout = Layout(pos * scale, nrm, ids, mods, flat, roles, frame, transform,
-                    {"faces": faces.tolist()}, can)
+                    {"faces": faces.tolist()}, can, normals_estimated=estimated)
     return finish(layout, report, path, "ply")
 
 
