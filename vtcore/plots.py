@@ -5,13 +5,26 @@ from __future__ import annotations
 import numpy as np
 
 
-def _plt():
+def pyplot():
+    """``matplotlib.pyplot`` with the non-interactive Agg backend (imported on first use, so
+    ``import vtcore`` stays fast; every plot of vtcore is drawn through this)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     return plt
+
+
+def png_writer(make, *args):
+    """A ``(file) -> None`` figure for the runner (``TaskResult.figures``): calls ``make(*args)``
+    only when plots are written, saves the Figure it returns as PNG into the open file, closes it."""
+    def write(fh):
+        fig = make(*args)
+        fig.savefig(fh, format="png", dpi=120, bbox_inches="tight")
+        pyplot().close(fig)
+
+    return write
 
 
 def taxel_map(flat, values, *, title="", label="", ax=None, cmap="viridis", vmin=None, vmax=None,
@@ -21,7 +34,7 @@ def taxel_map(flat, values, *, title="", label="", ax=None, cmap="viridis", vmin
     flat : (N, 2) metres (drawn in millimetres). values : (N,).
     Returns the matplotlib Figure.
     """
-    plt = _plt()
+    plt = pyplot()
     flat = np.asarray(flat, float) * 1e3
     values = np.asarray(values, float)
     if ax is None:
@@ -58,7 +71,7 @@ def skin_3d(positions, values, *, mesh=None, title="", label="", cmap="viridis",
         drawn as a light surface clipped to the patch's neighbourhood.
     Returns the matplotlib Figure.
     """
-    plt = _plt()
+    plt = pyplot()
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
     pos = np.asarray(positions, float) * 1e3

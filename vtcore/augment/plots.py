@@ -4,17 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..plots import pyplot
 from .cloud import colour_map
 from .experiment import voxel_filter
-
-
-def _plt():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
 
 
 def view_coordinates(points, view_dir=(1.0, 0.0, 0.0), up=(0.0, 0.0, 1.0)):
@@ -37,7 +29,7 @@ def augmented_panels(points, panels: dict, contacts=None, *, c_min, c_max, cmap=
     back to front. path : optional (x, y) polyline in view coordinates (metres)
     to overlay, e.g. a path-following trajectory. Returns the Figure.
     """
-    plt = _plt()
+    plt = pyplot()
     keep = voxel_filter(points, voxel)
     xy, depth = view_coordinates(points[keep], view_dir)
     order = np.argsort(depth)
@@ -72,7 +64,7 @@ def touch_sequence(points, contacts, values, counts=(0, 2, 13, 22), *, beta=-300
     """
     from .propagation import AugmentedPointCloud
 
-    plt = _plt()
+    plt = pyplot()
     counts = [k for k in counts if k <= len(contacts)]
     keep = voxel_filter(points, voxel)
     xy, depth = view_coordinates(points[keep], view_dir)

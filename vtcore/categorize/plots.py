@@ -9,19 +9,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..plots import pyplot
 from .formation import CategoryFormation, decision_boundary
 
 _MARKERS = {"sphere": "o", "cube": "s", "halfcylinder": "D", "cuboid": "P"}
 _FALLBACK_MARKERS = "o s D P ^ v < > h X *".split()
-
-
-def _plt():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
 
 
 def _marker(name, i):
@@ -35,7 +27,7 @@ def tactile_images_figure(flat, images, names, *, title="", label="counts"):
     """
     from ..plots import taxel_map
 
-    plt = _plt()
+    plt = pyplot()
     images = np.asarray(images, dtype=np.float64)
     m = len(images)
     fig, axes = plt.subplots(1, m, figsize=(3.6 * m, 3.4), squeeze=False)
@@ -52,7 +44,7 @@ def tactile_images_figure(flat, images, names, *, title="", label="counts"):
 
 def projection_figure(est: CategoryFormation, names, *, title="", ax=None):
     """Fig. 9: the 2-D encodings of the objects, the centroids C0, C1 and the K-Means boundary ``l_kmc``."""
-    plt = _plt()
+    plt = pyplot()
     if ax is None:
         fig, ax = plt.subplots(figsize=(5.2, 4.6))
     else:
@@ -99,7 +91,7 @@ def accuracy_figure(accuracy, confusions, layer_labels, task_numbers, *, title="
     accuracy : (L, K) float. confusions : (L, K, 2, 2) int. layer_labels : L strings.
     task_numbers : K ints. Undefined accuracies (NaN) are drawn as empty cells.
     """
-    plt = _plt()
+    plt = pyplot()
     acc = np.asarray(accuracy, dtype=np.float64)
     conf = np.asarray(confusions)
     n_l, n_k = acc.shape
@@ -135,7 +127,7 @@ def resolution_figure(study, tasks, show, *, title=""):
 
     study : :class:`ResolutionStudy`. tasks : the task list. show : 0-based task indices to draw.
     """
-    plt = _plt()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(5.6, 4.0))
     mean, std, sem = study.mean(), study.std(), study.sem()
     for k in show:
@@ -156,7 +148,7 @@ def resolution_figure(study, tasks, show, *, title=""):
 def sweep_figure(sweep, tasks, *, title="", paper_layers_mm=(3, 6, 10)):
     """The designer's plot: expected accuracy (top) and solve probability (bottom) of every task
     against layer thickness; filled markers where the thickness solves the task."""
-    plt = _plt()
+    plt = pyplot()
     fig, (ax, ax2) = plt.subplots(2, 1, figsize=(8.0, 7.0), sharex=True)
     mm = sweep.thicknesses * 1e3
     acc = sweep.mean_accuracy()

@@ -109,11 +109,9 @@ def run_scene(scene: Scene | str | Path, out: str | Path, overrides: list[str] |
 
     figures = []
     if scene["output"]["plots"]:
-        import matplotlib
+        from ..plots import pyplot
 
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-
+        plt = pyplot()
         for stem, fig in res.figures.items():
             name = f"{stem}.png"
             with atomic_write(out / name, "wb") as fh:

@@ -60,7 +60,7 @@ PARAMS = Section({
 })
 
 
-def _contact_prober(scene, ctx, obj):
+def contact_prober(scene, ctx, obj):
     """The contact simulator's probe, wired to the scene's [layer] and its listed effects.
 
     ``object_compliance`` (if listed) gives the object's stiffness at each contact;
@@ -104,7 +104,7 @@ def run(scene, ctx) -> TaskResult:
             raise scene.error("task.cloud", "the visual point cloud is empty")
         if nrm is None:
             raise scene.error("task.cloud", "the cloud has fewer than 3 points: cannot estimate normals")
-    prober = _contact_prober(scene, ctx, obj) if p["probe"] == "contact" else None
+    prober = contact_prober(scene, ctx, obj) if p["probe"] == "contact" else None
     # with recorded probes nothing is simulated but the cloud (one closed-form probe keeps the bookkeeping)
     recorded = bool(p["probes"])
     probed = probe_object(obj, 1 if recorded else p["touches"], probe, cameras=cams, n_points=p["points"], rng=rng,

@@ -20,6 +20,7 @@ import time
 
 import numpy as np
 
+from ...plots import png_writer, pyplot
 from ..registry import TaskSpec, register_task
 from ..runner import TaskResult
 from ..schema import Field, Section
@@ -211,8 +212,8 @@ def run(scene, ctx) -> TaskResult:
     arrays["tap_run"] = np.concatenate([np.full(len(r), i) for i, r in enumerate(fr)])
 
     # drawn only when the runner writes plots (output.plots), never built and discarded
-    figures = {"path": _saver(_path_figure, scene.name, p, contour, runs_by_method),
-               "edges": _saver(_edges_figure, belief, detectors, runs_by_method)}
+    figures = {"path": png_writer(_path_figure, scene.name, p, contour, runs_by_method),
+               "edges": png_writer(_edges_figure, belief, detectors, runs_by_method)}
     sections = [_table(p, layer, metrics, runs_by_method)]
     extra = {"contour_table": [{
         "object": p["object"], "end_effector": p["end_effector"], "method": m,
@@ -221,18 +222,6 @@ def run(scene, ctx) -> TaskResult:
         "paper": list(PAPER[(p["end_effector"], p["object"], m)]) if (p["end_effector"], p["object"], m) in PAPER else None,
     } for m in runs_by_method]}
     return TaskResult(metrics=metrics, arrays=arrays, figures=figures, sections=sections, extra=extra)
-
-
-def _saver(make, *args):
-    """A ``(file) -> None`` writer for the runner: builds the figure, saves it, closes it."""
-    def write(fh):
-        import matplotlib.pyplot as plt
-
-        fig = make(*args)
-        fig.savefig(fh, format="png", dpi=120, bbox_inches="tight")
-        plt.close(fig)
-
-    return write
 
 
 def _table(p, layer, metrics, runs_by_method) -> str:
@@ -287,11 +276,7 @@ def _table(p, layer, metrics, runs_by_method) -> str:
 
 def _path_figure(name, p, contour, runs_by_method):
     """Seed 002 Fig. 8: x_R at every tap over the contour, one panel per method."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = pyplot()
     k = len(runs_by_method)
     fig, axes = plt.subplots(1, k, figsize=(4.2 * k, 4.2), squeeze=False)
     for ax, (m, (runs, dists)) in zip(axes[0], runs_by_method.items()):
@@ -324,11 +309,7 @@ def _path_figure(name, p, contour, runs_by_method):
 
 def _edges_figure(layout, detectors, runs_by_method):
     """One tap of run 1: the pressure on the skin and the edges each method found."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = pyplot()
     k = len(runs_by_method)
     fig, axes = plt.subplots(1, k + 1, figsize=(4 * (k + 1), 3.8), squeeze=False)
     axes = axes[0]

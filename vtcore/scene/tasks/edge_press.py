@@ -72,9 +72,9 @@ def run(scene, ctx) -> TaskResult:
         "fingers": len(p["fingers"]),
         "edge_on_pressed_fraction": float((edges[0] & pressed).sum() / max(edges[0].sum(), 1)),
     }
-    from .contour import _saver
+    from ...plots import png_writer
 
-    figures = {"fig1": _saver(_figure, layout, frames[0], response[0], edges[0], scene.name)}
+    figures = {"fig1": png_writer(_figure, layout, frames[0], response[0], edges[0], scene.name)}
     note = (f"Seed 002 Fig. 1: {len(p['fingers'])} finger(s) at {p['force']:.0f} N on "
             f"{p['end_effector']} through {layer.thickness * 1e3:g} mm of {layer.material} ([layer]; seed 002 "
             "does not describe its cover); the Eq. 6/7 edges form {feats.n_components} connected component(s) "
@@ -89,11 +89,9 @@ def run(scene, ctx) -> TaskResult:
 
 
 def _figure(layout, frame, response, edge, name):
-    import matplotlib
+    from ...plots import pyplot
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = pyplot()
     fig = plt.figure(figsize=(13, 4))
     xyz = layout.positions * 1e3
     ax = fig.add_subplot(1, 3, 1, projection="3d")

@@ -18,11 +18,12 @@ from ...augment.cloud import colour_map
 from ...augment.experiment import voxel_filter
 from ...augment.plots import view_coordinates
 from ...control.path_following import ForceController, contact_response_table, follow_path
+from ...plots import pyplot
 from ..registry import TaskSpec, register_task
 from ..runner import TaskResult
 from ..schema import Field, Section
 from ..sections.layer import build_layer, layer_options
-from .augment import _contact_prober
+from .augment import contact_prober
 
 PARAMS = Section({
     "object": Field("str", default="empty_bottle", choices=("empty_bottle", "full_bottle")),
@@ -63,7 +64,7 @@ def run(scene, ctx) -> TaskResult:
     probe = ProbeModel(target=p["target_response"], counts_per_newton=p["counts_per_newton"],
                        layer_stiffness=p["layer_stiffness"])
     lo, hi = np.asarray(obj.mesh.bounds)
-    prober = _contact_prober(scene, ctx, obj) if p["probe"] == "contact" else None
+    prober = contact_prober(scene, ctx, obj) if p["probe"] == "contact" else None
     probed = probe_object(obj, p["touches"], probe, cameras=two_cameras(target=tuple((lo + hi) / 2),
                                                                           depth_noise=3e-4),
                           n_points=p["points"], rng=ctx.child_rng("augment"), probe_fn=prober)
@@ -116,7 +117,7 @@ def run(scene, ctx) -> TaskResult:
         metrics["probes_unreachable"] = len(prober.failures)
     metrics["path_length_m"] = p["length"]
 
-    plt = _plt()
+    plt = pyplot()
     fig, axes = plt.subplots(2, 2, figsize=(10, 6.5), gridspec_kw={"width_ratios": [1, 2.4]})
     view = radial
     for row, name in enumerate(("cluster", "smooth")):
@@ -156,15 +157,6 @@ def run(scene, ctx) -> TaskResult:
               "smaller overshoots."]
     return TaskResult(metrics=metrics, arrays=arrays, figures={"fig9_path_following": fig},
                       sections=["\n".join(table)])
-
-
-def _plt():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
 
 
 register_task(TaskSpec("path_following", run, PARAMS,

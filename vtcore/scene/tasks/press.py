@@ -24,7 +24,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...contact import press, press_sequence, probe
-from ...plots import skin_3d, taxel_map
+from ...plots import pyplot, skin_3d, taxel_map
 from ...tolerances import EPS
 from ..registry import TaskSpec, register_task
 from ..runner import TaskResult
@@ -47,18 +47,9 @@ PARAMS = Section({
 })
 
 
-def _plt():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
-
-
 def _field_figure(fld, layout, title, cut=None):
     """Surface pressure and, when spread, the stress at the taxels' depth, with the taxel discs."""
-    plt = _plt()
+    plt = pyplot()
     panels = [("surface pressure", fld.pressure)] + ([("stress at the taxels' depth", fld.stress)]
                                                      if fld.stress is not None else [])
     fig, axes = plt.subplots(1, len(panels), figsize=(5.2 * len(panels), 4.4), squeeze=False)
@@ -143,7 +134,7 @@ def profile_cut(fld, layout, taxel_values, *, angle_deg=0.0, samples=7, radius=N
 
 def _profile_figure(cut, title):
     """The cut of :func:`profile_cut`: fields along it and the taxels whose discs it crosses."""
-    plt = _plt()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(6.8, 3.8))
     s = cut["s"] * 1e3
     ax.plot(s, cut["surface"], color="C0", lw=1.2, label="surface pressure")

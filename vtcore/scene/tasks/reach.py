@@ -15,10 +15,11 @@ import numpy as np
 from ...augment import ClusterPropagation, CompliantObject, ProbeModel, SmoothPropagation, colour_map
 from ...augment.experiment import probe_object
 from ...control.reach import Obstacle, influence_radii, reach
+from ...plots import pyplot
 from ..registry import TaskSpec, register_task
 from ..runner import TaskResult
 from ..schema import Field, Section
-from .augment import _contact_prober
+from .augment import contact_prober
 
 PARAMS = Section({
     "start": Field("vec", default=[0.0, 0.0], length=2, unit="m", doc="A, in the task plane"),
@@ -85,7 +86,7 @@ def run(scene, ctx) -> TaskResult:
         # cameras looking at the scene from the robot's side (-x), like the paper's two D415s
         cams = [DepthCamera(eye=tuple(centre + [-0.45, s * 0.2, 0.1]), target=tuple(centre), width=424, height=240)
                 for s in (-1, 1)]
-        prober = _contact_prober(scene, ctx, obj) if p["probe"] == "contact" else None
+        prober = contact_prober(scene, ctx, obj) if p["probe"] == "contact" else None
         probed = probe_object(obj, p["touches"], probe, cameras=cams, n_points=6000, rng=ctx.child_rng(name),
                               probe_fn=prober)
         est = (ClusterPropagation() if p["propagation"] == "cluster" else SmoothPropagation()).fit(
@@ -119,7 +120,7 @@ def run(scene, ctx) -> TaskResult:
     a, s = metrics["augmented_contact_mean_n"], metrics["straight_contact_mean_n"]
     metrics["straight_contact_excess_pct"] = 100.0 * (s - a) / a if a > 0 else float("nan")
 
-    plt = _plt()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(7, 4.2))
     for name, (pts, pred) in clouds.items():
         band = np.abs(pts[:, 2] - zp) < 0.02
@@ -151,15 +152,6 @@ def run(scene, ctx) -> TaskResult:
                      f"{m[name + '_contact_mean_n']:.3f} | {m[name + '_pole_contact_max_n']:.2f} | "
                      f"{m[name + '_pole_contact_s']:.2f} | {m[name + '_prism_contact_s']:.2f} |")
     return TaskResult(metrics=metrics, arrays=arrays, figures={"fig10_reach": fig}, sections=["\n".join(table)])
-
-
-def _plt():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
 
 
 register_task(TaskSpec("reach", run, PARAMS, doc="seed 000 Fig. 10: reaching in clutter with Eqs. 6-7"))

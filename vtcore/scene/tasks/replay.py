@@ -128,9 +128,9 @@ def run(scene, ctx) -> TaskResult:
 
 
 def _timeline(ts, response, mask, edge, name):
-    from ...plots import _plt
+    from ...plots import pyplot
 
-    plt = _plt()
+    plt = pyplot()
     fig, ax = plt.subplots(3, 1, figsize=(6.5, 5.5), sharex=True)
     t = ts - ts[0]
     ax[0].plot(t, response.max(axis=1), lw=1)
