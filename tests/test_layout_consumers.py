@@ -293,3 +293,66 @@ def test_cli_export_mjcf_and_urdf(tmp_path, forearm_skin, capsys):
                  "--out", str(tmp_path / "s.csv")]) == 2
     assert "--body: not an option of --format csv" in capsys.readouterr().err
     assert not (tmp_path / "s.csv").exists()
+
+
+# --- PLY and CSV ------------------------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def messy_layout():
+    """Coincident taxels (a taxel placed at its neighbour's place) and a taxel in no triangle."""
+    lay = make_patch("hexagon").flat_layout()
+    lay.positions[5] = lay.positions[4]
+    lay.positions[59] += [0.05, 0, 0]  # far away: in no triangle of the skin mesh
+    lay.frame = "r_hand"
+    lay.transform[:3, 3] = [0.1, 0.2, 0.3]
+    return lay
+
+
+def test_ply_default_trimesh_load_keeps_every_taxel(tmp_path, messy_layout):
+    import trimesh
+
+    save(messy_layout, tmp_path / "s.ply")
+    pc = trimesh.load(tmp_path / "s.ply")  # defaults, process=True
+    assert len(pc.vertices) == len(messy_layout)
+    np.testing.assert_array_equal(pc.vertices, messy_layout.positions)
+    ids = np.asarray(pc.metadata["_ply_raw"]["vertex"]["data"]["taxel_id"]).ravel()
+    np.testing.assert_array_equal(ids, messy_layout.taxel_ids)
+    # mesh=True: a standard face element; trimesh then loses taxels (documented), which is why it is not the default
+    save(messy_layout, tmp_path / "m.ply", mesh=True)
+    assert len(trimesh.load(tmp_path / "m.ply").vertices) < len(messy_layout)
+    assert len(trimesh.load(tmp_path / "m.ply", process=False).vertices) < len(messy_layout)
+    for f in ("s.ply", "m.ply"):  # ours reads both, exactly
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            b = __import__("vtcore.layout", fromlist=["load"]).load(tmp_path / f)
+        np.testing.assert_array_equal(b.positions, messy_layout.positions)
+        assert b.frame == "r_hand" and len(b.meta["faces"]) > 80
+
+
+def test_ply_open3d_reads_points_and_normals(tmp_path, messy_layout):
+    import open3d as o3d
+
+    save(messy_layout, tmp_path / "s.ply")
+    pc = o3d.io.read_point_cloud(str(tmp_path / "s.ply"))
+    np.testing.assert_allclose(np.asarray(pc.points), messy_layout.positions)
+    np.testing.assert_allclose(np.asarray(pc.normals), messy_layout.normals)
+
+
+def test_csv_header_states_units_and_frame_for_pandas(tmp_path, messy_layout):
+    import pandas as pd
+
+    from vtcore.layout import load
+
+    save(messy_layout, tmp_path / "s.csv")
+    head = [ln for ln in (tmp_path / "s.csv").read_text().splitlines() if ln.startswith("#")]
+    assert "# units: m" in head and "# frame: r_hand" in head
+    df = pd.read_csv(tmp_path / "s.csv", comment="#")
+    assert len(df) == len(messy_layout)
+    np.testing.assert_allclose(df[["x", "y", "z"]].to_numpy(), messy_layout.positions, rtol=0, atol=1e-15)
+    exact = pd.read_csv(tmp_path / "s.csv", comment="#", float_precision="round_trip")
+    np.testing.assert_array_equal(exact[["x", "y", "z"]].to_numpy(), messy_layout.positions)  # exact decimals
+    np.testing.assert_array_equal(df["taxel_id"].to_numpy(), messy_layout.taxel_ids)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        b = load(tmp_path / "s.csv")
+    assert b.frame == "r_hand"
+    np.testing.assert_array_equal(b.transform, messy_layout.transform)

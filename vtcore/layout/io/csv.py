@@ -1,4 +1,12 @@
-"""CSV: one taxel a row under a header line."""
+"""CSV: one taxel a row under a header line, after ``#`` lines that state units and frame.
+
+Written: ``# units: m``, ``# frame: NAME``, ``# transform: 16 numbers`` (row-major 4x4, the
+pose of the frame in its parent) and the normals' convention, then the header
+``taxel_id,module_id,x,y,z,nx,ny,nz[,u,v],role[,can_id]``; ``pandas.read_csv(path,
+comment="#")`` reads it. Numbers are the shortest decimal that reads back exactly.
+Read: ``x,y,z`` required, the others optional; ``x_mm`` style headers or a ``# units:``
+line declare the unit.
+"""
 
 from __future__ import annotations
 
@@ -11,7 +19,7 @@ from ..._io import atomic_write
 from ...errors import FormatError
 from ..model import Layout
 from ..uids import cyskin_modules
-from .common import ImportReport, check_repeats, clean_normals, finish, parse_number, units_scale
+from .common import ImportReport, check_repeats, clean_normals, finish, number, parse_number, units_scale
 
 NAME = "csv"
 SUFFIXES = (".csv",)
@@ -27,8 +35,14 @@ def write(layout: Layout, path) -> None:
     cols.append("role")
     if layout.can_ids is not None:
         cols.append("can_id")
-    fmt = lambda v: format(float(v), ".12g")  # noqa: E731
-    lines = [",".join(cols)]
+    fmt = number
+    lines = ["# vtcore layout: one taxel a row", "# units: m",
+             f"# frame: {layout.frame}",
+             "# transform: " + " ".join(number(v) for v in layout.transform.ravel()),
+             "# normals: unit, outward, in the frame" + (
+                 f"; {int(layout.normals_estimated.sum())} estimated (the source had none)"
+                 if layout.normals_estimated is not None and layout.normals_estimated.any() else ""),
+             ",".join(cols)]
     for k in range(len(layout)):
         row = [str(int(layout.taxel_ids[k])), str(int(layout.module_ids[k]))]
         row += [fmt(v) for v in layout.positions[k]] + [fmt(v) for v in layout.normals[k]]
@@ -48,6 +62,7 @@ def read(path, units: str | None = None) -> Layout:
     lines = text.split("\n")
     header = None
     declared = None
+    frame, transform = "end_effector", np.eye(4)
     rows = []
     for ln, line in enumerate(lines, start=1):
         s = line.strip()
@@ -57,6 +72,15 @@ def read(path, units: str | None = None) -> Layout:
             m = re.search(r"units?\s*[:=]\s*(mm|m)\b", s)
             if m:
                 declared = m.group(1)
+            m = re.match(r"#\s*frame\s*:\s*(\S+)", s)
+            if m:
+                frame = m.group(1)
+            m = re.match(r"#\s*transform\s*:(.*)", s)
+            if m:
+                toks = m.group(1).split()
+                if len(toks) != 16:
+                    raise FormatError(f"transform needs 16 numbers, got {len(toks)}", file=path, line=ln)
+                transform = np.array([parse_number(t, path, ln, "transform") for t in toks]).reshape(4, 4)
             continue
         delim = "," if "," in s else (";" if ";" in s else None)
         toks = [t.strip() for t in (s.split(delim) if delim else s.split())]
@@ -120,7 +144,10 @@ def read(path, units: str | None = None) -> Layout:
     roles = np.asarray([toks[col["role"]] or "pressure" for _, toks in rows], dtype=object) \
         if "role" in col else None
     can = numeric("can_id", True) if "can_id" in col else None
-    layout = Layout(pos * scale, nrm, ids, mods, flat, roles, can_ids=can, normals_estimated=estimated)
+    transform = transform.copy()
+    transform[:3, 3] *= scale
+    layout = Layout(pos * scale, nrm, ids, mods, flat, roles, frame, transform, can_ids=can,
+                    normals_estimated=estimated)
     return finish(layout, report, path, "csv")
 
 

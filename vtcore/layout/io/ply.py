@@ -1,4 +1,16 @@
-"""PLY: taxels as vertices with per-taxel attributes, faces of the skin mesh."""
+"""PLY: taxels as vertices with per-taxel attributes, the skin mesh's triangles beside them.
+
+Point-cloud loaders must keep one vertex per taxel, in taxel order: ``trimesh.load``
+(default ``process=True``) merges coincident vertices and drops vertices no face uses
+when the file has a ``face`` element (528 taxels became 403 in a real layout). So by
+default the triangles go in an element named ``skin_face``, which mesh loaders skip:
+``trimesh.load`` gives a ``PointCloud`` of every taxel, ids in
+``pc.metadata["_ply_raw"]["vertex"]["data"]["taxel_id"]``; Open3D's ``read_point_cloud``
+reads points and normals. ``mesh=True`` writes a standard ``face`` element instead (for
+MeshLab or Blender); trimesh 5.2 then drops taxels that no triangle uses even with
+``process=False`` (and merges coincident ones without it), so it is not the default.
+Our reader takes either. Numbers are written as the shortest decimal that reads back exactly.
+"""
 
 from __future__ import annotations
 
@@ -9,7 +21,7 @@ import numpy as np
 from ..._io import atomic_write
 from ...errors import FormatError
 from ..model import Layout
-from .common import ImportReport, clean_normals, default_faces, finish, parse_number, units_scale
+from .common import ImportReport, clean_normals, default_faces, finish, number, parse_number, units_scale
 
 NAME = "ply"
 SUFFIXES = (".ply",)
@@ -18,9 +30,10 @@ SUFFIXES = (".ply",)
 _ROLE_CODE = {"pressure": 0, "thermal": 1}
 
 
-def write(layout: Layout, path, faces: np.ndarray | None = None) -> None:
-    """ASCII PLY: vertex ``x y z nx ny nz taxel_id module_id role [u v] [can_id]`` and the
-    faces the layout was read with, else its skin mesh (``role`` 0 pressure, 1 thermal, 2 other)."""
+def write(layout: Layout, path, faces: np.ndarray | None = None, *, mesh: bool = False) -> None:
+    """ASCII PLY: vertex ``x y z nx ny nz taxel_id module_id role [u v] [can_id]`` (one per
+    taxel, metres; ``role`` 0 pressure, 1 thermal, 2 other) and the faces the layout was read
+    with, else its skin mesh, as element ``skin_face`` (``face`` with ``mesh=True``)."""
     if faces is None:
         faces = default_faces(layout)
     faces = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
@@ -30,12 +43,13 @@ def write(layout: Layout, path, faces: np.ndarray | None = None) -> None:
         props += ["double u", "double v"]
     if layout.can_ids is not None:
         props += ["int can_id"]
-    head = ["ply", "format ascii 1.0", "comment vtcore layout, units metres",
+    face_el = "face" if mesh else "skin_face"
+    head = ["ply", "format ascii 1.0", "comment vtcore layout, units metres, one vertex per taxel in taxel order",
             f"comment frame {layout.frame}",
-            "comment transform " + " ".join(format(v, ".12g") for v in layout.transform.ravel()),
+            "comment transform " + " ".join(number(v) for v in layout.transform.ravel()),
             f"element vertex {len(layout)}"] + [f"property {p}" for p in props] + \
-        [f"element face {len(faces)}", "property list uchar int vertex_indices", "end_header"]
-    fmt = lambda v: format(float(v), ".12g")  # noqa: E731
+        [f"element {face_el} {len(faces)}", "property list uchar int vertex_indices", "end_header"]
+    fmt = number
     roles = [_ROLE_CODE.get(str(r), 2) for r in layout.roles]
     body = []
     for k in range(len(layout)):
@@ -107,7 +121,7 @@ def read(path, units: str | None = None) -> Layout:
                                           file=path, line=ln)
                     vals.append([parse_number(t, path, ln, f"vertex {names[j]}") for j, t in enumerate(toks[:len(names)])])
                 vert = {nm: np.asarray(vals, float).reshape(count, -1)[:, j] for j, nm in enumerate(names)}
-            elif name == "face":
+            elif name in ("face", "skin_face"):
                 fl = []
                 for k in range(count):
                     toks = lines[pos_line + k].split()
@@ -120,7 +134,7 @@ def read(path, units: str | None = None) -> Layout:
         off = 0
         for name, count, props in elements:
             if any(p[0] == "list" for p in props):
-                if name != "face" or len(props) != 1:
+                if name not in ("face", "skin_face") or len(props) != 1:
                     report.warn(f"skipped element {name!r} with list properties")
                     break
                 _, ct, it, _ = props[0]
