@@ -32,6 +32,8 @@ def test_missing_and_odd_fields_are_left_out():
                  "surface_distance_max_mm": pytest.approx(0.2)}
     assert report_lines(f) == ["overlaps 2 module pairs (1 within the patch, 1 with modules already there)",
                                "3 taxels off the mapped surface"]
+    assert report_lines({"charts": 7, "seam_modules": 3}) == ["grown through 7 charts, 3 modules closing the seam"]
+    assert report_lines({"charts": 1}) == []
 
 
 def test_cli_place_and_info_show_the_report(tmp_path, capsys):

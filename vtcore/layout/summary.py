@@ -38,7 +38,9 @@ def report_fields(placement: dict | None) -> dict:
     Returns a dict with any of: ``method`` (str), ``coverage`` (fraction of the
     region under module outlines), ``strain_max``, ``strain_mean`` (|stretch| of module
     edges, fractions), ``overlaps``, ``overlaps_within``, ``overlaps_existing`` (module
-    pairs), ``off_boundary`` (taxels), ``surface_distance_max_mm``, ``seconds``.
+    pairs), ``off_boundary`` (taxels), ``charts`` (log maps a fill grew through),
+    ``seam_modules`` (modules a fill's seam pass added where growth fronts met),
+    ``surface_distance_max_mm``, ``seconds``.
     """
     p = placement or {}
     out = {}
@@ -48,7 +50,7 @@ def report_fields(placement: dict | None) -> dict:
         v = _num(p.get(key))
         if v is not None:
             out[key] = v
-    for key in ("overlaps", "overlaps_within", "overlaps_existing", "off_boundary"):
+    for key in ("overlaps", "overlaps_within", "overlaps_existing", "off_boundary", "charts", "seam_modules"):
         v = _count(p.get(key))
         if v is not None:
             out[key] = v
@@ -73,4 +75,7 @@ def report_lines(placement: dict | None) -> list[str]:
         lines.append(f"overlaps {f['overlaps']} module pairs" + (f" ({', '.join(parts)})" if parts else ""))
     if f.get("off_boundary"):
         lines.append(f"{f['off_boundary']} taxels off the mapped surface")
+    if f.get("charts", 1) > 1 or "seam_modules" in f:
+        seam = f", {f['seam_modules']} modules closing the seam" if "seam_modules" in f else ""
+        lines.append(f"grown through {f.get('charts', 1)} charts{seam}")
     return lines
