@@ -33,6 +33,30 @@ def _unregister_if_registered(addon):
         addon.unregister()
 
 
+def addon_fixtures():
+    """The two fixtures every Blender test module uses: ``addon`` (the add-on registered for
+    the module, unregistered after it: the bpy wheel hangs at exit while Python classes stay
+    registered) and ``factory`` (autouse: a factory-empty scene before every test, warnings
+    ignored). Use as ``addon, factory = addon_fixtures()`` at module level."""
+    import warnings
+
+    import pytest
+
+    @pytest.fixture(scope="module")
+    def addon():
+        mod = register_addon()
+        yield mod
+        mod.unregister()
+
+    @pytest.fixture(autouse=True)
+    def factory(addon):
+        reset_scene()
+        warnings.simplefilter("ignore")
+        yield
+
+    return addon, factory
+
+
 def reset_scene():
     """Factory-empty scene (the dev add-on registered by hand stays registered)."""
     import bpy
