@@ -211,7 +211,7 @@ def test_mirror_setting_lays_mirror_image_modules():
     bpy.context.scene.cursor.location = (0.025, 0.0, 0.0)
     assert bpy.ops.vtskin.lay_patch() == {"FINISHED"}
     ob = next(o for o in bpy.data.objects if o.vtskin.role == "TAXELS")
-    pos, _, _ = taxels(ob)
+    pos, tid, _ = taxels(ob)
     v = np.asarray([tuple(x.co) for x in ee.data.vertices], float)
     mesh = trimesh.Trimesh(v, np.asarray([tuple(p.vertices) for p in ee.data.polygons]), process=False)
     for mirror in (True, False):
@@ -220,5 +220,7 @@ def test_mirror_setting_lays_mirror_image_modules():
                        module=get_module("icub10", mirror=mirror), max_faces=s.solve_faces or None)
         if mirror:
             np.testing.assert_allclose(pos, ref.positions, atol=2e-5)
+            np.testing.assert_array_equal(tid, ref.taxel_ids)  # iCub slots 0..11, kept by the merge
+            np.testing.assert_array_equal(tid, np.arange(12))
         else:
             assert np.abs(pos - ref.positions).max() > 5e-3  # the mirror image is another placement
