@@ -146,7 +146,8 @@ def _local_force_travel(g, w, force):
 
 
 def press_unrolled(layout, local, scene, pose, layer, *, force, indentation, direction, model, compliance, grid,
-                   spread, spreading, samples_per_taxel, taxel_radius, backend, warm_start, tol, maxiter):
+                   spread, spreading, samples_per_taxel, taxel_radius, backend, warm_start, tol, maxiter,
+                   truncation=None, precision="float64"):
     """:func:`vtcore.contact.press` with ``geometry="unrolled"`` (arguments already checked)."""
     h = layer.thickness
     sk = unrolled_skin(layout, h, layer.extent, grid, taxel_radius)
@@ -168,7 +169,7 @@ def press_unrolled(layout, local, scene, pose, layer, *, force, indentation, dir
     afac = sk["area_factor"]
     cf = np.where(finite, c, 0.0)
     mx, my = gap.shape
-    iters, conv_ok = 0, True
+    iters, conv_ok, trunc = 0, True, 0.0
 
     def normal_gap(d):
         """Gap along each cell's normal after a travel d (inf where the object is absent)."""
@@ -191,7 +192,9 @@ def press_unrolled(layout, local, scene, pose, layer, *, force, indentation, dir
         i1, j1 = min(max(ii.min() - 2, 0) + bi, mx), min(max(jj.min() - 2, 0) + bj, my)
         i0, j0 = max(i1 - bi, 0), max(j1 - bj, 0)
         win = (slice(i0, i1), slice(j0, j1))
-        op = elastic.compliance_operator((i1 - i0, j1 - j0), dx, dx, layer, model)
+        op, op32 = elastic.compliance_operators((i1 - i0, j1 - j0), dx, dx, layer, model,
+                                                 tol if truncation is None else truncation, precision)
+        trunc = op.truncation
         state = {"p": None, "pflat": None}
         if warm_start is not None and warm_start.field is not None and warm_start.field.domain == "flat" \
                 and warm_start.field.pressure.shape == gap.shape:
@@ -201,7 +204,7 @@ def press_unrolled(layout, local, scene, pose, layer, *, force, indentation, dir
             """Force (N) along the press after a travel d; keeps the pressure per flat area in state."""
             nonlocal iters, conv_ok
             sol = elastic.solve_pk(normal_gap(d)[win], op, cell, approach=0.0, p0=state["p"], tol=tol,
-                                   maxiter=maxiter)
+                                   maxiter=maxiter, conv32=op32)
             iters += sol.iterations
             conv_ok = conv_ok and sol.converged
             p = np.zeros_like(gap)
@@ -249,4 +252,4 @@ def press_unrolled(layout, local, scene, pose, layer, *, force, indentation, dir
                         contact_area=float(afac[p > 0].sum() * cell), max_compression=max_c, bottomed=bottomed,
                         model=model, iterations=iters, converged=conv_ok, spread=spread, spreading=spreading,
                         samples_per_taxel=samples_per_taxel, taxel_radius=taxel_radius, compliance=compliance,
-                        local=local)
+                        local=local, truncation=trunc)

@@ -57,6 +57,9 @@ class PressResult:
     spread: bool = True
     contact_point: np.ndarray = dc_field(default_factory=lambda: np.full(3, np.nan))
     contact_point_object: np.ndarray = dc_field(default_factory=lambda: np.full(3, np.nan))
+    #: largest kernel value the compliance operator dropped, relative to its peak (0: the exact,
+    #: fully padded convolution; see vtcore.contact.fft)
+    kernel_truncation: float = 0.0
 
 
 def press_frame(layout, direction):
@@ -161,7 +164,7 @@ def moved(pose, travel, u):
 
 def finish_press(layout, fld: ContactField, weights, points, *, pose, u, layer, force, indent, travel,
                  contact_area, max_compression, bottomed, model, iterations, converged, spread, spreading,
-                 samples_per_taxel, taxel_radius, compliance=None, local=None) -> PressResult:
+                 samples_per_taxel, taxel_radius, compliance=None, local=None, truncation=0.0) -> PressResult:
     """Read the solved contact and build the :class:`PressResult`.
 
     fld : the ContactField with its surface pressure (Pa) set. weights : (mx, my) >= 0, the force
@@ -169,6 +172,7 @@ def finish_press(layout, fld: ContactField, weights, points, *, pose, u, layer, 
     the cells' outer-surface points, so the contact point is their force-weighted mean.
     pose : (4, 4) at the solution. force : N, the total along the press. compliance, local: the
     object's stiffness spec and its mesh (:func:`object_stiffness`), for its own deflection.
+    truncation : what the compliance operator dropped (:attr:`PressResult.kernel_truncation`).
     """
     surf, taxel = taxel_readings(layout, fld, fld.pressure, layer, spread, spreading, samples_per_taxel,
                                  taxel_radius)
@@ -186,4 +190,5 @@ def finish_press(layout, fld: ContactField, weights, points, *, pose, u, layer, 
         pressure=taxel, surface_pressure=surf, force=force, indentation=indent, contact_area=contact_area,
         pose=pose, travel=travel, displacement=indent + defl, object_deflection=defl, bottomed_out=bool(bottomed),
         max_compression=max_compression, model=model, iterations=iterations, converged=bool(converged),
-        direction=u, field=fld, spread=spread, contact_point=cpt, contact_point_object=cpt_obj)
+        direction=u, field=fld, spread=spread, contact_point=cpt, contact_point_object=cpt_obj,
+        kernel_truncation=float(truncation))

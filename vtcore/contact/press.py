@@ -107,7 +107,8 @@ def press(layout, mesh, pose, layer: SoftLayer, *, force=None, indentation=None,
           model: str = "finite_layer", compliance=None, grid: ContactGrid | None = None,
           spread: bool = True, spreading: str = "layer", samples_per_taxel: int = 7, taxel_radius: float = TAXEL_RADIUS,
           backend: str | None = None, open_mesh: str = "error", warm_start: PressResult | None = None,
-          tol: float = 1e-7, maxiter: int = 1000, geometry: str = "plane") -> PressResult:
+          tol: float = 1e-7, maxiter: int = 1000, geometry: str = "plane", truncation: float | None = None,
+          precision: str = "float64") -> PressResult:
     """Press ``mesh`` onto the skin of ``layout`` through ``layer``.
 
     layout : vtcore.layout.Layout (positions, normals (N, 3), end-effector frame, metres).
@@ -129,6 +130,13 @@ def press(layout, mesh, pose, layer: SoftLayer, *, force=None, indentation=None,
         direction, fast, exact for flat patches) or "unrolled" (solved on the layout's flat
         coordinates with the layer compressed along its own normals; for strongly curved
         patches, see :mod:`vtcore.contact.curved`).
+    truncation : largest kernel value the compliance operator may drop, relative to its peak, to
+        shrink its transforms (None: the solver tolerance ``tol``, so the cut stays at the level of
+        the solve's own error; 0: the exact, fully padded convolution, the reference). Only a kernel
+        that decays within the grid (a layer: within a few thicknesses) is cut; what was dropped is
+        reported as ``PressResult.kernel_truncation``.
+    precision : "float64" (default) or "float32": the solver's iterations run with single-precision
+        transforms, then finish in double precision to ``tol`` (see ``elastic.solve_pk``).
 
     Raises UnreachableTargetError when the force cannot be reached: the object
     misses the skin, or the layer would be compressed through its whole thickness.
@@ -155,12 +163,16 @@ def press(layout, mesh, pose, layer: SoftLayer, *, force=None, indentation=None,
         raise InputError("pose has non-finite entries", key="pose")
     if geometry not in GEOMETRIES:
         raise InputError(f"geometry must be one of {', '.join(GEOMETRIES)}, got {geometry!r}", key="geometry")
+    if precision not in elastic.PRECISIONS:
+        raise InputError(f"precision must be one of {', '.join(elastic.PRECISIONS)}, got {precision!r}",
+                         key="precision")
     local, scene = prepared_mesh(mesh, open_mesh)
     if geometry == "unrolled":
         return press_unrolled(layout, local, scene, pose, layer, force=force, indentation=indentation,
                               direction=direction, model=model, compliance=compliance, grid=grid, spread=spread,
                               spreading=spreading, samples_per_taxel=samples_per_taxel, taxel_radius=taxel_radius,
-                              backend=backend, warm_start=warm_start, tol=tol, maxiter=maxiter)
+                              backend=backend, warm_start=warm_start, tol=tol, maxiter=maxiter,
+                              truncation=truncation, precision=precision)
     sk = _skin_grid(layout, h, layer.extent, direction, grid, taxel_radius)
     u, n, e1, e2, origin = sk["u"], sk["n"], sk["e1"], sk["e2"], sk["origin"]
     xs, ys, S, dx = sk["x"], sk["y"], sk["S"], grid.spacing
@@ -186,7 +198,7 @@ def press(layout, mesh, pose, layer: SoftLayer, *, force=None, indentation=None,
     require_contact(finite, force, u)
 
     # --- contact solve -----------------------------------------------------------
-    iters, conv_ok = 0, True
+    iters, conv_ok, trunc = 0, True, 0.0
     if not finite.any() or (force is not None and force == 0) or (indentation is not None and indentation == 0):
         p = np.zeros_like(gap)
         d = gmin if np.isfinite(gmin) else 0.0
@@ -219,10 +231,13 @@ def press(layout, mesh, pose, layer: SoftLayer, *, force=None, indentation=None,
             i1, j1 = min(i0 + bi, mx), min(j0 + bj, my)
             i0, j0 = max(i1 - bi, 0), max(j1 - bj, 0)
             sub = gap[i0:i1, j0:j1]
-            op = elastic.compliance_operator(sub.shape, dx, dx, layer, model)
+            op, op32 = elastic.compliance_operators(sub.shape, dx, dx, layer, model,
+                                                 tol if truncation is None else truncation, precision)
             p0 = p0_full[i0:i1, j0:j1] if p0_full is not None else None
-            sol = elastic.solve_pk(sub, op, area, force=force, approach=target_d, p0=p0, tol=tol, maxiter=maxiter)
+            sol = elastic.solve_pk(sub, op, area, force=force, approach=target_d, p0=p0, tol=tol, maxiter=maxiter,
+                                   conv32=op32)
             iters += sol.iterations
+            trunc = sol.truncation
             conv_ok = sol.converged
             p = np.zeros_like(gap)
             p[i0:i1, j0:j1] = sol.pressure
@@ -243,7 +258,7 @@ def press(layout, mesh, pose, layer: SoftLayer, *, force=None, indentation=None,
                         contact_area=float((p > 0).sum() * area), max_compression=max_c, bottomed=bottomed,
                         model=model, iterations=iters, converged=conv_ok, spread=spread, spreading=spreading,
                         samples_per_taxel=samples_per_taxel, taxel_radius=taxel_radius, compliance=compliance,
-                        local=local)
+                        local=local, truncation=trunc)
 
 
 def press_sequence(layout, mesh, poses, layer: SoftLayer, *, force=None, indentation=None, **kw):
