@@ -13,6 +13,7 @@ part of ``vtcore``).
 from __future__ import annotations
 
 import importlib
+import inspect
 import os
 import pkgutil
 import time
@@ -97,7 +98,9 @@ def cmd_bench(args) -> int:
         module = importlib.import_module(benches[n])
         print(f"bench {n} ...", flush=True)
         t0 = time.perf_counter()
-        module.run(out / n, quick=args.quick)
+        # --peers goes only to the benchmarks that run other solvers side by side (contact)
+        extra_kw = {"peers": True} if args.peers and "peers" in inspect.signature(module.run).parameters else {}
+        module.run(out / n, quick=args.quick, **extra_kw)
         sections.append(section(out / n, n, n, time.perf_counter() - t0))
     for d in extra:
         # Linked relative to the report, wherever the folder is.
@@ -116,4 +119,7 @@ def register(sub) -> None:
     p.add_argument("--with", dest="with_dirs", action="append", default=[], metavar="DIR",
                    help="also report the table and plot another benchmark wrote into DIR "
                         "(e.g. benchmarks/bench_blender.py's folder)")
+    p.add_argument("--peers", action="store_true",
+                   help="contact: also run tamaas and ContactMechanics on the same problems, in a throwaway "
+                        "venv created under the output folder (needs the package index)")
     p.set_defaults(func=cmd_bench)

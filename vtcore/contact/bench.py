@@ -50,8 +50,13 @@ def _time_run(layout, mesh, poses, layer, repeat=3, **kw):
     return np.array([r.pressure for r in res]), best, best_cpu
 
 
-def run(out: Path, quick: bool = False) -> list[dict]:
-    """Run the benchmark, write ``table.md``, ``table.csv``, ``accuracy_vs_time.png`` into ``out``."""
+def run(out: Path, quick: bool = False, peers: bool = False) -> list[dict]:
+    """Run the benchmark, write ``table.md``, ``table.csv``, ``accuracy_vs_time.png`` into ``out``, and
+    the solver side by side (:mod:`vtcore.contact.peers`: ``peers.md``, ``time_vs_n.png``); with
+    ``peers=True`` tamaas and ContactMechanics run beside vtcore in a throwaway venv under ``out``."""
+    from .peers import run as run_peers
+
+    run_peers(Path(out), quick=quick, peers=peers)
     from ..layout import seed002_curved
 
     out = Path(out)
