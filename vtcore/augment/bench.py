@@ -54,12 +54,12 @@ def run(out: Path, quick: bool = False) -> list[dict]:
         return y
 
     measure("cluster", "brute force (default, n <= 64)", ClusterPropagation())
-    old = prop._BRUTE_MAX
+    old = prop.BRUTE_FORCE_MAX
     try:
-        prop._BRUTE_MAX = 0                       # force the KD-tree path for comparison
+        prop.BRUTE_FORCE_MAX = 0                       # force the KD-tree path for comparison
         measure("cluster", "KD-tree", ClusterPropagation())
     finally:
-        prop._BRUTE_MAX = old
+        prop.BRUTE_FORCE_MAX = old
     measure("smooth", "beta=-300, float64 (default)", SmoothPropagation())
     measure("smooth", "beta=-300, float32 kernel", SmoothPropagation(dtype=np.float32))
     for k in (1, 2, 4, 8):

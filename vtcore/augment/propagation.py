@@ -37,8 +37,9 @@ from ..errors import InputError
 #: temporaries stay in the CPU cache for n ~ 24 contacts.
 _CHUNK = 16384
 
-#: Up to this many contacts the nearest one is found by brute force, beyond by a KD-tree.
-_BRUTE_MAX = 64
+#: Up to this many contacts the nearest one is found by brute force, beyond by a KD-tree
+#: (the benchmark sets it to 0 to time the KD-tree path on the same data).
+BRUTE_FORCE_MAX = 64
 
 
 # ---------------------------------------------------------------------------
@@ -175,7 +176,7 @@ class ClusterPropagation(_TouchEstimator):
         if len(x) == 0:
             return np.empty(0, dtype=np.intp)
         c = self.contact_points_
-        if len(c) > _BRUTE_MAX:
+        if len(c) > BRUTE_FORCE_MAX:
             _, idx = self.tree_.query(x, k=1, workers=self.workers)
             return np.asarray(idx, dtype=np.intp)
         # Few contacts (the paper has <= 24): a brute-force argmin over squared distances

@@ -152,11 +152,11 @@ def cmd_export(args) -> int:
 def layout_info(layout) -> dict:
     """Summary numbers of a layout (the ``layout info`` fields)."""
     from ..layout.conform import OVERLAP_FRACTION, find_overlaps, layout_strain
-    from ..layout.mesh import _nn_spacing
+    from ..layout.mesh import nn_spacing
     from ..layout.summary import report_fields
 
     n = len(layout)
-    sp = _nn_spacing(layout.positions) if n > 1 else np.zeros(n)
+    sp = nn_spacing(layout.positions) if n > 1 else np.zeros(n)
     pitch = float(layout.meta.get("pitch_m") or (np.median(sp) if n > 1 else 0.0))
     placement = layout.meta.get("placement") or {}
     strain_max = placement.get("strain_max")

@@ -167,7 +167,7 @@ def _skin_rows(quick):
 
 
 def _maker_rows(quick):
-    from .mesh import _nn_spacing_oriented, peel, surface_triangulation, mesh_from_triangles
+    from .mesh import nn_spacing_oriented, peel, surface_triangulation, mesh_from_triangles
     from .synthetic import cyskin_half_cylinder, edge_agreement, faces_to_edges
 
     lay, faces, _ = cyskin_half_cylinder(seed=0)
@@ -176,7 +176,7 @@ def _maker_rows(quick):
     for cr in ((2.0, 3.0) if quick else (1.5, 2.0, 3.0, 4.0, 6.0)):
         def run():
             tri = surface_triangulation(lay.positions, lay.normals, chart_radius=cr)
-            s = _nn_spacing_oriented(lay.positions, lay.normals)
+            s = nn_spacing_oriented(lay.positions, lay.normals)
             tri, _ = peel(tri, lay.positions, s)
             return mesh_from_triangles(lay.positions, lay.normals, tri)
 

@@ -236,8 +236,9 @@ def drop_bridges(tri: np.ndarray, chain: np.ndarray, pts: np.ndarray, spacing: n
     return tri[keep_t], chain[keep_c], removed
 
 
-def _nn_spacing_oriented(pts: np.ndarray, nrm: np.ndarray, cos_limit: float = 0.5) -> np.ndarray:
-    """Nearest-neighbour distance among taxels whose normals agree (not across a thin part)."""
+def nn_spacing_oriented(pts: np.ndarray, nrm: np.ndarray, cos_limit: float = 0.5) -> np.ndarray:
+    """(N,) metres: each taxel's distance to its nearest neighbour among those whose normals
+    agree (cosine > ``cos_limit``), so not across a thin part. pts, nrm : (N, 3)."""
     n = len(pts)
     if n < 2:
         return np.ones(n)
@@ -250,7 +251,9 @@ def _nn_spacing_oriented(pts: np.ndarray, nrm: np.ndarray, cos_limit: float = 0.
     return np.where(fin, d, fallback)
 
 
-def _nn_spacing(pts: np.ndarray) -> np.ndarray:
+def nn_spacing(pts: np.ndarray) -> np.ndarray:
+    """(N,) distance from each of ``pts`` (N, d) to its nearest other point (repeated points
+    take the median of the others; a lone point 1.0)."""
     if len(pts) < 2:
         return np.ones(len(pts))
     d, _ = cKDTree(pts).query(pts, 2)
@@ -301,7 +304,7 @@ def surface_triangulation(positions: np.ndarray, normals: np.ndarray, spacing: n
     n = len(p)
     if n < 3:
         return np.zeros((0, 3), np.int64)
-    s = _nn_spacing_oriented(p, nrm, cos_limit) if spacing is None else spacing
+    s = nn_spacing_oriented(p, nrm, cos_limit) if spacing is None else spacing
     h = float(np.median(s)) * chart_radius
     tree = cKDTree(p)
     # chart centres: one taxel per occupied (voxel, normal direction) cell, the one nearest the
@@ -411,7 +414,7 @@ def skin_mesh(layout: Layout, *, method: str = "auto", duplicates: str = "merge"
             use_flat = False
         else:
             tri, chain = delaunay_2d(uv)
-            spacing = _nn_spacing(uv)
+            spacing = nn_spacing(uv)
             tri, peeled = peel(tri, uv, spacing, max_edge)
             tri, chain, bridges = drop_bridges(tri, chain, uv, spacing, max_edge)
     if not use_flat:
@@ -434,7 +437,7 @@ def skin_mesh(layout: Layout, *, method: str = "auto", duplicates: str = "merge"
             tri = surface_triangulation(p, nrm)
             if not len(tri):
                 chain = _chain(p)
-        spacing = _nn_spacing_oriented(p, nrm)
+        spacing = nn_spacing_oriented(p, nrm)
         tri, peeled = peel(tri, p, spacing, max_edge)
         tri, chain, bridges = drop_bridges(tri, chain, p, spacing, max_edge)
         # safety net: a taxel that no chart gave a triangle is joined to its close, like-facing

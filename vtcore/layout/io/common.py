@@ -10,7 +10,7 @@ import numpy as np
 
 from ...errors import FormatError, InputError
 from ...tolerances import ZERO_NORMAL
-from ..mesh import LayoutWarning, _nn_spacing, estimate_normals
+from ..mesh import LayoutWarning, nn_spacing, estimate_normals
 from ..model import Layout
 
 MM_SPACING = 0.1  # m: no skin has taxels 10 cm apart; such spacing means millimetres
@@ -36,12 +36,12 @@ def units_scale(positions: np.ndarray, units: str | None, report: ImportReport, 
     if u is not None:
         if u not in ("m", "mm"):
             raise InputError(f"units must be 'm' or 'mm', got {u!r}", file=report.path, key="units")
-        if u == "m" and len(positions) > 1 and np.median(_nn_spacing(positions)) > MM_SPACING:
+        if u == "m" and len(positions) > 1 and np.median(nn_spacing(positions)) > MM_SPACING:
             report.warn(f"declared in metres but the median taxel spacing is "
-                        f"{np.median(_nn_spacing(positions)):.3g} m; is it millimetres?")
+                        f"{np.median(nn_spacing(positions)):.3g} m; is it millimetres?")
         return 1e-3 if u == "mm" else 1.0
     if len(positions) > 1:
-        s = float(np.median(_nn_spacing(positions)))
+        s = float(np.median(nn_spacing(positions)))
         if s > MM_SPACING:
             report.warn(f"median taxel spacing {s:.4g} would be {s:.4g} m: read as millimetres and "
                         f"converted to metres (declare units='m' or 'mm' to decide yourself)")
