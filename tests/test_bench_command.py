@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-AREAS = {"augment", "can", "categorize", "contact", "control", "filters", "layout"}
+AREAS = {"augment", "can", "categorize", "contact", "control", "filters", "layout"}  # at least these
 
 
 def _vtcore(*args, cwd):
@@ -21,10 +21,13 @@ def _vtcore(*args, cwd):
 def test_available_lists_the_areas_and_not_the_command_itself():
     from vtcore.cli.bench import available
 
+    import importlib
+
     names = available()
     # vtcore.cli.bench is the command; listing it as a benchmark "cli" crashed `make bench`.
-    assert set(names) == AREAS
+    assert "cli" not in names and AREAS <= set(names)
     assert names["layout"] == "vtcore.layout.bench"
+    assert all(callable(importlib.import_module(m).run) for m in names.values())
 
 
 def test_one_benchmark_and_an_outside_folder_make_one_report(tmp_path):
@@ -63,7 +66,9 @@ def test_vtcore_bench_quick_end_to_end(tmp_path):
     assert r.returncode == 0, r.stderr[-3000:]
     assert "Traceback" not in r.stderr
     report = (out / "README.md").read_text()
-    for area in sorted(AREAS):
+    from vtcore.cli.bench import available
+
+    for area in sorted(available()):
         assert f"## {area}\n" in report
         assert f"]({area}/accuracy_vs_time.png)" in report
         assert (out / area / "table.md").is_file() and (out / area / "table.csv").is_file()
