@@ -292,6 +292,12 @@ def test_cli_export_mjcf_and_urdf(tmp_path, forearm_skin, capsys):
     assert main(["layout", "export", str(tmp_path / "p.json"), "--format", "csv", "--body", "x",
                  "--out", str(tmp_path / "s.csv")]) == 2
     assert "--body: not an option of --format csv" in capsys.readouterr().err
+    assert main(["layout", "export", str(tmp_path / "p.json"), "--format", "mjcf", "--no-pad",
+                 "--out", str(tmp_path / "bare.xml")]) == 0
+    assert "<geom" not in (tmp_path / "bare.xml").read_text()
+    assert main(["layout", "export", str(tmp_path / "p.json"), "--format", "ply", "--mesh",
+                 "--out", str(tmp_path / "m.ply")]) == 0
+    assert "element face " in (tmp_path / "m.ply").read_text()
     assert not (tmp_path / "s.csv").exists()
 
 

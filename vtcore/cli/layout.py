@@ -5,7 +5,7 @@
 - ``vtcore layout import FILE [--format icub|cyskin|csv|json|ply] --out LAYOUT``
 - ``vtcore layout export LAYOUT --format icub|cyskin|csv|json|ply|mjcf|urdf --out FILE [--transform FILE_OR_16_NUMBERS]``
   MJCF: ``[--model ROBOT.xml --body BODY] [--footprint taxel|tile] [--pad|--no-pad] [--site-radius M]``;
-  URDF: ``--parent LINK [--model ROBOT.urdf]``; iCub: ``[--estimate-normals]``.
+  URDF: ``--parent LINK [--model ROBOT.urdf]``; iCub, CySkin: ``[--estimate-normals]``; PLY: ``[--mesh]``.
 - ``vtcore layout info LAYOUT [--json]``
 
 Layouts are written in the format their ``--out`` name says (``.json`` is our own JSON).
@@ -124,10 +124,11 @@ def _export_options(args) -> dict:
     from ..errors import InputError
 
     given = {k: getattr(args, k) for k in ("model", "body", "parent", "footprint", "pad", "site_radius",
-                                           "pad_thickness")
-             if getattr(args, k) is not None}
+                                           "pad_thickness") if getattr(args, k) is not None}
+    given.update({k: True for k in ("estimate_normals", "mesh") if getattr(args, k)})  # store_true flags
     takes = {"mjcf": {"model", "body", "footprint", "pad", "site_radius", "pad_thickness"},
-             "urdf": {"model", "parent"}}.get(args.format, set())
+             "urdf": {"model", "parent"}, "icub": {"estimate_normals"}, "cyskin": {"estimate_normals"},
+             "ply": {"mesh"}}.get(args.format, set())
     wrong = sorted(set(given) - takes)
     if wrong:
         flags = ", ".join("--" + k.replace("_", "-") for k in wrong)
@@ -268,6 +269,11 @@ def register(sub) -> None:
                     help="mjcf: give the skin its own contact pads (default: on in a fragment, off with --model)")
     ex.add_argument("--site-radius", type=float, metavar="METRES", help="mjcf: taxel site radius")
     ex.add_argument("--pad-thickness", type=float, metavar="METRES", help="mjcf: pad thickness (default 1 mm)")
+    ex.add_argument("--estimate-normals", action="store_true",
+                    help="icub/cyskin: write the estimated normals where the source had zeros (default: zeros, as read)")
+    ex.add_argument("--mesh", action="store_true",
+                    help="ply: a standard 'face' element for mesh viewers (default: 'skin_face', so point-cloud "
+                         "loaders keep one vertex per taxel)")
     ex.set_defaults(func=cmd_export)
 
     inf = lsub.add_parser("info", help="counts, spacing, strain, overlaps, coverage, bounding box")
