@@ -190,6 +190,32 @@ def test_fragment_attached_to_a_link_senses_through_its_pads(tmp_path, forearm_s
     assert d.ncon >= 1 and np.all(d.sensordata == 0)
 
 
+def test_visual_only_link_is_told_and_padded(tmp_path, forearm_skin):
+    """A link whose geoms are visual only (contype=conaffinity=0 through a default class): the
+    export says the sensors would read 0, and --pad gives the skin its own contact surface."""
+    from vtcore.layout import LayoutWarning
+
+    on_link, patch = forearm_skin
+    robot = tmp_path / "robot.xml"
+    robot.write_text(f"""<mujoco><option timestep="0.001"/>
+  <default><default class="visual"><geom contype="0" conaffinity="0" group="2"/></default></default>
+  <worldbody><body name="forearm" pos="0 0 0.5" childclass="visual">
+    <geom type="cylinder" size="{R_LINK} {L_LINK / 2}" quat="0.70710678 0 0.70710678 0"/></body>
+  <body name="ball" pos="0 0 1">{SLIDE}<geom type="sphere" size="0.01" mass="{BALL_MASS}"/></body>
+  </worldbody></mujoco>""")
+    with pytest.warns(LayoutWarning, match="no colliding geom"):
+        save(patch, tmp_path / "bare.xml", "mjcf", model=robot, body="forearm")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", LayoutWarning)
+        save(patch, tmp_path / "padded.xml", "mjcf", model=robot, body="forearm", pad=True)
+    x, y = on_link.positions[30, :2]
+    start = [x, y * (R_LINK + 0.01) / R_LINK, 0.5 + R_LINK + 0.03]
+    _, d = settle(tmp_path / "bare.xml", start)
+    assert d.ncon == 0 and np.all(d.sensordata == 0)  # the ball fell through the visual link
+    _, d = settle(tmp_path / "padded.xml", start)
+    assert abs(d.sensordata.sum() - BALL_MASS * G) < 0.05 * BALL_MASS * G, d.sensordata.sum()
+
+
 def test_model_errors(tmp_path, forearm_skin):
     _, patch = forearm_skin
     robot = robot_xml(tmp_path / "robot.xml", CYLINDER, SLIDE)

@@ -145,7 +145,10 @@ def cmd_export(args) -> int:
         layout = load(args.layout)
     _print_warnings(caught)
     transform = _read_transform(args.transform) if args.transform else None
-    save(layout, args.out, args.format, transform=transform, **options)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        save(layout, args.out, args.format, transform=transform, **options)
+    _print_warnings(caught)
     print(f"{args.out}: {len(layout)} taxels as {args.format}")
     return 0
 

@@ -31,7 +31,8 @@ Footprints (``footprint=``):
 sites' own body: the contact surface for a link without collision geoms, or for the
 fragment. Pads are ``pad_thickness`` thick and sit on the surface (their top face is
 ``pad_thickness`` above the taxel along its normal) and massless (``density="0"``): the
-robot's dynamics do not change.
+robot's dynamics do not change; they collide as MuJoCo's defaults do (``contype``,
+``conaffinity`` 1, written out so that a visual-only ``childclass`` cannot switch them off).
 
 Sensors are written in taxel order: ``data.sensordata[k]`` is taxel row ``k``.
 Site names: ``{prefix}{n}`` with ``n`` the taxel id when ids are unique and
@@ -157,14 +158,16 @@ def add_skin(layout: Layout, parent: ET.Element, sensor: ET.Element, *, position
         if footprint == "tile":
             cell = ET.SubElement(parent, "body", name=f"{name}_cell", pos=_vec(p), zaxis=_vec(n))
             ET.SubElement(cell, "geom", name=f"{name}_pad", type="cylinder", pos=_vec([0, 0, h]),
-                          size=f"{_fmt(cover[k])} {_fmt(h)}", density="0", rgba="0.85 0.85 0.8 1")
+                          size=f"{_fmt(cover[k])} {_fmt(h)}", density="0", contype="1", conaffinity="1",
+                          rgba="0.85 0.85 0.8 1")
             ET.SubElement(cell, "site", name=name, type="cylinder", pos=_vec([0, 0, h]),
                           size=f"{_fmt(cover[k])} {_fmt(h + SITE_MARGIN)}", rgba=green)
             continue
         centre = p + h * n if pad else p
         if pad:
             ET.SubElement(parent, "geom", name=f"{name}_pad", type="cylinder", pos=_vec(centre), zaxis=_vec(n),
-                          size=f"{_fmt(cover[k])} {_fmt(h)}", density="0", rgba="0.85 0.85 0.8 1")
+                          size=f"{_fmt(cover[k])} {_fmt(h)}", density="0", contype="1", conaffinity="1",
+                          rgba="0.85 0.85 0.8 1")
         ET.SubElement(parent, "site", name=name, type="cylinder", pos=_vec(centre), zaxis=_vec(n),
                       size=f"{_fmt(r_taxel)} {_fmt((h if pad else 0) + SITE_MARGIN)}", rgba=green)
     for name in names:
@@ -196,6 +199,35 @@ def _rebase(root: ET.Element, src_dir: Path, out_dir: Path) -> None:
             inc.set("file", rel(f))
 
 
+def colliding_geoms(root: ET.Element, body: ET.Element) -> int:
+    """How many of ``body``'s own geoms take part in collisions (``contype`` or ``conaffinity``
+    non-zero after the default classes, ``childclass`` and the geom's own attributes)."""
+    classes: dict[str, dict] = {}
+
+    def visit(el, inherited):
+        attrs = dict(inherited)
+        g = el.find("geom")
+        if g is not None:
+            attrs.update({k: g.get(k) for k in ("contype", "conaffinity") if g.get(k) is not None})
+        classes[el.get("class", "main")] = attrs
+        for child in el.findall("default"):
+            visit(child, attrs)
+
+    for top in root.findall("default"):
+        visit(top, {})
+    parent = {c: p for p in root.iter() for c in p}
+    child_class, el = None, body
+    while el is not None and child_class is None:
+        child_class = el.get("childclass")
+        el = parent.get(el)
+    n = 0
+    for g in body.findall("geom"):
+        attrs = dict(classes.get(g.get("class") or child_class or "main", {}))
+        attrs.update({k: g.get(k) for k in ("contype", "conaffinity") if g.get(k) is not None})
+        n += int(attrs.get("contype", "1")) != 0 or int(attrs.get("conaffinity", "1")) != 0
+    return n
+
+
 def merge_into_model(layout: Layout, model, body: str, **options) -> ET.ElementTree:
     """The robot MJCF ``model`` (a path) with the skin added to its body ``body``."""
     model = Path(model)
@@ -214,6 +246,14 @@ def merge_into_model(layout: Layout, model, body: str, **options) -> ET.ElementT
         hint = " (it may be in an <include>d file: merge into that file)" if root.find(".//include") is not None else ""
         raise InputError(f"no body named {body!r}{hint}; bodies: {', '.join(names[:20]) or 'none'}",
                          file=model, key="--body")
+    if not options.get("pad") and options.get("footprint", "taxel") == "taxel" and not colliding_geoms(root, target):
+        import warnings
+
+        from ..mesh import LayoutWarning
+
+        warnings.warn(f"{model}: body {body!r} has no colliding geom (none, or only contype=conaffinity=0): its "
+                      "touch sensors would read 0; export with pad=True (--pad) to give the skin a contact surface",
+                      LayoutWarning, stacklevel=3)
     taken = {e.get("name") for e in root.iter() if e.get("name")}
     pos, nrm = _body_frame(layout)
     sensor = root.find("sensor")
