@@ -172,3 +172,32 @@ def number(v: float) -> str:
     if v == 0:
         return "-0" if math.copysign(1.0, v) < 0 else "0"
     return str(int(v)) if v.is_integer() and abs(v) < 1e15 else repr(v)
+
+
+def read_json_doc(path):
+    """The parsed JSON of ``path``; a syntax error is a FormatError naming the file and line."""
+    import json
+    from pathlib import Path
+
+    try:
+        return json.loads(Path(path).read_text(encoding="utf-8"))
+    except json.JSONDecodeError as exc:
+        raise FormatError(f"not valid JSON: {exc.msg}", file=path, line=exc.lineno) from None
+
+
+def read_robot_xml(model, root_tag: str):
+    """The robot file ``model`` (MJCF or URDF) as an ElementTree with its comments, checked to
+    exist, to be XML and to have the root element ``root_tag``."""
+    import xml.etree.ElementTree as ET
+    from pathlib import Path
+
+    model = Path(model)
+    if not model.is_file():
+        raise InputError("robot model not found", file=model, key="--model")
+    try:
+        tree = ET.parse(model, parser=ET.XMLParser(target=ET.TreeBuilder(insert_comments=True)))
+    except ET.ParseError as exc:
+        raise FormatError(f"not valid XML: {exc}", file=model, line=exc.position[0]) from None
+    if tree.getroot().tag != root_tag:
+        raise FormatError(f"the root element is <{tree.getroot().tag}>, not <{root_tag}>", file=model)
+    return tree

@@ -23,7 +23,7 @@ from ...errors import FormatError
 from ..model import Layout
 from ..uids import cyskin_modules
 from .common import (ImportReport, array_digest, check_repeats, clean_normals, default_faces, finish, parse_number,
-                     row_digests, unchanged_rows, units_scale)
+                     read_json_doc, row_digests, unchanged_rows, units_scale)
 
 NAME = "cyskin"
 SUFFIXES = (".json",)
@@ -31,10 +31,7 @@ SUFFIXES = (".json",)
 
 def read(path, units: str | None = None) -> Layout:
     report = ImportReport(path)
-    try:
-        doc = json.loads(Path(path).read_text(encoding="utf-8"))
-    except json.JSONDecodeError as exc:
-        raise FormatError(f"not valid JSON: {exc.msg}", file=path, line=exc.lineno) from None
+    doc = read_json_doc(path)
     if not isinstance(doc, dict):
         raise FormatError("the top level must be an object with 'skin' and/or 'tactile_maps'", file=path)
     info = doc.get("info") or {}

@@ -48,10 +48,10 @@ from pathlib import Path
 import numpy as np
 
 from ..._io import atomic_write
-from ...errors import FormatError, InputError
+from ...errors import InputError
 from ...tolerances import ZERO_NORMAL
 from ..model import Layout
-from .common import default_faces, taxel_labels
+from .common import default_faces, read_robot_xml, taxel_labels
 
 NAME = "mjcf"
 SUFFIXES = (".xml", ".mjcf")
@@ -230,16 +230,8 @@ def colliding_geoms(root: ET.Element, body: ET.Element) -> int:
 
 def merge_into_model(layout: Layout, model, body: str, **options) -> ET.ElementTree:
     """The robot MJCF ``model`` (a path) with the skin added to its body ``body``."""
-    model = Path(model)
-    if not model.is_file():
-        raise InputError("robot model not found", file=model, key="--model")
-    try:
-        tree = ET.parse(model, parser=ET.XMLParser(target=ET.TreeBuilder(insert_comments=True)))
-    except ET.ParseError as exc:
-        raise FormatError(f"not valid XML: {exc}", file=model, line=exc.position[0]) from None
+    tree = read_robot_xml(model, "mujoco")
     root = tree.getroot()
-    if root.tag != "mujoco":
-        raise FormatError(f"the root element is <{root.tag}>, not <mujoco>", file=model)
     target = next((b for b in root.iter("body") if b.get("name") == body), None)
     if target is None:
         names = [b.get("name") for b in root.iter("body") if b.get("name")]

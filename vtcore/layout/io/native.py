@@ -4,14 +4,13 @@ from __future__ import annotations
 
 import json
 import math
-from pathlib import Path
 
 import numpy as np
 
 from ..._io import atomic_write
 from ...errors import FormatError
 from ..model import Layout
-from .common import ImportReport, as_list, clean_normals, finish, units_scale
+from .common import ImportReport, as_list, clean_normals, finish, read_json_doc, units_scale
 
 NAME = "json"
 SUFFIXES = (".json",)
@@ -57,10 +56,7 @@ def write(layout: Layout, path) -> None:
 
 def read(path, units: str | None = None) -> Layout:
     report = ImportReport(path)
-    try:
-        doc = json.loads(Path(path).read_text(encoding="utf-8"))
-    except json.JSONDecodeError as exc:
-        raise FormatError(f"not valid JSON: {exc.msg}", file=path, line=exc.lineno) from None
+    doc = read_json_doc(path)
     if not isinstance(doc, dict) or doc.get("format") != "vtcore-layout":
         raise FormatError("not a vtcore layout JSON (no \"format\": \"vtcore-layout\")", file=path)
     if int(doc.get("version", 0)) > JSON_VERSION:

@@ -22,15 +22,14 @@ added under ``parent``.
 from __future__ import annotations
 
 import xml.etree.ElementTree as ET
-from pathlib import Path
 
 import numpy as np
 
 from ..._io import atomic_write
-from ...errors import FormatError, InputError
+from ...errors import InputError
 from ...tolerances import ZERO_NORMAL
 from ..model import Layout
-from .common import taxel_labels
+from .common import read_robot_xml, taxel_labels
 
 NAME = "urdf"
 SUFFIXES = (".urdf",)
@@ -86,16 +85,8 @@ def write(layout: Layout, path, *, parent: str | None = None, model=None) -> Non
     """
     parent = parent or layout.frame
     if model is not None:
-        model = Path(model)
-        if not model.is_file():
-            raise InputError("robot model not found", file=model, key="--model")
-        try:
-            tree = ET.parse(model, parser=ET.XMLParser(target=ET.TreeBuilder(insert_comments=True)))
-        except ET.ParseError as exc:
-            raise FormatError(f"not valid XML: {exc}", file=model, line=exc.position[0]) from None
+        tree = read_robot_xml(model, "robot")
         robot = tree.getroot()
-        if robot.tag != "robot":
-            raise FormatError(f"the root element is <{robot.tag}>, not <robot>", file=model)
         links = [e.get("name") for e in robot.findall("link")]
         if parent not in links:
             raise InputError(f"no link named {parent!r}; links: {', '.join(links[:20]) or 'none'}",
