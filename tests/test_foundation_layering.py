@@ -14,7 +14,7 @@ import pytest
 import vtcore
 
 ROOT = Path(vtcore.__file__).resolve().parent
-SHARED = {"errors", "geometry", "_io", "_bench", "_progress", "plots", "tolerances", "__version__"}
+SHARED = {"errors", "geometry", "inputs", "_io", "_bench", "_progress", "plots", "tolerances", "__version__"}
 PACKAGES = sorted(p.name for p in ROOT.iterdir() if (p / "__init__.py").exists())
 ALLOWED = {
     "layout": set(),

@@ -22,16 +22,24 @@ def atomic_write(path: str | os.PathLike, mode: str = "w", **kwargs):
     On an exception the temporary file is removed and ``path`` keeps its old
     content (or stays absent).
     """
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    from .inputs import check_output_file, os_error
+
+    path = check_output_file(path, key="output")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    except OSError as exc:  # read-only folder, a file on the way, disk full: the path is named
+        raise os_error(exc, path, key="output") from None
     os.close(fd)
     try:
         with open(tmp, mode, **kwargs) as fh:
             yield fh
         # mkstemp makes the file private (0600); give it the mode a plain open() would.
         os.chmod(tmp, 0o666 & ~_umask())
-        os.replace(tmp, path)
+        try:
+            os.replace(tmp, path)
+        except OSError as exc:
+            raise os_error(exc, path, key="output") from None
     except BaseException:
         with contextlib.suppress(FileNotFoundError):
             os.unlink(tmp)
@@ -61,3 +69,16 @@ def save_npz(path: str | os.PathLike, arrays: dict[str, np.ndarray], compress: b
                 info.compress_type = comp
                 info.external_attr = 0o644 << 16
                 zf.writestr(info, buf.getvalue())
+
+
+def write_json(path: str | os.PathLike, obj, indent: int | None = 2) -> None:
+    """Write ``obj`` as JSON atomically, refusing NaN and infinity (JSON has neither; Python's
+    ``json`` would write the non-standard ``NaN`` token). Undefined numbers must be ``None``."""
+    import json
+
+    from .inputs import finite_json
+
+    finite_json(obj)
+    text = json.dumps(obj, indent=indent, allow_nan=False)
+    with atomic_write(path, "w", encoding="utf-8") as fh:
+        fh.write(text + "\n")

@@ -8,6 +8,7 @@ import numpy as np
 
 from .._io import save_npz
 from ..errors import FormatError, InputError
+from ..inputs import check_input, clean, float_array, int_array
 from .codecs import Codec, get_codec
 from .icub_ids import SLOTS_PER_TRIANGLE, TAXELS_PER_BOARD, icub_board_ids, icub_taxel_id
 from .decode import DecodeResult, collect, iter_decode
@@ -108,24 +109,40 @@ def save_frames_npz(path, result: DecodeResult) -> None:
 
 
 def load_frames_npz(path) -> dict:
-    """Read a FRAMES.npz; checks the contract names and shapes."""
-    path = Path(path)
-    if not path.exists():
-        raise InputError("file not found", file=path)
+    """Read a FRAMES.npz; checks the contract names, dtypes and shapes.
+
+    ``timestamps`` finite seconds, ``frames`` numbers (NaN allowed where ``mask`` is False),
+    ``taxel_ids`` integers in 0..2**32-1, ``mask`` booleans; FormatError naming the array otherwise.
+    """
+    path = check_input(path, "frames file")
     try:
         with np.load(path, allow_pickle=False) as z:
             data = {k: z[k] for k in z.files}
-    except Exception as exc:
-        raise FormatError(f"not a readable .npz: {exc}", file=path) from None
+    except Exception as exc:  # zipfile, numpy format and pickle errors all mean "not our file"
+        raise FormatError(f"not a readable .npz: {clean(exc)}", file=path) from None
     for key in ("timestamps", "frames", "taxel_ids"):
         if key not in data:
             raise FormatError(f"missing array {key!r} (FRAMES.npz needs timestamps, frames, taxel_ids)",
                               file=path, key=key)
+    try:
+        data["timestamps"] = float_array(data["timestamps"], shape=(None,), file=path, key="timestamps")
+        data["taxel_ids"] = int_array(data["taxel_ids"], dtype=np.uint32, file=path,
+                                      key="taxel_ids").astype(np.int64).reshape(-1)
+        data["frames"] = float_array(data["frames"], finite=False, file=path, key="frames")
+        if "mask" in data and data["mask"].dtype != bool:
+            raise FormatError(f"must be booleans, got dtype {data['mask'].dtype}", file=path, key="mask")
+    except InputError as exc:
+        raise FormatError(exc.reason, file=path, key=exc.key) from None
     t, f, ids = data["timestamps"], data["frames"], data["taxel_ids"]
     if f.ndim != 2 or f.shape != (len(t), len(ids)):
         raise FormatError(f"frames has shape {f.shape}, expected ({len(t)}, {len(ids)})", file=path, key="frames")
     if "mask" in data and data["mask"].shape != f.shape:
         raise FormatError(f"mask has shape {data['mask'].shape}, expected {f.shape}", file=path, key="mask")
+    if np.isinf(f).any():
+        raise FormatError("holds infinite values", file=path, key="frames")
+    nan = np.isnan(f)
+    if nan.any() and ("mask" not in data or (nan & data["mask"]).any()):
+        raise FormatError("holds NaN where the mask says a sample was recorded", file=path, key="frames")
     return data
 
 

@@ -5,8 +5,13 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InputError
+from ..inputs import float_array, int_array, need_memory
 from .codecs import Codec
 from .frames import FrameBatch
+
+#: Largest taxel id each codec can address: iCub 16 boards x 16 triangles x 12 taxels (11-bit ids);
+#: cyskin16 2**20 modules x 16 sensors (29-bit ids, the classify() limit).
+MAX_TAXEL_ID = {"icub": 16 * 192 - 1, "cyskin16": (1 << 24) - 1}
 
 
 def encode(timestamps, frames, taxel_ids, codec: Codec, mask=None, frame_gap: float = 1e-4,
@@ -23,13 +28,16 @@ def encode(timestamps, frames, taxel_ids, codec: Codec, mask=None, frame_gap: fl
     takes about 0.11 ms). errors : optional dict ``{(row, unit): code}`` (iCub diagnostics).
     Returns a :class:`FrameBatch` in time order.
     """
-    ts = np.asarray(timestamps, np.float64).reshape(-1)
-    f = np.asarray(frames)
+    ts = float_array(timestamps, key="timestamps").reshape(-1)  # a NaN time would be written as "(nan)"
+    f = float_array(frames, finite=False, key="frames")
     if f.ndim != 2 or f.shape[0] != len(ts):
         raise InputError(f"frames must be (T, N) with T = {len(ts)}, got {f.shape}", key="frames")
-    ids = np.asarray(taxel_ids, np.int64).reshape(-1)
+    # ids past the codec's address space would wrap onto the identifiers of real taxels
+    ids = int_array(taxel_ids, lo=0, hi=MAX_TAXEL_ID.get(codec.name, (1 << 32) - 1), key="taxel_ids").reshape(-1)
     if len(ids) != f.shape[1]:
         raise InputError(f"taxel_ids has {len(ids)} entries, frames has {f.shape[1]} columns", key="taxel_ids")
+    # (T, K, C) values and masks of every stream: refuse before allocating what cannot fit
+    need_memory(8.0 * 3 * len(ts) * f.shape[1] * 2, key="frames", what=f"encoding {len(ts)} x {f.shape[1]} frames")
     if not np.all(np.isfinite(f)) and mask is None:
         raise InputError("frames has non-finite values and no mask", key="frames")
     m = np.ones(f.shape, bool) if mask is None else np.asarray(mask, bool).reshape(f.shape)

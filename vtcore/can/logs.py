@@ -17,7 +17,9 @@ python-can parses and writes every format. What this module adds:
 
 from __future__ import annotations
 
+import contextlib
 import io
+import math
 import os
 import re
 from pathlib import Path
@@ -25,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import FormatError, InputError
+from ..inputs import TextLines, check_input, check_output_file, os_error
 from .frames import FrameBatch, Summary
 
 FORMATS = (".log", ".asc", ".blf", ".trc", ".csv")
@@ -70,7 +73,10 @@ def _is_frame_line(fmt: str, line: str) -> bool | None:
 
 
 def _header_lines(fmt: str, fh) -> list[str]:
-    """Lines at the top of the file that every block handed to python-can must start with."""
+    """Lines at the top of the file that every block handed to python-can must start with.
+
+    ``fh``: a :class:`~vtcore.inputs.TextLines` (``readline`` and ``push_back``).
+    """
     header = []
     if fmt == ".csv":
         first = fh.readline()
@@ -78,7 +84,6 @@ def _header_lines(fmt: str, fh) -> list[str]:
             header.append(first)
     elif fmt in (".trc", ".asc"):
         while True:
-            pos = fh.tell()
             line = fh.readline()
             if not line:
                 break
@@ -87,7 +92,7 @@ def _header_lines(fmt: str, fh) -> list[str]:
                     (fmt == ".asc" and (not s or re.match(r"^(date\s|base\s|//|(no\s+)?internal\s+events)", s, re.I))):
                 header.append(line)
                 continue
-            fh.seek(pos)
+            fh.push_back(line)
             break
         if fmt == ".asc":
             # ASCReader consumes the first line after its header; make sure it is ours.
@@ -124,6 +129,15 @@ def _parse_block(fmt, header, lines, linenos, out_msgs, out_lines, summary, firs
     _parse_block(fmt, header, lines[h:], linenos[h:], out_msgs, out_lines, summary, False)
 
 
+def _valid_id_time(m) -> bool:
+    """An identifier that fits its 11 or 29 bits and a finite timestamp: python-can parses
+    ``FFFFFFFFFFF#..`` and ``(nan)`` without complaint, and either would wrap or poison the columns."""
+    limit = 0x1FFFFFFF if m.is_extended_id else 0x7FF
+    t = m.timestamp
+    return isinstance(m.arbitration_id, int) and 0 <= m.arbitration_id <= limit and \
+        isinstance(t, (int, float)) and math.isfinite(t)
+
+
 def _messages_to_batch(msgs, lines, summary) -> FrameBatch:
     """Columns of ``msgs``; error/remote/FD frames and DLC/data mismatches are counted, not kept."""
     keep, keep_lines = [], []
@@ -131,7 +145,7 @@ def _messages_to_batch(msgs, lines, summary) -> FrameBatch:
         if m.is_error_frame or m.is_remote_frame or m.is_fd or len(m.data) > 8:
             summary.frames_read += 1
             summary.reject("not_data_frame", 1, [ln])
-        elif m.dlc != len(m.data):
+        elif m.dlc != len(m.data) or not _valid_id_time(m):
             summary.frames_read += 1
             summary.reject("malformed_frame", 1, [ln])
         else:
@@ -149,14 +163,14 @@ def iter_batches(path, chunk: int = 65536, summary: Summary | None = None):
     """
     path = Path(path)
     fmt = log_format(path)
-    if not path.exists():
-        raise InputError("log file not found", file=path)
+    check_input(path, "log file")  # a folder or a named pipe is refused before opening
     summary = summary if summary is not None else Summary()
     chunk = max(int(chunk), 1)
     if fmt == ".blf":
         yield from _iter_blf(path, chunk, summary)
         return
-    with open(path, encoding="utf-8", errors="replace", newline=None) as fh:
+    # not strict: a line that is not UTF-8 is one unparsable line (counted), not a lost log
+    with TextLines(path, "log file", strict=False) as fh:
         header = _header_lines(fmt, fh)
         lineno = sum(1 for h in header if h != "no internal events logged\n")
         summary.lines_read += lineno
@@ -171,7 +185,7 @@ def iter_batches(path, chunk: int = 65536, summary: Summary | None = None):
                 ln = fh.readline()
                 if not ln:
                     break
-                lines.append(ln if ln.endswith("\n") else ln + "\n")
+                lines.append(ln)
             if not lines:
                 break
             nos = list(range(lineno + 1, lineno + 1 + len(lines)))
@@ -240,7 +254,11 @@ def write_log(path, batches, channel: str = "vcan0") -> int:
     fmt = log_format(path)
     if isinstance(batches, FrameBatch):
         batches = [batches]
-    path.parent.mkdir(parents=True, exist_ok=True)
+    check_output_file(path, key="output")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise os_error(exc, path, key="output") from None
     tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp{fmt}")
     n = 0
     try:
@@ -249,12 +267,20 @@ def write_log(path, batches, channel: str = "vcan0") -> int:
                   ".trc": can.io.TRCWriter, ".csv": can.io.CSVWriter}[fmt](str(tmp), **kwargs)
         try:
             for b in batches:
+                if len(b) and not np.isfinite(b.timestamps).all():
+                    # candump would write "(nan)", a line no reader takes back
+                    raise InputError("frames with non-finite timestamps; refusing to write them", file=path,
+                                     key="timestamps")
                 for msg in b.to_messages(channel=None if fmt == ".log" else 0):
                     writer.on_message_received(msg)
                     n += 1
         finally:
             writer.stop()
         os.replace(tmp, path)
+    except OSError as exc:
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+        raise os_error(exc, path, key="output") from None
     except BaseException:
         if tmp.exists():
             tmp.unlink()

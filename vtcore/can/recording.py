@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import FormatError, InputError
+from ..inputs import clean, int_array, read_text
 from ..layout.uids import cyskin_sensors
 
 
@@ -50,17 +51,20 @@ def read_cyskin_txt(path, layout=None, taxel_ids=None) -> Recording:
     gets the column), ``rejected_lines``, ``time_backwards``, ``clipped_high``, ``clipped_low``.
     """
     path = Path(path)
-    if not path.exists():
-        raise InputError("recording not found", file=path)
-    text = path.read_text(encoding="utf-8", errors="replace").splitlines()
+    text = read_text(path, "recording").splitlines()
     while text and not text[0].strip():
         text = text[1:]
     if not text:
         raise FormatError("empty recording: line 1 must list the taxel UIDs", file=path, line=1)
     try:
-        uids = np.array([int(x) for x in text[0].split()], np.int64)
-    except ValueError:
-        raise FormatError("line 1 must list integer taxel UIDs", file=path, line=1) from None
+        # UIDs are module << 4 | sensor on a 29-bit CAN identifier space: anything past uint32 is not a UID
+        uids = int_array([int(x) for x in text[0].split()], dtype=np.uint32, file=path, key="UIDs",
+                         line=1).astype(np.int64)
+    except ValueError as exc:
+        if isinstance(exc, InputError):
+            raise
+        raise FormatError(f"line 1 must list integer taxel UIDs, got {clean(text[0], 60)!r}", file=path,
+                          line=1) from None
     n = len(uids)
     if n == 0:
         raise FormatError("line 1 lists no UIDs", file=path, line=1)
@@ -79,22 +83,28 @@ def read_cyskin_txt(path, layout=None, taxel_ids=None) -> Recording:
         else:
             good.append((i, parts))
     rows = np.zeros((0, n + 2))
+    kept = [i for i, _ in good]          # the file line of each row of ``rows``
     if good:
         try:
             rows = np.array([p for _, p in good], dtype=np.float64)
         except ValueError:
-            keep = []
+            keep, kept = [], []
             for i, p in good:  # only when some line has a non-number: find which
                 try:
                     keep.append(np.array(p, dtype=np.float64))
+                    kept.append(i)
                 except ValueError:
                     rejected.append((i, "not numbers"))
             rows = np.array(keep).reshape(-1, n + 2)
+    # a row index must be an integer (exactly representable: |i| < 2**53), the other fields finite
+    with np.errstate(invalid="ignore"):
+        whole = (np.abs(rows[:, 0]) < 2.0 ** 53) & (rows[:, 0] == np.round(rows[:, 0]))
     finite = np.isfinite(rows).all(axis=1)
-    if not finite.all():
-        lines_ok = [i for (i, _) in good]
-        rejected += [(lines_ok[j] if j < len(lines_ok) else -1, "non-finite value") for j in np.flatnonzero(~finite)]
-        rows = rows[finite]
+    ok = finite & whole
+    if not ok.all():
+        rejected += [(kept[j], "non-finite value" if not finite[j] else "row index is not an integer")
+                     for j in np.flatnonzero(~ok)]
+        rows = rows[ok]
     rejected.sort()
     t = rows[:, 1]
     vals = rows[:, 2:]
@@ -125,7 +135,7 @@ def read_cyskin_txt(path, layout=None, taxel_ids=None) -> Recording:
         "duplicate_uids": sorted(int(u) for u in uids[dup]),
         "shared_layout_uids": [int(u) for u in lid[lcount > 1]],
         "rejected_lines": [{"line": i, "reason": r} for i, r in rejected],
-        "time_backwards": int((np.diff(t) < 0).sum()),
+        "time_backwards": int((t[1:] < t[:-1]).sum()),  # not np.diff: 1e308 - -1e308 overflows
         "clipped_high": clipped_high,
         "clipped_low": clipped_low,
         "rows": int(len(t)),

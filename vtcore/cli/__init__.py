@@ -9,9 +9,12 @@ are printed as one message without a traceback, exit status 2.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
 import pkgutil
+import signal
 import sys
+import threading
 
 from .. import __version__
 from ..errors import VtError
@@ -31,6 +34,32 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised like Ctrl-C so every temporary file and staging folder is removed on the way out."""
+
+
+@contextlib.contextmanager
+def _sigterm_raises():
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def handler(signum, frame):
+        raise Terminated()
+
+    old = signal.signal(signal.SIGTERM, handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, old)
+
+
+def _error_lines(text) -> str:
+    from ..inputs import clean
+
+    return "\n".join(clean(line, 2000) for line in str(text).splitlines() or [""])
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
@@ -38,14 +67,23 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help(sys.stderr)
         return 2
     try:
-        return int(args.func(args) or 0)
+        with _sigterm_raises():
+            return int(args.func(args) or 0)
     except VtError as exc:
-        print(f"vtcore: error: {exc}", file=sys.stderr)
+        print(f"vtcore: error: {_error_lines(exc)}", file=sys.stderr)
         return 2
-    except BrokenPipeError:
-        # `vtcore scenes | head`: the reader left; stop quietly like other Unix tools.
-        sys.stderr.close()
-        return 0
+    except OSError as exc:
+        if isinstance(exc, BrokenPipeError):
+            # `vtcore scenes | head`: the reader left; stop quietly like other Unix tools.
+            sys.stderr.close()
+            return 0
+        # the file system refused (read-only folder, disk full, permission): not a bug, one line
+        where = f"{exc.filename}: " if exc.filename else ""
+        print(f"vtcore: error: {_error_lines(where + (exc.strerror or str(exc)))}", file=sys.stderr)
+        return 2
+    except Terminated:
+        print("vtcore: terminated", file=sys.stderr)
+        return 143
     except KeyboardInterrupt:
         print("vtcore: interrupted", file=sys.stderr)
         return 130

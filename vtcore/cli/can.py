@@ -8,7 +8,7 @@
 
 from __future__ import annotations
 
-import json
+import math
 
 
 def _load_layout(path):
@@ -35,7 +35,11 @@ def _boards(text: str) -> list[int]:
 
 def cmd_decode(args) -> int:
     from ..can import decode_log, save_frames_npz
+    from ..inputs import check_output_file
 
+    check_output_file(args.out)
+    if args.summary:
+        check_output_file(args.summary, key="--summary")
     layout = _load_layout(args.layout) if args.layout else None
     res = decode_log(args.log, args.codec, layout=layout, period=args.period, window=args.window,
                      boards=args.boards)
@@ -43,17 +47,20 @@ def cmd_decode(args) -> int:
     print(f"{args.log}: {res.summary.text()}")
     print(f"-> {args.out}: frames {res.frames.shape} ({args.codec} wire values), mask, taxel_ids")
     if args.summary:
-        from .._io import atomic_write
+        from .._io import write_json
 
-        with atomic_write(args.summary, "w", encoding="utf-8") as fh:
-            json.dump(res.summary.as_dict(), fh, indent=2)
-            fh.write("\n")
+        summary = res.summary.as_dict()
+        if not math.isfinite(summary["period_s"]):
+            summary["period_s"] = None  # no frames: the period is undefined (JSON has no NaN)
+        write_json(args.summary, summary)
     return 0
 
 
 def cmd_encode(args) -> int:
     from ..can import encode_to_log
+    from ..inputs import check_output_file
 
+    check_output_file(args.out)
     n = encode_to_log(args.frames, args.codec, args.out, channel=args.can_channel)
     print(f"{args.frames} -> {args.out}: {n} {args.codec} frames")
     return 0
@@ -76,6 +83,11 @@ def cmd_record_import(args) -> int:
     from ..can.recording import read_cyskin_txt, report_text
     import numpy as np
 
+    from ..inputs import check_output_file
+
+    check_output_file(args.out)
+    if args.report:
+        check_output_file(args.report, key="--report")
     layout = _load_layout(args.layout)
     rec = read_cyskin_txt(args.file, layout=layout)
     arrays = rec.arrays()
@@ -84,11 +96,9 @@ def cmd_record_import(args) -> int:
     print(f"{args.file}: {report_text(rec.report)}")
     print(f"-> {args.out}: frames {rec.frames.shape} in layout order")
     if args.report:
-        from .._io import atomic_write
+        from .._io import write_json
 
-        with atomic_write(args.report, "w", encoding="utf-8") as fh:
-            json.dump(rec.report, fh, indent=2)
-            fh.write("\n")
+        write_json(args.report, rec.report)
     return 0
 
 

@@ -21,7 +21,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from ..errors import SceneError, SceneErrors
+from ..errors import InputError, SceneError, SceneErrors
+from ..inputs import clean, read_text
 from . import registry
 from .schema import Context, Field, Section
 
@@ -31,6 +32,9 @@ SCENE_SECTION = Section({
     "seed": Field("int", default=0, ge=0, doc="seed of every random step"),
     "task": Field("str", choices=lambda: tuple(sorted(registry.TASKS)), doc="what the scene does"),
 })
+
+#: A scene file is a few kilobytes; anything past this is not a scene (and is not read into memory).
+MAX_SCENE_BYTES = 16 << 20
 
 OUTPUT_SECTION = Section({
     "plots": Field("bool", default=True, doc="write PNG plots and show them in report.md"),
@@ -111,17 +115,17 @@ def load_scene(path: str | Path, overrides: list[str] | None = None) -> Scene:
     """
     registry.discover()
     path = Path(path)
-    if not path.exists():
-        raise SceneError("scene file not found", file=path)
     try:
-        raw = tomllib.loads(path.read_text(encoding="utf-8"))
+        text = read_text(path, "scene file", limit=MAX_SCENE_BYTES)
+    except InputError as exc:
+        raise SceneError(exc.reason, file=exc.file, line=exc.line) from None
+    try:
+        raw = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         # Python 3.11's TOMLDecodeError has no lineno attribute; the message has it.
         m = re.search(r"at line (\d+)", str(exc))
         line = int(m.group(1)) if m else None
-        raise SceneError(f"not valid TOML: {exc}", file=path, line=line) from None
-    except UnicodeDecodeError as exc:
-        raise SceneError(f"not UTF-8 text: {exc}", file=path) from None
+        raise SceneError(f"not valid TOML: {clean(exc, 200)}", file=path, line=line) from None
     raw = apply_overrides(raw, overrides, path)
 
     ctx = Context(file=str(path), base=path.parent.resolve())
@@ -136,6 +140,11 @@ def load_scene(path: str | Path, overrides: list[str] | None = None) -> Scene:
             ctx.fail(key, f"unknown table; valid tables: {known}")
     if "scene" not in raw:
         ctx.fail("scene", "is required: a [scene] table with at least task = \"...\"")
+        raise SceneErrors(ctx.errors)
+    for key in ("scene", "output"):
+        if key in raw and not isinstance(raw[key], dict):
+            ctx.fail(key, f"must be a table ([{key}]), got {type(raw[key]).__name__}")
+    if ctx.errors:
         raise SceneErrors(ctx.errors)
     data["scene"] = SCENE_SECTION.validate(raw["scene"], ctx, prefix="scene")
     task = registry.TASKS.get(data["scene"].get("task") or "")
@@ -191,8 +200,10 @@ def list_scenes(folder: str | Path) -> list[tuple[Path, str, str]]:
     out = []
     for p in sorted(Path(folder).glob("*.toml")):
         try:
-            head = tomllib.loads(p.read_text(encoding="utf-8")).get("scene", {})
-            out.append((p, str(head.get("task", "?")), str(head.get("description", ""))))
-        except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-            out.append((p, "invalid", str(exc)))
+            head = tomllib.loads(read_text(p, "scene file", limit=MAX_SCENE_BYTES)).get("scene", {})
+            if not isinstance(head, dict):
+                raise InputError("[scene] is not a table", file=p)
+            out.append((p, clean(head.get("task", "?")), clean(head.get("description", ""), 400)))
+        except (tomllib.TOMLDecodeError, InputError) as exc:
+            out.append((p, "invalid", clean(exc, 400)))
     return out

@@ -10,9 +10,12 @@
 
 from __future__ import annotations
 
-import json
+import contextlib
 import math
+import os
 import platform
+import shutil
+import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -21,7 +24,8 @@ from typing import Any, Callable
 import numpy as np
 
 from .. import __version__
-from .._io import atomic_write, save_npz
+from .._io import atomic_write, save_npz, write_json
+from ..inputs import check_output_dir, os_error
 from .._progress import progress
 from . import registry
 from .loader import Scene, load_scene
@@ -98,8 +102,30 @@ def run_scene(scene: Scene | str | Path, out: str | Path, overrides: list[str] |
     """Run ``scene`` and write its results into ``out``; return the ``result.json`` object."""
     if not isinstance(scene, Scene):
         scene = load_scene(scene, overrides)
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    final = check_output_dir(out)
+    made = not final.exists()
+    try:
+        final.mkdir(parents=True, exist_ok=True)
+        # Everything is written into a staging folder inside ``out`` and moved in at the end:
+        # a run that fails or is interrupted (Ctrl-C, SIGTERM) leaves no half set of files.
+        stage = Path(tempfile.mkdtemp(prefix=".vtcore-run-", dir=final))
+    except OSError as exc:
+        raise os_error(exc, final, key="--out") from None
+    try:
+        result = _run(scene, stage)
+        for f in sorted(stage.iterdir()):
+            os.replace(f, final / f.name)
+    except BaseException:
+        shutil.rmtree(stage, ignore_errors=True)
+        if made:
+            with contextlib.suppress(OSError):
+                final.rmdir()  # only if empty: a folder this run made and nothing landed in
+        raise
+    shutil.rmtree(stage, ignore_errors=True)
+    return result
+
+
+def _run(scene: Scene, out: Path) -> dict:
     t0 = time.perf_counter()
     ctx = RunContext(scene=scene, pipeline=None, out=out, rng=np.random.default_rng(scene.seed))
     ctx.pipeline = registry.Pipeline(scene.effects, ctx)
@@ -138,9 +164,7 @@ def run_scene(scene: Scene | str | Path, out: str | Path, overrides: list[str] |
         "files": sorted(res.files),
         **res.extra,
     }
-    with atomic_write(out / "result.json", "w", encoding="utf-8") as fh:
-        json.dump(result, fh, indent=2)
-        fh.write("\n")
+    write_json(out / "result.json", result)
     with atomic_write(out / "report.md", "w", encoding="utf-8") as fh:
         fh.write(render_report(scene, result, res))
     return result
