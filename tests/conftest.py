@@ -36,3 +36,8 @@ def vtcore_cli(*args, cwd=None):
 @pytest.fixture
 def cli():
     return vtcore_cli
+
+
+def pytest_addoption(parser):
+    parser.addoption("--fuzz-long", action="store_true", default=False,
+                     help="fuzz suite: 10,000 inputs per reader (or VTCORE_FUZZ_EXAMPLES=N) instead of a few dozen")

@@ -7,7 +7,7 @@ import numpy as np
 from ..errors import InputError
 from ..inputs import float_array, int_array, need_memory
 from .codecs import Codec
-from .frames import FrameBatch
+from .frames import MAX_TIMESTAMP_S, FrameBatch
 
 #: Largest taxel id each codec can address: iCub 16 boards x 16 triangles x 12 taxels (11-bit ids);
 #: cyskin16 2**20 modules x 16 sensors (29-bit ids, the classify() limit).
@@ -29,6 +29,8 @@ def encode(timestamps, frames, taxel_ids, codec: Codec, mask=None, frame_gap: fl
     Returns a :class:`FrameBatch` in time order.
     """
     ts = float_array(timestamps, key="timestamps").reshape(-1)  # a NaN time would be written as "(nan)"
+    if len(ts) and np.abs(ts).max() > MAX_TIMESTAMP_S:
+        raise InputError(f"must be within +-{MAX_TIMESTAMP_S:g} s, got {np.abs(ts).max():g}", key="timestamps")
     f = float_array(frames, finite=False, key="frames")
     if f.ndim != 2 or f.shape[0] != len(ts):
         raise InputError(f"frames must be (T, N) with T = {len(ts)}, got {f.shape}", key="frames")

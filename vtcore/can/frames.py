@@ -28,6 +28,12 @@ REASONS = (
 )
 
 
+#: Largest |timestamp| a frame may carry, s (about 31,700 years: epoch times are ~1.7e9). Past it,
+#: differences and means of times overflow or lose all precision; readers count such frames as
+#: ``malformed_frame`` and encoders refuse them.
+MAX_TIMESTAMP_S = 1e12
+
+
 def _EMPTY():
     return (np.zeros(0), np.zeros(0, np.uint32), np.zeros(0, bool), np.zeros(0, np.uint8), np.zeros((0, 8), np.uint8))
 

@@ -27,8 +27,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import FormatError, InputError
-from ..inputs import TextLines, check_input, check_output_file, os_error
-from .frames import FrameBatch, Summary
+from ..inputs import TextLines, check_input, check_output_file, clean, os_error
+from .frames import MAX_TIMESTAMP_S, FrameBatch, Summary
 
 FORMATS = (".log", ".asc", ".blf", ".trc", ".csv")
 
@@ -131,11 +131,11 @@ def _parse_block(fmt, header, lines, linenos, out_msgs, out_lines, summary, firs
 
 def _valid_id_time(m) -> bool:
     """An identifier that fits its 11 or 29 bits and a finite timestamp: python-can parses
-    ``FFFFFFFFFFF#..`` and ``(nan)`` without complaint, and either would wrap or poison the columns."""
+    ``FFFFFFFFFFF#..``, ``(nan)`` and ``(1e308)`` without complaint, and either would wrap or poison the columns."""
     limit = 0x1FFFFFFF if m.is_extended_id else 0x7FF
     t = m.timestamp
     return isinstance(m.arbitration_id, int) and 0 <= m.arbitration_id <= limit and \
-        isinstance(t, (int, float)) and math.isfinite(t)
+        isinstance(t, (int, float)) and math.isfinite(t) and abs(t) <= MAX_TIMESTAMP_S
 
 
 def _messages_to_batch(msgs, lines, summary) -> FrameBatch:
@@ -205,7 +205,7 @@ def _iter_blf(path, chunk, summary):
     try:
         reader = can.io.BLFReader(str(path))
     except Exception as exc:
-        raise FormatError(f"not a BLF file: {exc}", file=path) from None
+        raise FormatError(f"not a BLF file: {clean(exc)}", file=path) from None
     announced = int(reader.object_count)
     got = 0
     pend = []
@@ -217,7 +217,7 @@ def _iter_blf(path, chunk, summary):
             except StopIteration:
                 break
             except Exception as exc:  # BLFParseError, zlib.error: the rest of the file is lost
-                summary.notes.append(f"BLF read stopped after {got} objects: {type(exc).__name__}: {exc}")
+                summary.notes.append(f"BLF read stopped after {got} objects: {type(exc).__name__}: {clean(exc)}")
                 break
             got += 1
             pend.append(m)

@@ -12,9 +12,15 @@ def _scenes_dir() -> Path:
 
 
 def cmd_run(args) -> int:
-    from ..scene import run_scene
+    from ..inputs import check_output_dir
+    from ..scene import load_scene, run_scene
 
     out = Path(args.out) if args.out else Path("out") / Path(args.scene).stem
+    if args.check:
+        scene = load_scene(args.scene, args.set)
+        check_output_dir(out)
+        print(f"{args.scene}: valid scene ({scene.task}, {len(scene.effects)} effects); {out} can be written")
+        return 0
     result = run_scene(args.scene, out, overrides=args.set)
     metrics = result["metrics"]
     shown = ", ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}" for k, v in list(metrics.items())[:6])
@@ -40,6 +46,8 @@ def register(sub) -> None:
     p.add_argument("--out", help="output folder (default out/<scene name>)")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="override a scene value, e.g. --set layer.thickness=0.006 (repeatable)")
+    p.add_argument("--check", action="store_true",
+                   help="validate the scene, its overrides and the output folder, then stop (nothing is written)")
     p.set_defaults(func=cmd_run)
     s = sub.add_parser("scenes", help="list the scenes in scenes/, one per line")
     s.add_argument("--dir", help="folder to list (default: the repository's scenes/)")

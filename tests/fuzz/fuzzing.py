@@ -1,0 +1,194 @@
+"""Mutation fuzzing of vtcore's readers through the CLI entry point, in-process (issue 13).
+
+A reader is fuzzed by drawing a seed file (small, made by the tests or taken from the
+repository's scenes/data), applying one to four mutations with hypothesis (bytes:
+truncate, flip, insert, splice in binary; lines: duplicate, delete, swap; tokens: a
+number replaced by NaN, inf, 1e308, -0, 1e-320, 2**70, a word; the whole file
+re-encoded as UTF-16, Latin-1, with a BOM, CR-only or CRLF line ends; empty or
+random binary files), and calling ``vtcore.cli.main`` on it. Every input must end in
+one of two ways:
+
+- exit 2 and one line on stderr starting ``vtcore: error:`` (scene errors: one such
+  message, possibly listing several keys on following lines), no traceback;
+- exit 0 with an output that its own reader reads back and that holds only finite numbers.
+
+A RuntimeWarning (numpy overflow, invalid value) fails the example: warnings are errors here.
+Each call runs under a wall-clock alarm, so a hang fails instead of blocking the suite.
+
+Examples per reader: a few dozen by default (the whole fuzz suite < 2 min on 2 cores),
+``--fuzz-long`` -> 10,000, or ``VTCORE_FUZZ_EXAMPLES=N``. ``VTCORE_FUZZ_REPORT=FILE``
+appends the number of inputs each reader was given to FILE as JSON lines.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+import os
+import re
+import signal
+import warnings
+from collections import Counter
+
+from hypothesis import HealthCheck, settings
+from hypothesis import strategies as st
+
+DEFAULT_EXAMPLES = 40
+LONG_EXAMPLES = 10_000
+HANG_SECONDS = 60
+
+COUNTS: Counter = Counter()
+
+NASTY_NUMBERS = ["nan", "NaN", "inf", "-inf", "Infinity", "1e308", "-1e308", "1e400", "-0", "-0.0", "1e-320",
+                 "4.9e-324", "18446744073709551616", "99999999999999999999999999", "-9223372036854775809",
+                 "2147483648", "4294967296", "-1", "0", "0x10", "1_000", "abc", "", "true", "[]", "{}", '"x"',
+                 "\x1b[31m", "1e", "--1", "٣"]
+_NUMBER = re.compile(rb"-?\d+(\.\d+)?([eE][-+]?\d+)?")
+
+
+def examples(config) -> int:
+    env = os.environ.get("VTCORE_FUZZ_EXAMPLES")
+    if env:
+        return int(env)
+    return LONG_EXAMPLES if config.getoption("--fuzz-long") else DEFAULT_EXAMPLES
+
+
+def fuzz_settings(config):
+    return settings(max_examples=examples(config), deadline=None, database=None, derandomize=False,
+                    suppress_health_check=list(HealthCheck), print_blob=True)
+
+
+# ----------------------------------------------------------------------------- mutations
+def _lines(b: bytes) -> list[bytes]:
+    return b.splitlines(keepends=True)
+
+
+@st.composite
+def mutation(draw, data: bytes) -> bytes:
+    """One mutation of ``data``."""
+    n = len(data)
+    kind = draw(st.sampled_from(["truncate", "flip", "insert", "dup_line", "del_line", "swap_lines",
+                                 "number", "number", "number", "encode", "binary_splice", "line_tokens"]))
+    if kind == "truncate":
+        return data[:draw(st.integers(0, max(n - 1, 0)))]
+    if kind == "flip" and n:
+        i = draw(st.integers(0, n - 1))
+        return data[:i] + bytes([data[i] ^ draw(st.integers(1, 255))]) + data[i + 1:]
+    if kind == "insert":
+        i = draw(st.integers(0, n))
+        return data[:i] + draw(st.binary(min_size=1, max_size=8)) + data[i:]
+    if kind == "binary_splice":
+        i = draw(st.integers(0, n))
+        return data[:i] + draw(st.binary(min_size=1, max_size=64)) + data[draw(st.integers(i, n)):]
+    lines = _lines(data)
+    if kind in ("dup_line", "del_line", "swap_lines") and lines:
+        i = draw(st.integers(0, len(lines) - 1))
+        if kind == "dup_line":
+            lines.insert(i, lines[i] * draw(st.integers(1, 3)))
+        elif kind == "del_line":
+            del lines[i]
+        else:
+            j = draw(st.integers(0, len(lines) - 1))
+            lines[i], lines[j] = lines[j], lines[i]
+        return b"".join(lines)
+    if kind == "number":
+        found = list(_NUMBER.finditer(data))
+        if found:
+            m = found[draw(st.integers(0, len(found) - 1))]
+            new = draw(st.sampled_from(NASTY_NUMBERS)).encode()
+            return data[:m.start()] + new + data[m.end():]
+        return data
+    if kind == "line_tokens" and lines:
+        i = draw(st.integers(0, len(lines) - 1))
+        toks = lines[i].split()
+        if toks:
+            j = draw(st.integers(0, len(toks) - 1))
+            op = draw(st.sampled_from(["drop", "dup", "nasty"]))
+            if op == "drop":
+                del toks[j]
+            elif op == "dup":
+                toks.insert(j, toks[j])
+            else:
+                toks[j] = draw(st.sampled_from(NASTY_NUMBERS)).encode()
+            lines[i] = b" ".join(toks) + b"\n"
+        return b"".join(lines)
+    if kind == "encode":
+        how = draw(st.sampled_from(["utf16", "utf16le", "latin1", "bom", "cr", "crlf", "empty", "random"]))
+        text = data.decode("utf-8", "replace")
+        if how == "utf16":
+            return text.encode("utf-16")
+        if how == "utf16le":
+            return text.encode("utf-16-le")
+        if how == "latin1":
+            i = draw(st.integers(0, len(text)))
+            return (text[:i] + "é°µ" + text[i:]).encode("latin-1", "replace")
+        if how == "bom":
+            return b"\xef\xbb\xbf" + data
+        if how == "cr":
+            return data.replace(b"\r\n", b"\n").replace(b"\n", b"\r")
+        if how == "crlf":
+            return data.replace(b"\r\n", b"\n").replace(b"\n", b"\r\n")
+        if how == "empty":
+            return b""
+        return draw(st.binary(max_size=300))
+    return data
+
+
+@st.composite
+def mutated(draw, seeds: list[bytes]) -> bytes:
+    data = draw(st.sampled_from(seeds))
+    for _ in range(draw(st.integers(1, 4))):
+        data = draw(mutation(data))
+    return data
+
+
+# ----------------------------------------------------------------------------- running
+class Hang(Exception):
+    pass
+
+
+@contextlib.contextmanager
+def alarm(seconds: int):
+    def fire(signum, frame):
+        raise Hang(f"no answer after {seconds} s")
+
+    old = signal.signal(signal.SIGALRM, fire)
+    signal.alarm(seconds)
+    try:
+        yield
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, old)
+
+
+def run_cli(reader: str, argv: list[str]) -> tuple[int, str, str]:
+    """``vtcore.cli.main(argv)`` in-process: (exit status, stdout, stderr). Counts the input."""
+    from vtcore.cli import main
+
+    COUNTS[reader] += 1
+    out, err = io.StringIO(), io.StringIO()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        with alarm(HANG_SECONDS), contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+            rc = main([str(a) for a in argv])
+    return rc, out.getvalue(), err.getvalue()
+
+
+def assert_clean_exit(rc: int, out: str, err: str, *, lines: int | None = 1) -> None:
+    """Exit 0, or exit 2 with ``vtcore: error:`` (``lines`` lines, None: any number)."""
+    assert rc in (0, 2), f"exit {rc}\n{err}"
+    assert "Traceback" not in err and "Warning" not in err + out, err
+    if rc == 2:
+        assert err.startswith("vtcore: error: "), err
+        got = err.rstrip("\n").split("\n")
+        if lines is not None:
+            assert len(got) == lines, err
+        assert not re.search(r"[\x00-\x08\x0b-\x1f\x7f]", err.replace("\n", "")), f"control bytes: {err!r}"
+
+
+def record_counts() -> None:
+    path = os.environ.get("VTCORE_FUZZ_REPORT")
+    if path and COUNTS:
+        with open(path, "a", encoding="utf-8") as fh:
+            fh.write(json.dumps(dict(COUNTS)) + "\n")
