@@ -296,13 +296,18 @@ def int_array(values, *, dtype=np.int64, lo: int | None = None, hi: int | None =
     """``values`` (nested lists of ints or an array) as an array of ``dtype``, bounds checked first."""
     where = _where(file, key, line)
     try:
-        a = np.asarray(values)
+        try:
+            a = np.asarray(values)
+        except OverflowError:  # Python ints past int64/uint64: checked one by one below
+            a = np.asarray(values, dtype=object)
         if a.dtype == object or a.dtype.kind in "US":
             a = np.asarray(values, dtype=np.float64) if a.dtype.kind in "US" else a
             if a.dtype == object:
                 flat = [to_int(v, dtype=dtype, lo=lo, hi=hi, file=file, key=key, line=line)
                         for v in np.ravel(a)]
                 a = np.array(flat, dtype=dtype).reshape(np.shape(a))
+    except InputError:
+        raise
     except (ValueError, OverflowError, TypeError):
         raise InputError("must be a list of integers", **where) from None
     if a.dtype.kind == "b" or a.dtype.kind not in "iuf":

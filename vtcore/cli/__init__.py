@@ -9,14 +9,12 @@ are printed as one message without a traceback, exit status 2.
 from __future__ import annotations
 
 import argparse
-import contextlib
 import importlib
 import pkgutil
-import signal
 import sys
-import threading
 
 from .. import __version__
+from .._io import Terminated, sigterm_raises
 from ..errors import VtError
 
 
@@ -34,26 +32,6 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-class Terminated(KeyboardInterrupt):
-    """SIGTERM, raised like Ctrl-C so every temporary file and staging folder is removed on the way out."""
-
-
-@contextlib.contextmanager
-def _sigterm_raises():
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-
-    def handler(signum, frame):
-        raise Terminated()
-
-    old = signal.signal(signal.SIGTERM, handler)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGTERM, old)
-
-
 def _error_lines(text) -> str:
     from ..inputs import clean
 
@@ -67,7 +45,7 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help(sys.stderr)
         return 2
     try:
-        with _sigterm_raises():
+        with sigterm_raises():
             return int(args.func(args) or 0)
     except VtError as exc:
         print(f"vtcore: error: {_error_lines(exc)}", file=sys.stderr)

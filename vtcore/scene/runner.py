@@ -24,7 +24,7 @@ from typing import Any, Callable
 import numpy as np
 
 from .. import __version__
-from .._io import atomic_write, save_npz, write_json
+from .._io import atomic_write, check_terminated, save_npz, write_json
 from ..inputs import check_output_dir, os_error
 from .._progress import progress
 from . import registry
@@ -113,6 +113,7 @@ def run_scene(scene: Scene | str | Path, out: str | Path, overrides: list[str] |
         raise os_error(exc, final, key="--out") from None
     try:
         result = _run(scene, stage)
+        check_terminated()  # a SIGTERM swallowed by a C extension still stops the commit
         for f in sorted(stage.iterdir()):
             os.replace(f, final / f.name)
     except BaseException:
