@@ -320,7 +320,7 @@ def test_failed_run_leaves_nothing(tmp_path, monkeypatch):
 
 def test_sigterm_removes_the_staging_folder(tmp_path):
     out = tmp_path / "o"
-    proc = subprocess.Popen([sys.executable, "-m", "vtcore", "run", SCENE, "--out", out], cwd=ROOT,
+    proc = subprocess.Popen([sys.executable, "-X", "faulthandler", "-m", "vtcore", "run", SCENE, "--out", out], cwd=ROOT,
                             env={**os.environ, "VTCORE_PROGRESS": "0"}, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
     try:

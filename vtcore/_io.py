@@ -25,8 +25,9 @@ def sigterm_raises():
     """While active (main thread only), SIGTERM raises :class:`Terminated` and is remembered.
 
     Remembered because a C extension that checks for signals may swallow the exception
-    (seen: a run that ignored SIGTERM about 1 time in 3); :func:`check_terminated` raises
-    it again before a run commits its files.
+    (seen: a run that ignored SIGTERM about 1 time in 3), and because during an import the
+    exception is deferred; :func:`check_terminated` raises it at the next progress step and
+    before a run commits its files.
     """
     if threading.current_thread() is not threading.main_thread():
         yield
@@ -34,6 +35,13 @@ def sigterm_raises():
 
     def handler(signum, frame):
         _TERMINATED.set()
+        f = frame
+        while f is not None:
+            # an exception raised inside the import of a C extension (open3d, ...) can crash the
+            # interpreter: defer to the next check_terminated() (progress loops, the run's commit)
+            if f.f_code.co_filename.startswith("<frozen importlib"):
+                return
+            f = f.f_back
         raise Terminated()
 
     _TERMINATED.clear()

@@ -14,7 +14,7 @@ import pkgutil
 import sys
 
 from .. import __version__
-from .._io import Terminated, sigterm_raises
+from .._io import Terminated, check_terminated, sigterm_raises
 from ..errors import VtError
 
 
@@ -46,7 +46,9 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     try:
         with sigterm_raises():
-            return int(args.func(args) or 0)
+            rc = int(args.func(args) or 0)
+            check_terminated()  # a SIGTERM deferred (during an import) or swallowed still ends in 143
+            return rc
     except VtError as exc:
         print(f"vtcore: error: {_error_lines(exc)}", file=sys.stderr)
         return 2

@@ -140,6 +140,7 @@ def _run(scene: Scene, out: Path) -> dict:
 
         plt = pyplot()
         for stem, fig in res.figures.items():
+            check_terminated()
             name = f"{stem}.png"
             with atomic_write(out / name, "wb") as fh:
                 if callable(fig) and not hasattr(fig, "savefig"):
