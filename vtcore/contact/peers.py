@@ -157,18 +157,23 @@ def gap(n, size, radius):
 
 
 def captured(fn):
-    """fn() with the process's standard output (tamaas' C++ iteration log) caught: (result, text)."""
+    """fn() with the process's standard output and error (tamaas' C++ iteration log) caught:
+    (result, text)."""
+    import ctypes
+
     sys.stdout.flush()
-    keep, tmp = os.dup(1), tempfile.TemporaryFile()
-    os.dup2(tmp.fileno(), 1)
+    sys.stderr.flush()
+    keep = {fd: os.dup(fd) for fd in (1, 2)}
+    tmp = tempfile.TemporaryFile()
+    for fd in keep:
+        os.dup2(tmp.fileno(), fd)
     try:
         res = fn()
     finally:
-        import ctypes
-
         ctypes.CDLL(None).fflush(None)  # C++ streams write through C stdio: flush before restoring
-        os.dup2(keep, 1)
-        os.close(keep)
+        for fd, k in keep.items():
+            os.dup2(k, fd)
+            os.close(k)
     tmp.seek(0)
     return res, tmp.read().decode(errors="replace")
 
@@ -314,18 +319,34 @@ def run(out: Path, quick: bool = False, peers: bool = False, ns=None, repeat=Non
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(1, 2, figsize=(10, 4.2), sharey=True)
-    for ax, model, title in zip(axes, ("halfspace", "finite_layer"), ("half-space, non-periodic", "3 mm bonded layer")):
-        for j, solver in enumerate(dict.fromkeys(r["solver"] for r in table)):
-            sel = [r for r in table if r["model"] == model and r["solver"] == solver]
-            if sel:
-                ax.loglog([r["n"] for r in sel], [r["ms"] for r in sel], "o-", label=solver, color=f"C{j}")
-        ax.set_xlabel("N (grid N x N)")
-        ax.set_title(title)
-        ax.grid(True, which="both", lw=0.3)
-    axes[0].set_ylabel("solve time, ms (median, shared machine)")
-    axes[1].legend(fontsize=8)
-    fig.suptitle(f"paraboloid R 30 mm, {FORCE:g} N, Ecoflex 00-20: time vs N")
+    fig, axes = plt.subplots(2, 2, figsize=(10, 7.5), sharex=True)
+    solvers = list(dict.fromkeys(r["solver"] for r in table))
+    for col, (model, title) in enumerate((("halfspace", "half-space, non-periodic"),
+                                          ("finite_layer", f"{THICKNESS * 1e3:g} mm bonded layer"))):
+        for row, (key, what) in enumerate((("ms", "wall"), ("cpu_ms", "process CPU"))):
+            ax = axes[row, col]
+            for j, solver in enumerate(solvers):
+                sel = [r for r in table if r["model"] == model and r["solver"] == solver]
+                if sel:
+                    ax.loglog([r["n"] for r in sel], [r[key] for r in sel], "o-", label=solver, color=f"C{j}")
+            ax.set_xticks(list(ns), [str(n) for n in ns])
+            ax.minorticks_off()
+            ax.grid(True, which="both", lw=0.3)
+            ax.set_title(f"{title}: {what} time", fontsize=9)
+            if col == 0:
+                ax.set_ylabel(f"solve, ms ({what}, median)")
+            if row == 1:
+                ax.set_xlabel("N (grid N x N)")
+    handles, labels = axes[0, 0].get_legend_handles_labels()
+    h2, l2 = axes[0, 1].get_legend_handles_labels()
+    for h, lab in zip(h2, l2):
+        if lab not in labels:
+            handles.append(h)
+            labels.append(lab)
+    fig.legend(handles, labels, loc="lower center", ncol=len(labels), fontsize=8)
+    fig.suptitle(f"paraboloid R {RADIUS * 1e3:g} mm, {FORCE:g} N, Ecoflex 00-20: solve time vs N "
+                 "(shared 2-core machine: noisy)")
+    fig.tight_layout(rect=(0, 0.05, 1, 1))
     save_png(fig, out / "time_vs_n.png")
     return table
 
