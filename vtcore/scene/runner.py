@@ -98,6 +98,23 @@ def _clean_metrics(metrics: dict) -> dict:
     return out
 
 
+def single_threaded_blas():
+    """A context in which numpy's and scipy's BLAS use one thread.
+
+    A BLAS product sums in an order that depends on its thread count, so without
+    this a run's last bits (1e-11 Pa in the contact solver) depend on the machine's
+    cores and on who started the process (dask starts its workers with one thread):
+    the same seed would not give the same bytes everywhere. The products of a scene
+    are small, so one thread costs little; parallel work is several runs at once
+    (``vtcore sweep``). scipy's BLAS is loaded first, as threadpoolctl limits only
+    loaded libraries.
+    """
+    import scipy.linalg  # noqa: F401  (loads scipy's own OpenBLAS, so it is limited too)
+    from threadpoolctl import threadpool_limits
+
+    return threadpool_limits(limits=1, user_api="blas")
+
+
 def run_scene(scene: Scene | str | Path, out: str | Path, overrides: list[str] | None = None) -> dict:
     """Run ``scene`` and write its results into ``out``; return the ``result.json`` object."""
     if not isinstance(scene, Scene):
@@ -131,7 +148,8 @@ def _run(scene: Scene, out: Path) -> dict:
     ctx = RunContext(scene=scene, pipeline=None, out=out, rng=np.random.default_rng(scene.seed))
     ctx.pipeline = registry.Pipeline(scene.effects, ctx)
     task = registry.TASKS[scene.task]
-    res: TaskResult = task.run(scene, ctx)
+    with single_threaded_blas():
+        res: TaskResult = task.run(scene, ctx)
     seconds = time.perf_counter() - t0
 
     figures = []

@@ -50,62 +50,30 @@ def error_record(exc: BaseException) -> dict:
             "line": last.lineno if last else None, "message": f"{type(exc).__name__}: {exc}"}
 
 
-def thread_counts() -> dict[str, int]:
-    """``{"blas": n, "openmp": m}``: the thread pools a plain ``vtcore run`` gets in this process.
-
-    BLAS reductions add in an order that depends on the thread count, so the last
-    bits of a run depend on it (the contact solver's matrix products). A sweep
-    measures this in the client and every point runs with the same counts, so
-    its arrays are those of ``vtcore run`` on the machine the sweep was started
-    from, whichever worker runs it (dask's workers start with 1 thread each).
-    """
-    import scipy.linalg  # noqa: F401  (loads scipy's own BLAS, so it is counted)
-    from threadpoolctl import threadpool_info
-
-    out: dict[str, int] = {}
-    for lib in threadpool_info():
-        out[lib["user_api"]] = max(out.get(lib["user_api"], 1), int(lib["num_threads"]))
-    if "openmp" not in out:  # not loaded yet here: what it would start with
-        env = os.environ.get("OMP_NUM_THREADS", "")
-        out["openmp"] = int(env) if env.isdigit() and int(env) > 0 else (os.cpu_count() or 1)
-    return out
-
-
-def run_point(scene: str, overrides: list[str], out: str, threads: dict[str, int] | None = None) -> dict:
+def run_point(scene: str, overrides: list[str], out: str) -> dict:
     """Run one point: ``run_scene(scene, out, overrides)``; return its small record.
 
-    threads : ``{"blas": n, "openmp": m}`` thread pools to run with (see :func:`thread_counts`);
-    None: leave this process's as they are.
-    Returns ``{"status": "ok" | "failed", "seconds", "metrics", "error", "worker"}``;
+    Returns ``{"status": "ok" | "failed", "seconds", "cpu_seconds", "metrics", "error", "worker"}``
+    (``cpu_seconds``: this process's CPU time during the point, all its threads);
     a failure is recorded (and written to ``out/error.json``), never raised, so the
     other points go on.
     """
-    import contextlib
-
-    from ..scene import registry, run_scene
+    from ..scene import run_scene
 
     out_dir = Path(out)
     (out_dir / ERROR_FILE).unlink(missing_ok=True)  # a failure of an earlier attempt
-    t0 = time.perf_counter()
-    limits = contextlib.nullcontext()
-    if threads:
-        import scipy.linalg  # noqa: F401  (threadpoolctl limits only the libraries loaded so far)
-        from threadpoolctl import threadpool_limits
-
-        registry.discover()  # the tasks' own imports (scikit-learn's OpenMP) load before the limits
-        limits = threadpool_limits(limits=dict(threads))
+    t0, c0 = time.perf_counter(), time.process_time()
     try:
-        with limits:
-            result = run_scene(scene, out_dir, overrides=list(overrides))
+        result = run_scene(scene, out_dir, overrides=list(overrides))
     except Exception as exc:  # any failure of one point is that point's result; the sweep goes on
         err = error_record(exc)
         with atomic_write(out_dir / ERROR_FILE, "w", encoding="utf-8") as fh:
             json.dump({**err, "overrides": list(overrides),
                        "traceback": traceback.format_exception(exc)}, fh, indent=2)
-        return {"status": "failed", "seconds": time.perf_counter() - t0, "metrics": {}, "error": err,
-                "worker": where()}
-    return {"status": "ok", "seconds": time.perf_counter() - t0, "metrics": result["metrics"], "error": None,
-            "worker": where()}
+        return {"status": "failed", "seconds": time.perf_counter() - t0, "cpu_seconds": time.process_time() - c0,
+                "metrics": {}, "error": err, "worker": where()}
+    return {"status": "ok", "seconds": time.perf_counter() - t0, "cpu_seconds": time.process_time() - c0,
+            "metrics": result["metrics"], "error": None, "worker": where()}
 
 
 def completed(out: str | Path) -> dict | None:
