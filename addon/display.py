@@ -143,14 +143,37 @@ def _viridis(ramp):
         e.color = col
 
 
+def shader_nodes(mat):
+    """The shader node tree of material ``mat``. Blender 5.x gives every new material one
+    (``Material.use_nodes`` is deprecated there, to go in 6.0); 4.x makes it only when
+    ``use_nodes`` is switched on."""
+    if mat.node_tree is None:
+        mat.use_nodes = True
+    return mat.node_tree
+
+
+def set_modifier_input(mod, identifier: str, value):
+    """Set input ``identifier`` (``Socket_N``) of geometry-nodes modifier ``mod`` to ``value``.
+
+    The one place where the add-on's Blender generations differ: in 4.x the inputs are ID
+    properties of the modifier (``mod[identifier]``); 5.2 refuses ID properties there and
+    exposes them as ``mod.properties.inputs.<identifier>.value``. Which one is present is
+    tested, not the version number.
+    """
+    props = getattr(mod, "properties", None)
+    if props is None:
+        mod[identifier] = value
+    else:
+        getattr(props.inputs, identifier).value = value
+
+
 def material():
     """The material of the discs: the ``vtskin_display`` colour, emissive enough to read."""
     mat = bpy.data.materials.get(MATERIAL)
     if mat is not None:
         return mat
     mat = bpy.data.materials.new(MATERIAL)
-    mat.use_nodes = True
-    nt = mat.node_tree
+    nt = shader_nodes(mat)
     bsdf = nt.nodes.get("Principled BSDF")
     attr = nt.nodes.new("ShaderNodeAttribute")
     attr.attribute_type = "INSTANCER"
@@ -168,8 +191,7 @@ def edge_material():
     mat = bpy.data.materials.get(EDGE_MATERIAL)
     if mat is None:
         mat = bpy.data.materials.new(EDGE_MATERIAL)
-        mat.use_nodes = True
-        bsdf = mat.node_tree.nodes.get("Principled BSDF")
+        bsdf = shader_nodes(mat).nodes.get("Principled BSDF")
         bsdf.inputs["Base Color"].default_value = (0.05, 0.05, 0.06, 1.0)
         mat.diffuse_color = (0.05, 0.05, 0.06, 1.0)
     return mat
@@ -192,7 +214,8 @@ def set_color_by(ob, name: str):
         return
     ng = mod.node_group
     ids = {s.name: s.identifier for s in ng.interface.items_tree if s.item_type == "SOCKET" and s.in_out == "INPUT"}
-    mod[ids["Attribute"]] = name
+    set_modifier_input(mod, ids["Attribute"], name)
     attr = ob.data.attributes.get(name) if ob.type == "MESH" else None
-    mod[ids["Is colour"]] = bool(attr is not None and attr.data_type in ("FLOAT_COLOR", "BYTE_COLOR"))
+    is_colour = attr is not None and attr.data_type in ("FLOAT_COLOR", "BYTE_COLOR")
+    set_modifier_input(mod, ids["Is colour"], is_colour)
     ob.data.update()
