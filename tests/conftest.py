@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib.util
 import os
 import sys
 from pathlib import Path
@@ -13,6 +14,19 @@ SCENES = ROOT / "scenes"
 
 os.environ.setdefault("VTCORE_PROGRESS", "0")
 os.environ.setdefault("MPLBACKEND", "Agg")
+
+
+def pytest_configure(config):
+    """Load bpy first in every process that runs tests, as Blender itself does.
+
+    bpy and open3d both bundle libtbb under one soname and the first one loaded serves both;
+    bpy 5.2's OpenVDB needs the newer one, so open3d loaded first (vtcore imports it lazily,
+    e.g. in contact/proximity.py) makes a later ``import bpy`` fail on Python 3.13.
+    """
+    if getattr(config.option, "numprocesses", None) and not hasattr(config, "workerinput"):
+        return  # the pytest-xdist controller runs no test
+    if importlib.util.find_spec("bpy") is not None:
+        import bpy  # noqa: F401
 
 
 @pytest.fixture

@@ -21,6 +21,8 @@ def test_no_vtcore_module_imports_bpy(root):
         "    if m != 'vtcore.__main__':\n"
         "        importlib.import_module(m)\n"
         "assert 'bpy' not in sys.modules, 'bpy was imported'\n"
+        # open3d only inside functions: loaded before bpy it breaks bpy 5.2 (docs/blender.md)
+        "assert 'open3d' not in sys.modules, 'open3d was imported'\n"
         "print(len(mods))\n"
     )
     res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=root)
