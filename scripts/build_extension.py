@@ -5,9 +5,11 @@ Steps:
 2. build the ``vtcore`` wheel from this repository (``pip wheel --no-deps``) and
    download the wheels of the dependencies the add-on's code paths import that
    Blender does not ship (Blender ships numpy, requests, zstandard, Cython);
-   versions come from ``requirements.lock``; binary wheels for each platform
+   versions come from the generation's lock (``requirements.lock`` for Python 3.11,
+   ``requirements-py313.lock`` for 3.13); binary wheels for each platform
    requested (default: this machine's), cached in ``build/wheelcache``;
-3. write the ``wheels`` (and ``platforms``) lists into the STAGED manifest;
+3. write the ``wheels`` (and ``platforms``) lists and the generation's Blender range
+   (``blender_version_min``/``max``) into the STAGED manifest;
 4. check the bundle is complete: import every vtcore module the add-on uses in an
    isolated interpreter that sees only the bundled wheels and numpy (as Blender
    would), and run a scene with it;
@@ -21,9 +23,11 @@ Usage::
 
 Blender generations: 4.2 LTS .. 5.0 run Python 3.11 with numpy < 2; 5.1 and
 5.2 LTS run Python 3.13 with numpy 2. One zip holds one Python version's
-wheels; ``--python 3.13`` builds the 5.1+ zip (needs a Python 3.13 to verify,
-which this machine does not have; the check in step 4 is then skipped with a
-warning).
+wheels (``GENERATIONS``). Run this script with that generation's interpreter
+(``make extension`` runs it with ``.venv`` and ``.venv313``): the bundle check
+runs in the running interpreter and the zip is validated with the running
+interpreter's ``bpy`` tool. ``--python`` for another version skips the check
+with a warning.
 """
 
 from __future__ import annotations
@@ -79,6 +83,13 @@ PLATFORMS = {
 ADDON_MODULES = ["vtcore", "vtcore.layout", "vtcore.contact", "vtcore.scene", "vtcore.scene.interactive"]
 OPTIONAL_MODULES = ["vtcore.filters", "vtcore.augment"]  # checked when present in the repo
 
+#: Python version -> (lock file, blender_version_min, blender_version_max or None). Blender's
+#: maximum is exclusive; 5.1 is the first release on Python 3.13.
+GENERATIONS = {
+    "3.11": ("requirements.lock", "4.2.0", "5.1.0"),
+    "3.13": ("requirements-py313.lock", "5.1.0", None),
+}
+
 TOOL_REL = Path("bpy") / "{ver}" / "scripts" / "addons_core" / "bl_pkg" / "cli" / "blender_ext.py"
 
 
@@ -99,9 +110,9 @@ def this_platform() -> str:
     raise SystemExit(f"unsupported build platform {sys.platform}/{m}; pass --platforms")
 
 
-def pinned() -> dict[str, str]:
+def pinned(python: str) -> dict[str, str]:
     pins = {}
-    for line in (ROOT / "requirements.lock").read_text().splitlines():
+    for line in (ROOT / GENERATIONS[python][0]).read_text().splitlines():
         if "==" in line and not line.startswith("#"):
             name, ver = line.strip().split("==", 1)
             pins[canon(name)] = ver
@@ -166,14 +177,14 @@ def build_wheels(platforms: list[str], python: str) -> list[Path]:
              "-w", tmp, src])
         for whl in Path(tmp).glob("vtcore-*.whl"):
             shutil.copy2(whl, wheels_dir / whl.name)
-    pins = pinned()
+    pins = pinned(python)
     reqs = []
     for name in BUNDLE:
         ver = pins.get(canon(name))
         if ver is None:
             if name == "six":
                 continue  # not pinned: the pinned python-dateutil does not need it
-            raise SystemExit(f"{name} is not pinned in requirements.lock")
+            raise SystemExit(f"{name} is not pinned in {GENERATIONS[python][0]}")
         reqs.append(f"{name}=={ver}")
     pyver = python.replace(".", "")
     for plat in platforms:
@@ -191,9 +202,18 @@ def build_wheels(platforms: list[str], python: str) -> list[Path]:
     return sorted(wheels_dir.glob("*.whl"))
 
 
-def write_manifest(wheels: list[Path], platforms: list[str]):
+def write_manifest(wheels: list[Path], platforms: list[str], python: str):
     path = STAGE / "blender_manifest.toml"
     text = path.read_text()
+    _, vmin, vmax = GENERATIONS[python]
+    # This zip's wheels serve one Python: Blender outside the range refuses it by version
+    # instead of failing on the wheels.
+    text, n = re.subn(r'(?m)^blender_version_min = ".*"$', f'blender_version_min = "{vmin}"', text)
+    if n != 1:
+        raise SystemExit("blender_manifest.toml: expected one blender_version_min line")
+    if vmax is not None:
+        text = text.replace(f'blender_version_min = "{vmin}"',
+                            f'blender_version_min = "{vmin}"\nblender_version_max = "{vmax}"')
     listing = "wheels = [\n" + "".join(f'  "./wheels/{w.name}",\n' for w in wheels) + "]\n"
     plats = "platforms = [" + ", ".join(f'"{p}"' for p in platforms) + "]\n"
     # Top-level keys must come before the first [table].
@@ -274,8 +294,10 @@ def main(argv=None):
     platforms = args.platforms or [this_platform()]
 
     stage_sources()
+    if args.python not in GENERATIONS:
+        raise SystemExit(f"--python {args.python}: no Blender generation runs it (known: {', '.join(GENERATIONS)})")
     wheels = build_wheels(platforms, args.python)
-    write_manifest(wheels, platforms)
+    write_manifest(wheels, platforms, args.python)
     log(f"staged {len(wheels)} wheels for {', '.join(platforms)} (Python {args.python})")
     if not args.skip_check:
         check_bundle(wheels, args.python)

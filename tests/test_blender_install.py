@@ -30,7 +30,7 @@ def built_zip(tmp_path_factory):
     dist = tmp_path_factory.mktemp("dist")
     # Staging and the downloaded wheels go to the system temp folder, not the checkout (the
     # wheel cache there survives between runs, so a run downloads nothing once warm).
-    build = Path(tempfile.gettempdir()) / "vtskin-test-build"
+    build = Path(tempfile.gettempdir()) / f"vtskin-test-build-py{sys.version_info.major}{sys.version_info.minor}"
     # --skip-check: the install below exercises the bundle for real. timeout: a hung
     # subprocess fails this test instead of hanging the suite (pytest-timeout is not a dependency).
     res = subprocess.run([sys.executable, str(root / "scripts" / "build_extension.py"), "--dist", str(dist),
@@ -55,7 +55,11 @@ def test_zip_contents(built_zip):
     dists = {Path(w).name.split("-")[0].lower() for w in wheels}
     assert {"vtcore", "scipy"} <= dists
     assert "numpy" not in dists and "bpy" not in dists  # Blender ships numpy
-    assert manifest["blender_version_min"] == "4.2.0"
+    # This lane's generation: its zip holds only wheels for this Python, and says which Blenders run it.
+    py = f"cp{sys.version_info.major}{sys.version_info.minor}"
+    assert all(w.split("-")[-3] in (py, "py3", "py2.py3") for w in wheels), wheels
+    want = {"cp311": ("4.2.0", "5.1.0"), "cp313": ("5.1.0", None)}[py]
+    assert (manifest["blender_version_min"], manifest.get("blender_version_max")) == want
     assert len(manifest["tagline"]) <= 64 and manifest["tagline"][-1].isalnum()
 
 
@@ -74,3 +78,5 @@ def test_install_into_fresh_profile(built_zip, scenes_dir, tmp_path):
     assert summary["addon_enabled"] and summary["reload_ok"]
     assert summary["vtcore_file"].startswith(str(home))  # the bundled wheel, not the repo
     assert summary["taxels"] == 60
+    assert summary["lay_patch"] == summary["simulate"] == summary["edges"] == ["FINISHED"]
+    assert summary["edge_taxels"] > 0

@@ -40,6 +40,56 @@ import vtcore  # noqa: E402
 
 summary["vtcore_file"] = vtcore.__file__
 assert Path(vtcore.__file__).resolve().is_relative_to(home), vtcore.__file__
+summary["blender"] = bpy.app.version_string
+summary["numpy"] = np.__version__
+
+# Lay Patch, Simulate and Detect Edges through the installed operators, each checked
+# against the bundled vtcore called directly with the same input.
+from bl_ext.user_default.vtskin import bridge, skin  # noqa: E402
+from vtcore.scene import interactive  # noqa: E402
+
+bpy.ops.mesh.primitive_uv_sphere_add(radius=0.06, segments=64, ring_count=32, location=(0, 0, 0))
+ee = bpy.context.active_object
+bpy.context.scene.cursor.location = (0.0, 0.0, 0.06)
+res = bpy.ops.vtskin.lay_patch()
+summary["lay_patch"] = sorted(res)
+assert res == {"FINISHED"}, res
+skin_ob = next(o for o in bpy.data.objects if o.vtskin.role == "TAXELS")
+summary["patch_taxels"] = len(skin_ob.data.vertices)
+assert summary["patch_taxels"] > 0 and summary["patch_taxels"] % 10 == 0, summary["patch_taxels"]
+
+bpy.ops.mesh.primitive_ico_sphere_add(radius=0.015, subdivisions=4, location=(0, 0, 0.06 + 0.003 + 0.015 + 0.002))
+ind = bpy.context.active_object
+s = bpy.context.scene.vtskin
+s.indenter, s.thickness, s.force = ind, 0.003, 1.0
+bpy.context.view_layer.objects.active = skin_ob
+res = bpy.ops.vtskin.simulate()
+summary["simulate"] = sorted(res)
+assert res == {"FINISHED"}, res
+layout, tri = skin.read_layout(skin_ob), skin.triangles(skin_ob)
+m_ind = bridge.rigid(bridge.matrix(ind))
+world, ftri = bridge.read_mesh(ind)
+inv = np.linalg.inv(m_ind)
+ref = interactive.simulate(layout, tri, world @ inv[:3, :3].T + inv[:3, 3], ftri,
+                           np.linalg.inv(bridge.matrix(skin_ob)) @ m_ind, thickness=0.003, force=1.0)
+assert abs(ref.force - 1.0) < 1e-3 and ref.edge.any(), (ref.force, ref.edge.sum())
+got = bridge.get_attribute(skin_ob.data, "response")
+np.testing.assert_allclose(got, ref.response, rtol=1e-5, atol=1e-3, err_msg="simulate response")
+summary["contact_taxels"] = int((got > 0).sum())
+
+s.edge_fraction = 0.6
+res = bpy.ops.vtskin.edges()
+summary["edges"] = sorted(res)
+assert res == {"FINISHED"}, res
+_, edge = interactive.edges(layout, tri, got.astype(float), 0.6)
+np.testing.assert_array_equal(bridge.get_attribute(skin_ob.data, "edge"), edge, err_msg="edges")
+summary["edge_taxels"] = int(edge.sum())
+# The disc display follows (the modifier input is set differently in 4.x and 5.2).
+mod = skin_ob.modifiers["vtskin discs"]
+ident = next(i.identifier for i in mod.node_group.interface.items_tree
+             if i.item_type == "SOCKET" and i.in_out == "INPUT" and i.name == "Attribute")
+shown = getattr(mod.properties.inputs, ident).value if hasattr(mod, "properties") else mod[ident]
+assert shown == "edge", shown
 
 res = bpy.ops.vtskin.run_scene(filepath=scene_path)
 summary["run_scene"] = sorted(res)
