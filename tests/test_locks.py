@@ -1,0 +1,33 @@
+"""The two lanes' locks (requirements.lock: Python 3.11; requirements-py313.lock: 3.13) pin the
+same packages at the same versions except where the Blender generation decides, so a
+dependency added to one lane is not silently missing from the other."""
+
+from __future__ import annotations
+
+import re
+
+#: pinned per generation: the Blender wheel and the numpy it is built against; cattrs is
+#: a dependency of bpy 5.2 only.
+PER_GENERATION = {"numpy", "bpy", "cattrs"}
+
+
+def pins(path):
+    out = {}
+    for n, line in enumerate(path.read_text().splitlines(), 1):
+        line = line.strip()
+        if not line or line.startswith("#"):
+            continue
+        m = re.fullmatch(r"([A-Za-z0-9_.\-]+)==(\S+)", line)
+        assert m, f"{path.name}:{n}: not an exact pin: {line!r}"
+        out[re.sub(r"[-_.]+", "-", m[1]).lower()] = m[2]
+    return out
+
+
+def test_locks_agree_except_the_generation_pins(root):
+    a, b = pins(root / "requirements.lock"), pins(root / "requirements-py313.lock")
+    shared = (a.keys() | b.keys()) - PER_GENERATION
+    # A new dependency goes into both locks (same pin) unless it has no wheel for one Python.
+    assert {k for k in shared if a.get(k) != b.get(k)} == set(), \
+        {k: (a.get(k), b.get(k)) for k in shared if a.get(k) != b.get(k)}
+    assert a["numpy"].startswith("1.") and b["numpy"].startswith("2.")
+    assert a["bpy"].startswith("4.5.") and b["bpy"].startswith("5.2.")
