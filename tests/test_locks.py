@@ -26,8 +26,8 @@ def pins(path):
 def test_locks_agree_except_the_generation_pins(root):
     a, b = pins(root / "requirements.lock"), pins(root / "requirements-py313.lock")
     shared = (a.keys() | b.keys()) - PER_GENERATION
-    # A new dependency goes into both locks at the same pin (one with no wheel for one of the
-    # Pythons goes into PER_GENERATION, saying why).
+    # After editing requirements.lock run scripts/lock_py313.sh (a package with no wheel for
+    # one of the Pythons goes into PER_GENERATION and that script, saying why).
     assert {k for k in shared if a.get(k) != b.get(k)} == set(), \
         {k: (a.get(k), b.get(k)) for k in shared if a.get(k) != b.get(k)}
     assert a["numpy"].startswith("1.") and b["numpy"].startswith("2.")
