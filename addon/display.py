@@ -155,7 +155,7 @@ def shader_nodes(mat):
 def set_modifier_input(mod, identifier: str, value):
     """Set input ``identifier`` (``Socket_N``) of geometry-nodes modifier ``mod`` to ``value``.
 
-    The one place where the add-on's Blender generations differ: in 4.x the inputs are ID
+    The one place where the add-on's Blender versions differ: up to 5.1 the inputs are ID
     properties of the modifier (``mod[identifier]``); 5.2 refuses ID properties there and
     exposes them as ``mod.properties.inputs.<identifier>.value``. Which one is present is
     tested, not the version number.
