@@ -388,3 +388,16 @@ def test_csv_header_states_units_and_frame_for_pandas(tmp_path, messy_layout):
         b = load(tmp_path / "s.csv")
     assert b.frame == "r_hand"
     np.testing.assert_array_equal(b.transform, messy_layout.transform)
+
+
+def test_site_size_follows_the_module_type(tmp_path):
+    from vtcore.layout.io.mjcf import taxel_radius
+
+    assert taxel_radius(make_patch("hexagon").flat_layout()) == pytest.approx(2e-3)  # CySkin 4 mm disc
+    assert taxel_radius(make_patch("strip:2", "icub12").flat_layout()) == pytest.approx(1.5e-3)
+    lay = make_patch("hexagon").flat_layout()
+    lay.meta = {"id_scheme": "icub"}  # read from an iCub file: the current triangle's pad
+    assert taxel_radius(lay) == pytest.approx(4.4704e-3 / 2)
+    save(make_patch("strip:2", "icub12").flat_layout(), tmp_path / "s.xml", "mjcf", site_radius=1e-3)
+    sizes = {s.get("size") for s in ET.parse(tmp_path / "s.xml").getroot().iter("site")}
+    assert all(v.startswith("0.001 ") for v in sizes)

@@ -69,12 +69,13 @@ def _vec(a) -> str:
 
 
 def taxel_radius(layout: Layout) -> float:
-    """Radius (m) of one taxel's sensing disc: the layout's module type, else 2 mm (CySkin)."""
+    """Radius (m) of one taxel's sensing disc: the layout's module type (a layout read from an
+    iCub file: the current iCub triangle, ``icub10``), else 2 mm (the CySkin 4 mm disc)."""
     from ..modules import TAXEL_DIAMETER, get_module
 
     if layout.meta.get("taxel_radius_m"):
         return float(layout.meta["taxel_radius_m"])
-    name = layout.meta.get("module_type")
+    name = layout.meta.get("module_type") or ("icub10" if layout.meta.get("id_scheme") == "icub" else None)
     if name:
         try:
             return get_module(name).taxel_diameter / 2
