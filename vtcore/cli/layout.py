@@ -60,6 +60,10 @@ def cmd_place(args) -> int:
     from ..layout import fill, get_module, place, save
 
     mesh = _load_mesh(args.mesh, args.scale)
+    if args.subdivide:
+        from ..layout.repair import refine
+
+        mesh = refine(mesh, args.subdivide)  # faces split on themselves: the surface does not move
     module = get_module(args.module, mirror=args.mirror)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -246,6 +250,8 @@ def register(sub) -> None:
     pl.add_argument("--method", default="logmap", choices=("logmap", "project"), help="placement method")
     pl.add_argument("--radius", type=float, help="fill: geodesic radius of the region (metres)")
     pl.add_argument("--scale", type=float, default=1.0, help="mesh unit to metres (0.001 for a mesh in mm)")
+    pl.add_argument("--subdivide", type=float, metavar="METRES",
+                    help="first split mesh edges longer than this (coarse CAD or collision meshes)")
     pl.add_argument("--format", choices=FORMATS, help="output format (default: from --out)")
     pl.add_argument("--out", required=True, metavar="LAYOUT", help="layout file to write")
     pl.set_defaults(func=cmd_place)

@@ -15,6 +15,13 @@ Cases (each row: what, method, setting, size, seconds, accuracy):
 4. ``maker_agreement``: the surface-aware triangulation's chart size (its knob)
    against edge agreement with the maker-style triangulation of the synthetic
    CySkin half-cylinder (``vtcore.layout.synthetic``).
+5. ``fill_faces`` / ``fill_region``: ``fill`` (chart growth) and ``fill_one_chart`` (the former
+   single log map) on the side of a 72 mm x 200 mm link meshed from 1k to 200k faces, and on a
+   360 mm link with a region of 10 to 1,000 modules; time, peak memory (resident set of a forked
+   child running only that case, so it includes the ~0.3 GB of imported libraries) and coverage.
+6. ``fill_meshes``: fill on the meshes of ``vtcore.layout.cadmeshes``: a CAD-like link (sliver
+   tessellation, non-manifold fins, duplicated faces), a 200-triangle convex hull, a sphere and a
+   full cylinder, and ``place`` of one hexagon on the 72 mm link for scale.
 """
 
 from __future__ import annotations
@@ -62,7 +69,7 @@ def _big_patch(n_modules, width, height):
 
 
 def _place_rows(quick):
-    from .place import place
+    from .placement import place
 
     faces = 10_000 if quick else 100_000
     n_mod = 100 if quick else 1000
@@ -91,7 +98,7 @@ def _place_rows(quick):
 def _sphere_rows(quick):
     import trimesh
 
-    from .place import place
+    from .placement import place
     from .patches import make_patch, wrap_on_sphere
 
     R = 0.04
@@ -187,6 +194,119 @@ def _maker_rows(quick):
     return rows
 
 
+def _in_child(fn):
+    """``(seconds, cpu seconds, peak resident MB, result, error)`` of ``fn()`` in a forked child
+    (CPU time is what other processes' load on the shared machine does not inflate)."""
+    import multiprocessing as mp
+    import resource
+    import time
+
+    def work(q):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            t0 = time.perf_counter()
+            try:
+                res = fn()
+                err = None
+            except Exception as exc:  # a case that fails is a row that says so
+                res, err = None, f"{type(exc).__name__}: {exc}"
+            sec = time.perf_counter() - t0
+        ru = resource.getrusage(resource.RUSAGE_SELF)
+        q.put((sec, ru.ru_utime + ru.ru_stime, ru.ru_maxrss / 1024.0, res, err))
+
+    ctx = mp.get_context("fork")
+    q = ctx.Queue()
+    p = ctx.Process(target=work, args=(q,))
+    p.start()
+    out = q.get()
+    p.join()
+    return out
+
+
+def _fill_summary(lay, rep):
+    return {"modules": lay.n_modules, "coverage": rep.coverage, "charts": rep.charts,
+            "overlaps": len(rep.overlaps), "strain_max": rep.strain_max, "seam_modules": rep.seam_modules}
+
+
+def _fill_rows(quick):
+    from . import cadmeshes
+    from .placement import place
+    from .tiling import fill, fill_one_chart
+
+    rows = []
+
+    def row(case, method, setting, n, fn):
+        sec, cpu, mb, res, err = _in_child(fn)
+        r = {"case": case, "method": method, "setting": setting, "n": n, "seconds": sec, "cpu_seconds": cpu,
+             "peak_mb": mb,
+             "accuracy_name": "coverage", "accuracy": (res or {}).get("coverage", float("nan")),
+             "extra": err or ", ".join(f"{k}={v:.3g}" if isinstance(v, float) else f"{k}={v}"
+                                       for k, v in (res or {}).items() if k != "coverage")}
+        rows.append(r)
+        return r
+
+    # 1. face count, the side of a 72 mm x 200 mm link (about 100 modules)
+    R, L = 0.072, 0.2
+    for faces in ((1000, 10_000) if quick else (1000, 10_000, 50_000, 100_000, 200_000)):
+        edge = float(np.sqrt(4 * np.pi * R * L / faces))
+        mesh = cadmeshes.full_cylinder(R, L, edge)
+        side = np.abs(mesh.face_normals[:, 2]) < 0.5
+        for name, f in (("grow", fill), ("one chart", fill_one_chart)):
+            row("fill_faces", name, f"72x200 mm link, {len(mesh.faces)} faces", len(mesh.faces),
+                lambda f=f: _fill_summary(*f(mesh, (R, 0, 0), (0, 1, 0), region=side)))
+        if faces == 10_000:
+            row("fill_faces", "place hexagon", f"72x200 mm link, {len(mesh.faces)} faces", len(mesh.faces),
+                lambda: {"modules": place(mesh, "hexagon", (R, 0, 0), (0, 1, 0))[0].n_modules})
+    # 2. region size on a 180 mm radius, 700 mm link of ~100k faces (module area ~490 mm2)
+    big = cadmeshes.full_cylinder(0.18, 0.7, float(np.sqrt(4 * np.pi * 0.18 * 0.7 / (20_000 if quick else 100_000))))
+    for n_mod in ((10, 100) if quick else (10, 100, 1000)):
+        rad = float(np.sqrt(n_mod * 490e-6 / np.pi))
+        row("fill_region", "grow", f"r=180 mm link, {len(big.faces)} faces, radius {1e3 * rad:.0f} mm", n_mod,
+            lambda rad=rad: _fill_summary(*fill(big, (0.18, 0, 0), (0, 1, 0), radius=rad)))
+        if n_mod <= 100:
+            row("fill_region", "one chart", f"r=180 mm link, {len(big.faces)} faces, radius {1e3 * rad:.0f} mm",
+                n_mod, lambda rad=rad: _fill_summary(*fill_one_chart(big, (0.18, 0, 0), (0, 1, 0), radius=rad)))
+    # 3. the meshes designers have
+    link = cadmeshes.cad_link()
+    lside = (np.abs(link.face_normals[:, 2]) < 0.3) & (np.abs(link.triangles_center[:, 2]) < 0.08)
+    hull = cadmeshes.convex_hull_link()
+    sph = cadmeshes.sphere(0.04, 4)
+    cyl = cadmeshes.full_cylinder(0.02, 0.1, 0.003)
+    cside = np.abs(cyl.face_normals[:, 2]) < 0.5
+    cases = [("CAD link (non-manifold, slivers), side", lambda: fill(link, (0.036, 0, 0), (0, 0, 1), region=lside)),
+             ("200-triangle convex hull", lambda: fill(hull, (0, 0, hull.bounds[1, 2]), (1, 0, 0))),
+             ("sphere r=40 mm", lambda: fill(sph, (0, 0, 0.04), (1, 0, 0))),
+             ("full cylinder r=20 mm, side", lambda: fill(cyl, (0.02, 0, 0), (0, 1, 0), region=cside))]
+    for name, fn in cases:
+        row("fill_meshes", "grow", name, 0, lambda fn=fn: _fill_summary(*fn()))
+    cyl18 = cadmeshes.full_cylinder(0.0185, 0.06, 0.003)
+    row("fill_meshes", "place strip:6", "full cylinder r=18.5 mm (wraps round)", 0,
+        lambda: _fill_summary(*place(cyl18, "strip:6", (0.0185, 0, 0), (0, 1, 0))))
+    return rows
+
+
+def _fill_plot(rows, path):
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4))
+    for case, ax, xl in (("fill_faces", axes[0], "mesh faces"), ("fill_region", axes[1], "modules asked for")):
+        for method, mk in (("grow", "o-"), ("one chart", "s--")):
+            rr = [r for r in rows if r["case"] == case and r["method"] == method]
+            if not rr:
+                continue
+            x = [r["n"] for r in rr]
+            ax.plot(x, [r["seconds"] for r in rr], mk, label=f"{method}: seconds")
+            ax.plot(x, [r["cpu_seconds"] for r in rr], mk, alpha=0.7, lw=0.8, label=f"{method}: CPU seconds")
+            ax.plot(x, [r["peak_mb"] / 1000 for r in rr], mk, alpha=0.5, label=f"{method}: peak GB")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel(xl)
+        ax.set_title(case)
+        ax.legend(fontsize=7)
+    fig.tight_layout()
+    save_png(fig, path, dpi=110)
+
+
 def run(out: Path, quick: bool = False) -> list[dict]:
     """Run the layout benchmarks; write ``table.md``, ``table.csv``, ``accuracy_vs_time.png`` into ``out``."""
     import matplotlib
@@ -196,10 +316,14 @@ def run(out: Path, quick: bool = False) -> list[dict]:
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    rows = _place_rows(quick) + _sphere_rows(quick) + _skin_rows(quick) + _maker_rows(quick)
+    fills = _fill_rows(quick)
+    rows = _place_rows(quick) + _sphere_rows(quick) + _skin_rows(quick) + _maker_rows(quick) + fills
     write_table(out, rows, title="Layout benchmark" + (" (quick)" if quick else ""), notes=[
-        "Targets: 1,000 modules on a 100k-face mesh <= 5 s; skin mesh of 4,000 taxels <= 0.5 s."],
-        columns=["case", "method", "setting", "n", "seconds", "accuracy_name", "accuracy", "extra"])
+        "Targets: 1,000 modules on a 100k-face mesh <= 5 s; skin mesh of 4,000 taxels <= 0.5 s; fill of the "
+        "side of a 72 x 200 mm link (~100 modules) < 3 s and within 5x one hexagon; peak memory < 2 GB."],
+        columns=["case", "method", "setting", "n", "seconds", "cpu_seconds", "peak_mb", "accuracy_name", "accuracy",
+                 "extra"])
+    _fill_plot(fills, out / "fill_time_memory.png")
     fig, axes = plt.subplots(1, 3, figsize=(13, 4))
     for ax, case, ylab in ((axes[0], ("place_1000", "place_100"), "max module-edge strain"),
                            (axes[1], ("exp_sphere",), "max error vs exact exp map (mm)"),

@@ -34,7 +34,7 @@ Where each part lives (this module only gathers the public names):
   bowties, subdivision of coarse faces, simplification);
 - :mod:`.surface`: closest points, the exact snap of ``at``, surface normals;
 - :mod:`.logmap`: :class:`LogMap` (the log map and its inverse, ``exp``);
-- :mod:`.place`: :func:`place`; :mod:`.fill`: :func:`fill`;
+- :mod:`.placement`: :func:`place`; :mod:`.tiling`: :func:`fill`;
 - :mod:`.report`: :class:`PlacementReport`, strain, overlaps, coverage;
 - :mod:`vtcore.geometry`: triangle and frame helpers shared with contact, filters and augment.
 """
@@ -42,9 +42,9 @@ Where each part lives (this module only gathers the public names):
 from __future__ import annotations
 
 from ..geometry import closest_point_on_triangles
-from .fill import fill
+from .tiling import fill
 from .logmap import LogMap
-from .place import place
+from .placement import place
 from .repair import clean_mesh
 from .report import (OVERLAP_FRACTION, PlacementReport, arc_lengths, find_overlaps, find_overlaps_between,
                      layout_strain, points_in_outlines)

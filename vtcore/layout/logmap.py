@@ -8,12 +8,87 @@ exactly. ``exp`` locates flat points in the mapped triangles through a spatial i
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from ..errors import InputError
 from ..geometry import barycentric, closest_point_on_triangles, cross2
+from .locate import TriangleGrid
 from .repair import decimate, refine, split_bowties, split_nonmanifold
 from .surface import at_notes, closest_points, frame_at, snap, surface_normals
+
+class PreparedSurface:
+    """A mesh made ready for log maps, once, so that several charts share the work.
+
+    mesh : trimesh.Trimesh (cleaned), metres. resolution : metres or None: first split faces
+    until no edge is longer than this (CAD meshes with long needle or fan faces give the heat
+    method too few vertices; the split faces lie exactly on the old ones). max_faces : int or
+    None: solve on a copy simplified to about this many faces when the mesh has more (the
+    taxels still land on the full-resolution surface).
+
+    ``surface`` is where taxels land, ``mesh`` where log maps are solved (the same object
+    unless simplified); ``notes`` say what was repaired, ``info`` how it was solved.
+    """
+
+    def __init__(self, mesh, *, resolution: float | None = None, max_faces: int | None = None):
+        self.notes, self.info = [], []
+        sub = mesh
+        if resolution is not None:
+            n0 = len(sub.faces)
+            sub = refine(sub, float(resolution))
+            if len(sub.faces) > n0:
+                self.info.append(f"{n0} faces subdivided to {len(sub.faces)} (no edge longer than "
+                                 f"{1e3 * float(resolution):.2f} mm) for the log map")
+        sub, nsplit = split_nonmanifold(sub)
+        if nsplit:
+            self.notes.append(f"{nsplit} faces around non-manifold edges were split apart")
+        sub, nbow = split_bowties(sub)
+        if nbow:
+            self.notes.append(f"{nbow} non-manifold (bowtie) vertices were split")
+        self.surface = sub
+        if max_faces is not None and len(sub.faces) > max_faces:
+            sub, note = decimate(sub, int(max_faces))
+            self.info.append(note)
+        self.mesh = sub
+        self._solver = None
+
+    def solver(self):
+        """The vector heat solver of ``mesh`` (factored once; geometry-central caches its
+        factorizations, so each further log map costs back-substitutions only)."""
+        import potpourri3d as pp3d
+
+        if self._solver is None:
+            try:
+                self._solver = pp3d.MeshVectorHeatSolver(np.asarray(self.mesh.vertices), np.asarray(self.mesh.faces))
+            except RuntimeError as exc:
+                if self.mesh is self.surface:
+                    raise InputError(f"the log map cannot be solved on this mesh ({exc}); clean the mesh or "
+                                     "use method='project'", key="mesh") from None
+                # the simplified copy was not good enough for geometry-central: solve on the full mesh
+                self.info.append("simplified mesh rejected by the solver; solved on the full mesh")
+                self.mesh = self.surface
+                return self.solver()
+        return self._solver
+
+
+def crop(mesh, point: np.ndarray, face: int, radius: float):
+    """The connected part of ``mesh`` holding ``face`` among the faces with a point within
+    ``radius`` metres (Euclidean) of ``point`` (3,). A face counts when any point of it is near,
+    not only a vertex: CAD meshes have long faces (a cylinder's side from cap to cap)."""
+    import trimesh
+
+    tri = np.asarray(mesh.triangles)
+    near = closest_point_on_triangles(tri, np.broadcast_to(point, (len(tri), 3)).copy())
+    keep_f = np.linalg.norm(near - point, axis=1) <= radius
+    keep_f[face] = True
+    if keep_f.all():
+        return mesh
+    part = mesh.submesh([np.flatnonzero(keep_f)], append=True, repair=False)
+    comp = trimesh.graph.connected_components(part.face_adjacency, nodes=np.arange(len(part.faces)))
+    _, fpp, _, _ = snap(part, point)
+    for c in comp:
+        if fpp[0] in set(np.asarray(c).ravel().tolist()):
+            return part.submesh([np.asarray(c)], append=True, repair=False)
+    return part
+
 
 class LogMap:
     """The logarithmic map of a mesh at a surface point, and its inverse (the exponential map).
@@ -21,87 +96,47 @@ class LogMap:
     mesh : trimesh.Trimesh (cleaned). at : (3,) metres. direction : (3,) or None.
     radius : float, metres, or None: crop the mesh to the connected part within
         this Euclidean distance of ``at`` before solving (faster for small patches).
-    max_faces : int or None: solve on a copy simplified to about this many faces
-        (vertex clustering or quadric decimation; see decimate for the simplifiers without
-        open3d) when the cropped mesh has more, then snap the mapped
-        taxels to the full-resolution surface (the accuracy knob of the benchmark).
-    resolution : metres or None: first split faces until no edge is longer than this (CAD
-        meshes with long needle or fan faces give the heat method too few vertices; the split
-        faces lie exactly on the old ones). ``place`` uses half the module pitch.
+    max_faces, resolution : see :class:`PreparedSurface` (``place`` uses half the module pitch).
+    prepared : a :class:`PreparedSurface` of ``mesh`` to reuse (several charts, one preparation
+        and one factorization); ``radius``, ``max_faces`` and ``resolution`` are then ignored.
     After construction, ``uv`` (V, 2) holds the log coordinates of the (cropped)
     mesh's vertices in a frame whose x axis points along ``direction``
     (projected onto the tangent plane) and whose y axis is ``normal x x``.
     """
 
     def __init__(self, mesh, at, direction=None, radius: float | None = None, max_faces: int | None = None,
-                 resolution: float | None = None):
-        import potpourri3d as pp3d
-        import trimesh
-
+                 resolution: float | None = None, prepared: PreparedSurface | None = None):
         at = np.asarray(at, dtype=np.float64).reshape(3)
-        cp, face, dist, spread = snap(mesh, at)
         self.notes = []  # worth a warning (the mesh was changed to be solvable)
         self.info = []  # how it was solved (no warning)
-        self.at_distance = float(dist[0])
-        self.notes += at_notes(cp[0], float(dist[0]), spread)
-        sub = mesh
-        if radius is not None and np.isfinite(radius):
-            # a face is kept when any point of it is within reach, not only a vertex: CAD meshes
-            # have long faces (a cylinder's side from cap to cap) whose vertices are all far away
-            tri = np.asarray(mesh.triangles)
-            near = closest_point_on_triangles(tri, np.broadcast_to(cp[0], (len(tri), 3)).copy())
-            keep_f = np.linalg.norm(near - cp[0], axis=1) <= radius
-            keep_f[face[0]] = True
-            if not keep_f.all():
-                part = mesh.submesh([np.flatnonzero(keep_f)], append=True, repair=False)
-                # keep the component that holds 'at'
-                comp = trimesh.graph.connected_components(part.face_adjacency, nodes=np.arange(len(part.faces)))
-                cpp, fpp, _, _ = snap(part, cp[0])
-                for c in comp:
-                    if fpp[0] in set(np.asarray(c).ravel().tolist()):
-                        part = part.submesh([np.asarray(c)], append=True, repair=False)
-                        break
-                sub = part
-        if resolution is not None:
-            sub = refine(sub, float(resolution))
-        sub, nsplit = split_nonmanifold(sub)
-        if nsplit:
-            self.notes.append(f"{nsplit} faces around non-manifold edges were split apart")
-        sub, nbow = split_bowties(sub)
-        if nbow:
-            self.notes.append(f"{nbow} non-manifold (bowtie) vertices were split")
-        self.surface = sub  # where the taxels land
+        if prepared is None:
+            cp, face, dist, spread = snap(mesh, at)
+            self.at_distance = float(dist[0])
+            self.notes += at_notes(cp[0], float(dist[0]), spread)
+            sub = mesh if radius is None or not np.isfinite(radius) else crop(mesh, cp[0], int(face[0]), radius)
+            prepared = PreparedSurface(sub, resolution=resolution, max_faces=max_faces)
+            self.notes += prepared.notes
+            self.info += prepared.info
+            point = cp[0]
+        else:
+            point = at
+        solver = prepared.solver()
+        self.prepared = prepared
+        self.surface = sub = prepared.surface  # where the taxels land
         # the tangent frame at 'at' comes from the full-resolution surface
-        cpf, facef, _, _ = snap(sub, cp[0])
+        cpf, facef, distf, _ = snap(sub, point)
+        if not hasattr(self, "at_distance"):  # a prepared surface: 'at' is measured on it
+            self.at_distance = float(distf[0])
         trif = np.asarray(sub.vertices)[np.asarray(sub.faces)[facef]]
         normal = surface_normals(sub, facef, barycentric(trif, cpf))[0]
-        if max_faces is not None and len(sub.faces) > max_faces:
-            sub, note = decimate(sub, int(max_faces))
-            self.info.append(note)
-        self.mesh = sub  # where the log map is solved
-        cp, face, _, _ = snap(sub, cp[0])
+        self.mesh = sub = prepared.mesh  # where the log map is solved
+        cp, face, _, _ = snap(sub, cpf[0])
         self.at = cp[0]
         self.face = int(face[0])
         tri = np.asarray(sub.vertices)[np.asarray(sub.faces)[self.face]]
         bary = barycentric(tri[None], cp)[0]
         src = int(np.asarray(sub.faces)[self.face][np.argmax(bary)])
-        try:
-            solver = pp3d.MeshVectorHeatSolver(np.asarray(sub.vertices), np.asarray(sub.faces))
-            raw = np.asarray(solver.compute_log_map(src), dtype=np.float64)
-        except RuntimeError as exc:
-            if sub is self.surface:
-                raise InputError(f"the log map cannot be solved on this mesh ({exc}); clean the mesh or "
-                                 "use method='project'", key="mesh") from None
-            # the simplified copy was not good enough for geometry-central: solve on the full mesh
-            self.info.append("simplified mesh rejected by the solver; solved on the full mesh")
-            sub = self.mesh = self.surface
-            cp, face, _, _ = snap(sub, cp[0])
-            self.at, self.face = cp[0], int(face[0])
-            tri = np.asarray(sub.vertices)[np.asarray(sub.faces)[self.face]]
-            bary = barycentric(tri[None], cp)[0]
-            src = int(np.asarray(sub.faces)[self.face][np.argmax(bary)])
-            solver = pp3d.MeshVectorHeatSolver(np.asarray(sub.vertices), np.asarray(sub.faces))
-            raw = np.asarray(solver.compute_log_map(src), dtype=np.float64)
+        raw = np.asarray(solver.compute_log_map(src), dtype=np.float64)
         # parts not connected to the source (split-off non-manifold fins) have no log coordinates
         self.reachable = np.isfinite(raw).all(axis=1)
         raw[~self.reachable] = 0.0
@@ -119,68 +154,107 @@ class LogMap:
         self.uv = uv - at_uv
         self.normal = normal
         self.t1, self.t2 = t1, t2
-        self._tree = None
+        self._grid = None
 
-    def exp(self, flat: np.ndarray):
-        """Map flat coordinates (n, 2) to the surface.
-
-        Returns ``(positions (n, 3), normals (n, 3), face (n,), found (n,) bool)``;
-        where ``found`` is false the point lies outside the mesh (off an open
-        boundary) and the position is the closest surface point of its
-        tangent-plane extrapolation.
-        """
-        flat = np.asarray(flat, dtype=np.float64).reshape(-1, 2)
-        F = np.asarray(self.mesh.faces)
+    def trusted_radius(self, band: float = 0.25) -> float:
+        """Geodesic radius (metres) within which the map is trusted: up to the nearest face whose
+        image is folded or stretched more than ``band`` (25 %) against the surface, which is where
+        the cut locus (or strong curvature) starts; inf when no face is. See :meth:`index`."""
+        self.index()
+        bad = self._reach & (self._folded | (self._stretch > band) | ~self._consistent)
+        # a face's distance: its farthest vertex's in the map, or its Euclidean distance (a lower
+        # bound of the geodesic one) if larger: at the cut locus the heat method averages opposite
+        # directions, so a vertex there can map next to the source
+        if not bad.any():
+            return float("inf")
+        F = np.asarray(self.mesh.faces)[bad]
         V = np.asarray(self.mesh.vertices)
-        if self._tree is None:
-            # per-mesh work, done once (fill calls exp dozens of times)
-            self._tri2 = tri2 = self.uv[F]  # (F, 3, 2)
+        far = np.maximum(np.linalg.norm(self.uv[F], axis=2).max(axis=1),
+                         np.linalg.norm(V[F] - self.at, axis=2).min(axis=1))
+        # and the shortest path along mesh edges, which overestimates the geodesic distance by
+        # at most ~15 % on meshes of fair triangles (the 3-D distance is far too short round a
+        # thin link: 2 r against pi r to the cut locus of a cylinder)
+        path = self.edge_distance()
+        far = np.maximum(far, path[F].min(axis=1) / 1.15)
+        return float(far.min())
+
+    def consistent(self) -> np.ndarray:
+        """(V,) bool: vertices whose log-map distance agrees with their distance along mesh edges
+        (at least 1/1.25 of it, less two typical edges): false at the cut locus's garbage."""
+        if getattr(self, "_cons", None) is None:
+            F = np.asarray(self.mesh.faces)
+            V = np.asarray(self.mesh.vertices)
+            h = float(np.median(np.linalg.norm(V[F[:, 0]] - V[F[:, 1]], axis=1)))
+            self._cons = np.linalg.norm(self.uv, axis=1) >= self.edge_distance() / 1.25 - 2 * h
+        return self._cons
+
+    def edge_distance(self) -> np.ndarray:
+        """(V,) metres along mesh edges from the source point (inf where unreachable); scipy's
+        Dijkstra on the edge graph, computed once."""
+        if getattr(self, "_path", None) is None:
+            import scipy.sparse as sp
+            from scipy.sparse.csgraph import dijkstra
+
+            F = np.asarray(self.mesh.faces)
+            V = np.asarray(self.mesh.vertices)
+            e = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
+            w = np.linalg.norm(V[e[:, 0]] - V[e[:, 1]], axis=1)
+            g = sp.coo_matrix((w, (e[:, 0], e[:, 1])), shape=(len(V), len(V))).tocsr()
+            src = np.asarray(self.mesh.faces)[self.face]
+            d0 = np.linalg.norm(V[src] - self.at, axis=1)
+            dist = dijkstra(g, directed=False, indices=src)
+            self._path = (dist + d0[:, None]).min(axis=0)
+        return self._path
+
+    def index(self) -> TriangleGrid:
+        """The point-location index over the mapped faces (built once; ``exp`` uses it)."""
+        if self._grid is None:
+            F = np.asarray(self.mesh.faces)
+            V = np.asarray(self.mesh.vertices)
+            tri2 = self.uv[F]  # (F, 3, 2)
             area = cross2(tri2[:, 1] - tri2[:, 0], tri2[:, 2] - tri2[:, 0])
-            self._cent = tri2.mean(axis=1)
-            self._rad = np.linalg.norm(tri2 - self._cent[:, None], axis=2).max(axis=1)
             good = area > 1e-16 * max(np.abs(area).max(), 1e-300)  # orientation kept, not folded
             # near the cut locus the log map is garbage: a face's image must be close to isometric
             t3 = V[F]
             l3 = np.linalg.norm(t3 - np.roll(t3, 1, axis=1), axis=2)
             l2 = np.linalg.norm(tri2 - np.roll(tri2, 1, axis=1), axis=2)
-            ratio = l2 / np.maximum(l3, 1e-300)
-            self._good = good & np.all((ratio > 0.5) & (ratio < 2.0), axis=1) & self.reachable[F].all(axis=1)
-            self._tree = cKDTree(self._cent)
-            self._geo = np.linalg.norm(self._cent, axis=1)
-        tri2 = self._tri2
-        n = len(flat)
-        k = int(min(16, len(F)))
-        _, cand = self._tree.query(flat, k)
-        cand = cand.reshape(n, k)
-        b = barycentric(tri2[cand].reshape(-1, 3, 2), np.repeat(flat, k, axis=0)).reshape(n, k, 3)
-        inside = (b.min(axis=2) >= -1e-9) & self._good[cand]
-        # among the faces that contain the point, prefer the one nearest the source (before the cut locus)
-        score = np.where(inside, self._geo[cand], np.inf)
-        best = np.argmin(score, axis=1)
-        found = np.isfinite(score[np.arange(n), best])
-        if (~found).any():
-            # the k nearest centroids can miss a big face: test every face whose disc holds the point
-            miss = np.flatnonzero(~found)
-            near = self._tree.query_ball_point(flat[miss], self._rad.max())
-            counts = np.array([len(c) for c in near])
-            if counts.sum():
-                rows = np.repeat(np.arange(len(miss)), counts)
-                fcs = np.concatenate([np.asarray(c, dtype=np.int64) for c in near if len(c)])
-                bb = barycentric(tri2[fcs], flat[miss][rows])
-                ok = (bb.min(axis=1) >= -1e-9) & self._good[fcs]
-                score = np.where(ok, self._geo[fcs], np.inf)
-                # per missing point, the containing face nearest the source
-                order = np.lexsort((score, rows))
-                first = np.ones(len(order), bool)
-                first[1:] = rows[order][1:] != rows[order][:-1]
-                pick = order[first & np.isfinite(score[order])]
-                q = miss[rows[pick]]
-                cand[q, 0], b[q, 0], best[q], found[q] = fcs[pick], bb[pick], 0, True
-        face = cand[np.arange(n), best]
-        bary = b[np.arange(n), best]
+            # edge length error against the face's size (not the edge's: CAD needles have edges
+            # a hundred times shorter than their longest, where the map's small absolute error
+            # would look like a large ratio)
+            h = float(np.median(l3))
+            self._stretch = np.abs(l2 - l3).max(axis=1) / np.maximum(l3.max(axis=1), h)
+            self._reach = self.reachable[F].all(axis=1)
+            # near the cut locus the heat method averages opposite directions and a vertex can map
+            # next to the source: a face whose map distance is far below its distance along mesh
+            # edges (which overestimates the geodesic one by ~15 % at most) is not used
+            self._consistent = self.consistent()[F].all(axis=1)
+            self._usable = good & (self._stretch < 0.5) & self._reach & self._consistent
+            # a folded sliver (altitude under a fifth of the typical edge) is rounding, not the cut locus
+            alt = np.linalg.norm(np.cross(t3[:, 1] - t3[:, 0], t3[:, 2] - t3[:, 0]), axis=1) / \
+                np.maximum(l3.max(axis=1), 1e-300)
+            self._folded = ~good & (alt > 0.2 * h)
+            self._geo = np.linalg.norm(tri2.mean(axis=1), axis=1)
+            # among the faces that contain a point, the one nearest the source (before the cut locus)
+            self._grid = TriangleGrid(tri2, self._usable, self._geo)
+        return self._grid
+
+    def exp(self, flat: np.ndarray, fallback: bool = True):
+        """Map flat coordinates (n, 2) to the surface.
+
+        Returns ``(positions (n, 3), normals (n, 3), face (n,), found (n,) bool)``;
+        where ``found`` is false the point lies outside the mesh (off an open
+        boundary) and the position is the closest surface point of its
+        tangent-plane extrapolation (``fallback=False``: left at a vertex of the
+        face 0, for callers that drop such points anyway). Memory: O(n) plus the index (bounded, see
+        :mod:`vtcore.layout.locate`); no (points x faces) array.
+        """
+        flat = np.asarray(flat, dtype=np.float64).reshape(-1, 2)
+        F = np.asarray(self.mesh.faces)
+        V = np.asarray(self.mesh.vertices)
+        face, bary, found = self.index().locate(flat)
         pos = np.einsum("nk,nkj->nj", bary, V[F[face]])
         nrm = surface_normals(self.mesh, face, bary)
-        if (~found).any():
+        if fallback and (~found).any():
             lost = np.flatnonzero(~found)
             guess = self.at + flat[lost, :1] * self.t1 + flat[lost, 1:] * self.t2
             cp, fc, _ = closest_points(self.mesh, guess)

@@ -11,6 +11,9 @@ import numpy as np
 
 from ..errors import InputError
 
+MM_SUSPECT = 5.0  #: metres: a robot part larger than this was most likely exported in millimetres
+MAX_INPUT_FACES = 2_000_000  #: faces a placement accepts (the benchmark goes to 200k within 2 GB)
+
 def clean_mesh(mesh):
     """A copy of ``mesh`` fit for the solvers: duplicate vertices merged, degenerate and
     duplicate faces removed, unreferenced vertices dropped. Returns ``(mesh, notes)``."""
@@ -21,8 +24,15 @@ def clean_mesh(mesh):
     f = np.asarray(mesh.faces, dtype=np.int64)
     if not len(f):
         raise InputError("the mesh has no faces", key="mesh")
+    if len(f) > MAX_INPUT_FACES:
+        raise InputError(f"the mesh has {len(f)} faces, more than the {MAX_INPUT_FACES} a placement is sized "
+                         "for; simplify it (or select the part to cover) first", key="mesh")
     if not np.isfinite(v).all():
         raise InputError("the mesh has non-finite vertices", key="mesh")
+    extent = float(np.ptp(v, axis=0).max()) if len(v) else 0.0
+    if extent > MM_SUSPECT:
+        notes.append(f"the mesh is {extent:.3g} m across: it looks like millimetres read as metres; "
+                     "scale it by 0.001 (--scale 0.001)")
     m = trimesh.Trimesh(v, f, process=True, validate=False)  # merges duplicate vertices
     area = m.area_faces
     scale = max(float(np.ptp(m.vertices, axis=0).max()), 1e-12)
@@ -78,43 +88,196 @@ def split_nonmanifold(mesh):
 
 
 def split_bowties(mesh):
-    """Give every face at a vertex with more than one boundary loop through it (a bowtie: two
-    fans meeting at a point) its own copy of that vertex; geometry-central needs manifold vertices."""
-    import trimesh
+    """Give every fan of faces round a vertex its own copy of the vertex when more than one fan
+    meets there (a bowtie: two fans touching at a point, with or without a boundary);
+    geometry-central needs manifold vertices. Returns ``(mesh, vertices split)``.
 
-    f = np.asarray(mesh.faces)
-    e = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
-    key, cnt = np.unique(e, axis=0, return_counts=True)
-    bnd = key[cnt == 1]
-    per_vertex = np.bincount(bnd.ravel(), minlength=len(mesh.vertices))
-    bad = per_vertex > 2
-    if not bad.any():
+    Fans are the connected components of the (face, corner) graph whose links are the edges two
+    faces share; scipy's connected_components finds them all at once.
+    """
+    import scipy.sparse as sp
+    import trimesh
+    from scipy.sparse.csgraph import connected_components
+
+    f = np.asarray(mesh.faces, dtype=np.int64)
+    nf = len(f)
+    # corner id = 3 * face + k; faces sharing an edge link their corners at both ends of it
+    he = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])  # half-edge h of face h % nf
+    corner_a = 3 * (np.arange(3 * nf) % nf) + np.arange(3 * nf) // nf
+    corner_b = 3 * (np.arange(3 * nf) % nf) + (np.arange(3 * nf) // nf + 1) % 3
+    key = np.sort(he, axis=1)
+    nv = len(mesh.vertices)
+    k1 = key[:, 0] * nv + key[:, 1]
+    order = np.argsort(k1, kind="stable")
+    ks = k1[order]
+    same = np.flatnonzero(ks[1:] == ks[:-1])
+    a, b = order[same], order[same + 1]
+    # the corners of a and b at each vertex of the shared edge
+    va = np.where(he[a, 0] == he[b, 0], 0, 1)  # b's corner at a's first vertex
+    rows = np.concatenate([corner_a[a], corner_b[a]])
+    cols = np.concatenate([np.where(va == 0, corner_a[b], corner_b[b]), np.where(va == 0, corner_b[b], corner_a[b])])
+    g = sp.coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(3 * nf, 3 * nf))
+    _, lab = connected_components(g, directed=False)
+    vert = f.ravel()  # vertex of corner c = 3 * face + k
+    # fans per vertex: distinct labels among its corners
+    pair = np.unique(np.column_stack([vert, lab]), axis=0)
+    fans = np.bincount(pair[:, 0], minlength=nv)
+    if not (fans > 1).any():
         return mesh, 0
+    # the first fan of each vertex keeps it; every other fan gets a new vertex
+    first = np.ones(len(pair), bool)
+    first[1:] = pair[1:, 0] != pair[:-1, 0]
+    new_id = np.full(len(pair), -1, np.int64)
+    extra = np.flatnonzero(~first)
+    new_id[first] = pair[first, 0]
+    new_id[extra] = nv + np.arange(len(extra))
+    idx = np.searchsorted(pair[:, 0] * (lab.max() + 1) + pair[:, 1], vert * (lab.max() + 1) + lab)
+    f2 = new_id[idx].reshape(-1, 3)
     v = np.asarray(mesh.vertices)
-    corner = bad[f]
-    fi, ci = np.nonzero(corner)
-    f2 = f.copy()
-    f2[fi, ci] = len(v) + np.arange(len(fi))
-    out = trimesh.Trimesh(np.vstack([v, v[f[fi, ci]]]), f2, process=False, validate=False)
-    out.remove_unreferenced_vertices()
-    return out, int(bad.sum())
+    v2 = np.vstack([v, v[pair[extra, 0]]])
+    out = trimesh.Trimesh(v2, f2, process=False, validate=False)
+    return out, int((fans > 1).sum())
 
 
 def refine(mesh, resolution: float, max_faces: int = 300_000):
-    """Midpoint-subdivide until no edge is longer than ``resolution`` (coarsened if that would
-    exceed ``max_faces``); the new faces lie on the old ones, so the surface does not move."""
-    e = mesh.edges_unique_length
-    if not len(e) or e.max() <= resolution:
+    """Split every edge longer than ``resolution`` metres at its midpoint until none is (the
+    resolution is coarsened if the result would exceed ``max_faces``); the new faces lie on the
+    old ones, so the surface does not move.
+
+    Only the longest edge of a face is split per round (longest-edge bisection) and non-Delaunay
+    edges between nearly coplanar faces are flipped between rounds: a CAD needle (3 mm x 200 mm)
+    becomes triangles about 3 mm across, where uniform midpoint subdivision (trimesh's
+    ``subdivide_to_size``) makes 4^k needles; the heat method and the point location are poor on
+    needles, and they cost faces.
+    """
+    import trimesh
+
+    v = np.asarray(mesh.vertices, dtype=np.float64)
+    f = np.asarray(mesh.faces, dtype=np.int64)
+    if not len(f):
         return mesh
-    t = np.asarray(mesh.triangles)
+    t = v[f]
     longest = np.linalg.norm(t - np.roll(t, 1, axis=1), axis=2).max(axis=1)
-    res = resolution
-    while True:
-        levels = np.ceil(np.log2(np.maximum(longest / res, 1.0)))
-        if (4.0 ** levels).sum() <= max_faces:
+    res = float(resolution)
+    # a budget check before any allocation: the result has about area / (res^2 / 4) faces, plus
+    # a row of faces along each long edge
+    area = np.asarray(mesh.area_faces)
+    while (area / (0.25 * res ** 2) + 2 * longest / res + 1).sum() > max_faces:
+        res *= 1.25
+    if longest.max() <= res:
+        return mesh
+    for _ in range(200):
+        f = delaunay_flips(v, f)
+        e = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])  # edge k of face i at k*F+i
+        key = np.sort(e, axis=1)
+        uniq, inv = np.unique(key, axis=0, return_inverse=True)
+        inv = inv.ravel()
+        length = np.linalg.norm(v[uniq[:, 0]] - v[uniq[:, 1]], axis=1)
+        # only the longest edge of a face is split (longest-edge bisection, Rivara): splitting
+        # both long sides of a needle would cut off a needle half as wide, again and again
+        lf = length[inv].reshape(3, -1)
+        longest_edge = inv.reshape(3, -1)[np.argmax(lf, axis=0), np.arange(lf.shape[1])]
+        mark = np.zeros(len(uniq), bool)
+        mark[longest_edge] = True
+        mark &= length > res
+        if not mark.any():
             break
-        res *= 1.5
-    return mesh.subdivide_to_size(res, max_iter=int(levels.max()) + 2)
+        mid_id = np.full(len(uniq), -1, np.int64)
+        mid_id[mark] = len(v) + np.arange(int(mark.sum()))
+        v = np.vstack([v, (v[uniq[mark, 0]] + v[uniq[mark, 1]]) / 2])
+        nf = len(f)
+        m = mid_id[inv].reshape(3, nf).T  # (F, 3): midpoint of edge (0,1), (1,2), (2,0) or -1
+        has = m >= 0
+        cnt = has.sum(axis=1)
+        out = [f[cnt == 0]]
+        # one split edge: rotate it to (0, 1)
+        for k in range(3):
+            sel = (cnt == 1) & has[:, k]
+            a, b, c = f[sel, k], f[sel, (k + 1) % 3], f[sel, (k + 2) % 3]
+            mm = m[sel, k]
+            out += [np.column_stack([a, mm, c]), np.column_stack([mm, b, c])]
+        # two split edges: rotate the unsplit one to (1, 2); cut the quad on its shorter diagonal
+        for k in range(3):
+            sel = (cnt == 2) & ~has[:, (k + 1) % 3]
+            a, b, c = f[sel, k], f[sel, (k + 1) % 3], f[sel, (k + 2) % 3]
+            mab, mca = m[sel, k], m[sel, (k + 2) % 3]
+            d1 = np.linalg.norm(v[mab] - v[c], axis=1)
+            d2 = np.linalg.norm(v[b] - v[mca], axis=1)
+            short = d1 <= d2
+            out += [np.column_stack([a, mab, mca]),
+                    np.where(short[:, None], np.column_stack([mab, b, c]), np.column_stack([mab, b, mca])),
+                    np.where(short[:, None], np.column_stack([mab, c, mca]), np.column_stack([b, c, mca]))]
+        sel = cnt == 3
+        a, b, c = f[sel, 0], f[sel, 1], f[sel, 2]
+        m01, m12, m20 = m[sel, 0], m[sel, 1], m[sel, 2]
+        out += [np.column_stack([a, m01, m20]), np.column_stack([m01, b, m12]),
+                np.column_stack([m20, m12, c]), np.column_stack([m01, m12, m20])]
+        f = np.concatenate(out)
+    return trimesh.Trimesh(v, f, process=False, validate=False)
+
+
+def delaunay_flips(v: np.ndarray, f: np.ndarray, max_dihedral: float = 1.0, rounds: int = 100) -> np.ndarray:
+    """Faces (F, 3) after flipping non-Delaunay edges between nearly coplanar faces.
+
+    v : (V, 3) metres. An interior edge shared by two faces whose normals differ by less than
+    ``max_dihedral`` degrees is flipped when the angles opposite it sum to more than pi (the
+    Delaunay rule): needles from CAD tessellation (the strip between two rulings of a cylinder is
+    flat) and from edge splitting become well-shaped triangles; with 1 degree the surface moves
+    by under 1/200 of an edge. Independent flips are done together, in rounds.
+    """
+    f = np.asarray(f, dtype=np.int64).copy()
+    cos_max = np.cos(np.radians(max_dihedral))
+    nv = len(v)
+    for _ in range(rounds):
+        nf = len(f)
+        i_all = f.T.ravel()
+        j_all = np.roll(f, -1, axis=1).T.ravel()
+        key = np.minimum(i_all, j_all) * nv + np.maximum(i_all, j_all)
+        order = np.argsort(key, kind="stable")
+        ks = key[order]
+        # interior edges: a key seen exactly twice
+        first = np.ones(len(ks), bool)
+        first[1:] = ks[1:] != ks[:-1]
+        start = np.flatnonzero(first)
+        cnt = np.diff(np.append(start, len(ks)))
+        pair = start[cnt == 2]
+        ha, hb = order[pair], order[pair + 1]  # half-edge ids k*F + face
+        fa, ka, fb, kb = ha % nf, ha // nf, hb % nf, hb // nf
+        i, j = f[fa, ka], f[fa, (ka + 1) % 3]
+        ok = (f[fb, kb] == j) & (f[fb, (kb + 1) % 3] == i)  # consistently oriented neighbours only
+        p, q = f[fa, (ka + 2) % 3], f[fb, (kb + 2) % 3]
+        ok &= p != q
+
+        def angle(at, x, y):
+            a, b = v[x] - v[at], v[y] - v[at]
+            return np.arctan2(np.linalg.norm(np.cross(a, b), axis=1), np.einsum("ij,ij->i", a, b))
+
+        na = np.cross(v[j] - v[i], v[p] - v[i])
+        nb = np.cross(v[i] - v[j], v[q] - v[j])
+        la, lb = np.linalg.norm(na, axis=1), np.linalg.norm(nb, axis=1)
+        cosd = np.einsum("ij,ij->i", na, nb) / np.maximum(la * lb, 1e-300)
+        excess = angle(p, i, j) + angle(q, j, i) - np.pi
+        ok &= (cosd > cos_max) & (excess > 1e-9)
+        # the flipped faces keep their orientation and are not degenerate
+        n1 = np.cross(v[i] - v[p], v[q] - v[p])
+        n2 = np.cross(v[j] - v[q], v[p] - v[q])
+        ref = na + nb
+        ok &= (np.einsum("ij,ij->i", n1, ref) > 0) & (np.einsum("ij,ij->i", n2, ref) > 0)
+        # the new edge must not exist already
+        newkey = np.minimum(p, q) * nv + np.maximum(p, q)
+        ok &= ~np.isin(newkey, ks)
+        idx = np.flatnonzero(ok)
+        if not len(idx):
+            break
+        # an independent set: each face flips with its most non-Delaunay edge only
+        prio = excess[idx] + 1e-12 * np.arange(len(idx)) / max(len(idx), 1)
+        best = np.full(nf, -np.inf)
+        np.maximum.at(best, fa[idx], prio)
+        np.maximum.at(best, fb[idx], prio)
+        win = idx[(best[fa[idx]] == prio) & (best[fb[idx]] == prio)]
+        f[fa[win]] = np.column_stack([p[win], i[win], q[win]])
+        f[fb[win]] = np.column_stack([q[win], j[win], p[win]])
+    return f
 
 
 def decimate(mesh, max_faces: int):

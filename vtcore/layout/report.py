@@ -37,6 +37,8 @@ class PlacementReport:
     coverage : float in [0, 1] or nan, fraction of the region under module outlines.
     surface_distance_max : float, metres, max distance of a taxel (before offset) from the mesh.
     method : "logmap" or "project"; notes : list of str.
+    charts : how many log maps (charts) the placement grew through (1: a single log map).
+    seam_modules : modules the seam pass of ``fill`` added where growth fronts met.
     """
 
     strain: np.ndarray
@@ -49,6 +51,8 @@ class PlacementReport:
     seconds: float = 0.0
     notes: list = field(default_factory=list)
     existing_overlaps: list = field(default_factory=list)
+    charts: int = 1
+    seam_modules: int = 0
 
     @property
     def strain_max(self) -> float:
@@ -68,6 +72,7 @@ class PlacementReport:
                 "existing_overlap_pairs": [list(map(int, p)) for p in self.existing_overlaps],
                 "off_boundary": [int(i) for i in self.off_boundary], "coverage": _f(self.coverage),
                 "surface_distance_max_m": float(self.surface_distance_max), "seconds": float(self.seconds),
+                "charts": int(self.charts), "seam_modules": int(self.seam_modules),
                 "notes": list(self.notes)}
 
 

@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import time
 import warnings
 
 import numpy as np
 
 from ..errors import InputError
 from ..geometry import barycentric
+from .grow import grow, map_modules
 from .logmap import LogMap
 from .mesh import LayoutWarning
 from .model import Layout
@@ -47,8 +49,6 @@ def place(mesh, patch="hexagon", at=(0.0, 0.0, 0.0), direction=None, *, module: 
 
     Returns ``(layout, report)``; ``layout.meta["placement"]`` holds ``report.as_dict()``.
     """
-    import time
-
     t0 = time.perf_counter()
     if method not in ("logmap", "project"):
         raise InputError(f"unknown method {method!r}; use logmap or project", key="method")
@@ -59,14 +59,23 @@ def place(mesh, patch="hexagon", at=(0.0, 0.0, 0.0), direction=None, *, module: 
     if at.shape != (3,) or not np.isfinite(at).all():
         raise InputError(f"'at' must be 3 finite numbers, got {at.tolist()}", key="at")
     clean, notes = clean_mesh(mesh) if logmap is None else (mesh, [])
+    charts = 1
     extent = float(np.hypot(*p.flat.T).max()) + p.module.pitch
     if method == "logmap":
         lm = logmap if logmap is not None else LogMap(clean, at, direction, radius=1.5 * extent + 2 * p.module.pitch,
                                                       max_faces=max_faces, resolution=p.module.pitch / 2)
         notes += lm.notes
-        pos, nrm, face, found = lm.exp(p.flat)
-        surf_mesh = lm.surface
         uvmap = lm
+        surf_mesh = lm.surface
+        if logmap is None and lm.trusted_radius() < extent:
+            # the patch reaches past where one log map is trusted (round a closed link, past the
+            # cut locus): map it chart by chart along one lattice (see grow.py)
+            g = grow(lm.prepared, lm.at, direction, p, first=lm)
+            charts = len(g.charts)
+            pos, nrm, face, found = map_modules(g.charts, p, g.chart)
+            uvmap = None if charts > 1 else lm
+        else:
+            pos, nrm, face, found = lm.exp(p.flat)
     else:
         cp, face0, dist0, spread = snap(clean, at)
         notes += at_notes(cp[0], float(dist0[0]), spread)
@@ -82,9 +91,19 @@ def place(mesh, patch="hexagon", at=(0.0, 0.0, 0.0), direction=None, *, module: 
         found = ~(boundary[face] & (np.linalg.norm(pos - guess, axis=1) > 0.5 * p.module.pitch))
         surf_mesh = clean
         uvmap = None
+    cov = coverage_of(clean, p, uvmap, region, extent)
+    info = list(uvmap.info) if uvmap is not None else []
+    return finish(p, pos, nrm, found, surf_mesh, method=method, notes=notes, info=info, offset=offset, at=at,
+                  direction=direction, existing=existing, coverage=cov, t0=t0, charts=charts)
+
+
+def finish(p: Patch, pos, nrm, found, surf_mesh, *, method, notes, info, offset, at, direction, existing,
+           coverage, t0, charts=1, seam_modules=0, kind="place"):
+    """The layout of patch ``p`` with taxels at ``pos`` (N, 3) on ``surf_mesh`` (normals ``nrm``,
+    ``found`` (N,) bool), moved ``offset`` metres along the normals, and its report."""
     _, _, dist = closest_points(surf_mesh, pos)
     pos = pos + offset * nrm
-    meta = {"placement_method": method, "at": at.tolist(),
+    meta = {"placement_method": method, "at": np.asarray(at, float).tolist(),
             "direction": None if direction is None else np.asarray(direction, float).tolist(),
             "offset_m": float(offset)}
     layout = p.to_layout(pos, nrm, meta)
@@ -102,13 +121,12 @@ def place(mesh, patch="hexagon", at=(0.0, 0.0, 0.0), direction=None, *, module: 
     if len(off):
         notes.append(f"{len(off)} taxels fall outside the mapped surface (off an open boundary, or past "
                      "the cut locus of a closed one where the log map is unreliable)")
-    cov = coverage_of(clean, p, uvmap, region, extent)
-    info = list(uvmap.info) if uvmap is not None else []
-    report = PlacementReport(strain, mstrain, overlaps, off, cov, float(dist.max()), method,
-                             time.perf_counter() - t0, notes + info, ex_overlaps)
+    report = PlacementReport(strain, mstrain, overlaps, off, coverage, float(dist.max()) if len(dist) else 0.0,
+                             method, time.perf_counter() - t0, notes + info, ex_overlaps, charts=int(charts),
+                             seam_modules=int(seam_modules))
     layout.meta["placement"] = report.as_dict()
     for msg in notes:
-        warnings.warn(f"place: {msg}", LayoutWarning, stacklevel=2)
+        warnings.warn(f"{kind}: {msg}", LayoutWarning, stacklevel=3)
     return layout, report
 
 

@@ -1,0 +1,173 @@
+"""Skins on real robot geometry (issue 12's hard cases): CAD links, collision hulls, full wraps.
+
+The meshes come from ``vtcore.layout.cadmeshes`` (made the way CAD exporters and collision
+tools make them); every check is measured on the result, against the surface.
+"""
+
+import warnings
+
+import numpy as np
+import pytest
+import trimesh
+from scipy.spatial import Delaunay, cKDTree
+
+from vtcore.errors import InputError
+from vtcore.layout import LayoutWarning, fill, place, skin_mesh
+from vtcore.layout import cadmeshes
+from vtcore.layout.report import OVERLAP_FRACTION, find_overlaps
+
+PITCH = 7.5e-3
+
+
+def quiet(fn, *a, **k):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", LayoutWarning)
+        return fn(*a, **k)
+
+
+def seam_gap(layout, radius, band):
+    """Widest empty arc (metres) round the axis among taxels with |z| < band."""
+    p = layout.positions[np.abs(layout.positions[:, 2]) < band]
+    ang = np.sort(np.arctan2(p[:, 1], p[:, 0]))
+    return float(np.diff(np.concatenate([ang, ang[:1] + 2 * np.pi])).max() * radius)
+
+
+def no_overlap(layout):
+    return not find_overlaps(layout.positions, layout.module_ids, OVERLAP_FRACTION * PITCH)
+
+
+def sharp_edges_under_modules(layout, mesh, crease_deg):
+    """Sharp edges (dihedral > crease_deg) of ``mesh`` passing between the taxels of one module:
+    sample points of the edge inside the hull of a module's taxels (in the module's plane)."""
+    ang = np.degrees(mesh.face_adjacency_angles)
+    e = np.asarray(mesh.face_adjacency_edges)[ang > crease_deg]
+    if not len(e):
+        return 0
+    v = np.asarray(mesh.vertices)
+    w = np.linspace(0.05, 0.95, 19)
+    pts = (v[e[:, 0], None] * (1 - w[None, :, None]) + v[e[:, 1], None] * w[None, :, None]).reshape(-1, 3)
+    tree = cKDTree(pts)
+    bad = 0
+    for m in np.unique(layout.module_ids):
+        t = layout.positions[layout.module_ids == m]
+        c = t.mean(axis=0)
+        near = tree.query_ball_point(c, np.linalg.norm(t - c, axis=1).max())
+        if not near:
+            continue
+        _, _, vt = np.linalg.svd(t - c)
+        basis = vt[:2]
+        hull = Delaunay((t - c) @ basis.T)
+        q = pts[near]
+        close = np.abs((q - c) @ vt[2]) < 3e-3  # on the module's side of the part
+        bad += int((hull.find_simplex((q[close] - c) @ basis.T) >= 0).any())
+    return bad
+
+
+@pytest.fixture(scope="module")
+def cylinder20():
+    return cadmeshes.full_cylinder(0.02, 0.1, 0.003)
+
+
+def test_full_cylinder_wrapped_by_fill(cylinder20):
+    side = np.abs(cylinder20.face_normals[:, 2]) < 0.5
+    lay, rep = quiet(fill, cylinder20, (0.02, 0, 0), (0, 1, 0), region=side)
+    r = np.hypot(lay.positions[:, 0], lay.positions[:, 1])
+    assert np.abs(r - 0.02).max() < 2e-4
+    assert no_overlap(lay) and rep.overlaps == []
+    assert rep.charts > 1  # one log map cannot wrap a closed link
+    # all the way round: the widest empty arc in the middle is at most two pitches
+    assert seam_gap(lay, 0.02, 0.02) <= 2 * PITCH
+    sm = skin_mesh(lay)
+    mid = lay.positions[sm.edges].mean(axis=1)
+    assert np.abs(np.hypot(mid[:, 0], mid[:, 1]) - 0.02).max() < 1e-3
+
+
+@pytest.mark.parametrize("n", [6])
+def test_full_cylinder_wrapped_by_a_strip(n):
+    """strip:6 is 112.5 mm long; round a 18.5 mm radius (116.2 mm) it closes on itself without
+    tearing (the issue saw strain 1.93 and taxels of one module 21 mm apart past the cut locus)."""
+    r0 = 0.0185
+    cyl = cadmeshes.full_cylinder(r0, 0.06, 0.003)
+    lay, rep = quiet(place, cyl, f"strip:{n}", (r0, 0, 0), (0, 1, 0))
+    r = np.hypot(lay.positions[:, 0], lay.positions[:, 1])
+    assert np.abs(r - r0).max() < 2e-4
+    assert rep.strain_max < 0.02 and no_overlap(lay)
+    assert seam_gap(lay, r0, 0.004) <= 2 * PITCH
+    sm = skin_mesh(lay)
+    mid = lay.positions[sm.edges].mean(axis=1)
+    assert np.abs(np.hypot(mid[:, 0], mid[:, 1]) - r0).max() < 1e-3
+
+
+def test_non_manifold_cad_link_side():
+    link = cadmeshes.cad_link()
+    side = (np.abs(link.face_normals[:, 2]) < 0.3) & (np.abs(link.triangles_center[:, 2]) < 0.08)
+    lay, rep = quiet(fill, link, (0.036, 0, 0), (0, 0, 1), region=side)
+    assert lay.n_modules >= 10 and no_overlap(lay)
+    assert rep.strain_max <= 0.05 + 1e-9
+    assert any("non-manifold" in n for n in rep.notes) and any("duplicate" in n for n in rep.notes)
+    # every taxel on the surface
+    _, d, _ = trimesh.proximity.closest_point(link, lay.positions)
+    assert d.max() < 1e-4
+
+
+def test_convex_hull_no_module_bridges_a_sharp_crease():
+    hull = cadmeshes.convex_hull_link()
+    assert len(hull.faces) == 200
+    top = hull.bounds[1, 2]
+    lay, rep = quiet(fill, hull, (0, 0, top), (1, 0, 0), crease_angle=40.0)
+    assert lay.n_modules >= 4 and no_overlap(lay)
+    assert sharp_edges_under_modules(lay, hull, 40.0) == 0
+
+
+def test_anchor_exactly_on_a_sharp_edge():
+    box = trimesh.creation.box(extents=[0.1, 0.1, 0.06]).subdivide_to_size(0.01)
+    at = (0.0, 0.05, 0.03)  # on the edge between the top and a side
+    lay, rep = quiet(fill, box, at, (1, 0, 0))
+    assert lay.n_modules >= 4 and no_overlap(lay)
+    assert sharp_edges_under_modules(lay, box, 40.0) == 0
+
+
+def test_two_disconnected_islands_are_both_filled():
+    plane = cadmeshes.full_cylinder(0.5, 0.3, 0.005, caps=False)  # nearly flat patches of a big tube
+    c = plane.triangles_center
+    ang = np.degrees(np.arctan2(c[:, 1], c[:, 0]))
+    a = (np.abs(ang) < 6) & (np.abs(c[:, 2]) < 0.05)
+    b = (np.abs(ang - 20) < 6) & (np.abs(c[:, 2]) < 0.05)
+    lay, rep = quiet(fill, plane, (0.5, 0, 0), (0, 1, 0), region=a | b)
+    near_b = np.abs(np.degrees(np.arctan2(lay.positions[:, 1], lay.positions[:, 0])) - 20) < 7
+    assert near_b.any() and (~near_b).any() and no_overlap(lay)
+    assert any("islands" in n for n in rep.notes)
+
+
+def test_region_smaller_than_a_module_says_why():
+    plate = trimesh.creation.box(extents=[0.012, 0.012, 0.002]).subdivide_to_size(0.002)
+    with pytest.raises(InputError, match="no whole module"):
+        quiet(fill, plate, (0, 0, 0.001), (1, 0, 0))
+
+
+def test_millimetres_given_as_metres_warn_and_stay_sane():
+    link = cadmeshes.cad_link(mm=True)
+    with pytest.warns(LayoutWarning, match="millimetres"):
+        lay, rep = place(link, "hexagon", (36.0, 0, 0), (0, 0, 1))
+    assert np.isfinite(lay.positions).all() and rep.overlaps == []
+    # a 60 mm hexagon on a 36 m radius is flat: taxels stay on the surface
+    _, d, _ = trimesh.proximity.closest_point(link, lay.positions)
+    assert d.max() < 1e-3
+
+
+def test_float32_vertices_and_the_same_layout_every_time(cylinder20):
+    m32 = trimesh.Trimesh(np.asarray(cylinder20.vertices, np.float32), cylinder20.faces, process=False)
+    side = np.abs(cylinder20.face_normals[:, 2]) < 0.5
+    a, _ = quiet(fill, m32, (0.02, 0, 0), (0, 1, 0), region=side, radius=0.03)
+    b, _ = quiet(fill, m32, (0.02, 0, 0), (0, 1, 0), region=side, radius=0.03)
+    c, _ = quiet(fill, cylinder20, (0.02, 0, 0), (0, 1, 0), region=side, radius=0.03)
+    assert np.array_equal(a.positions, b.positions)
+    assert len(a) == len(c) and np.abs(a.positions - c.positions).max() < 1e-5
+
+
+def test_too_big_a_request_fails_before_allocating():
+    from vtcore.layout.tiling import lattice_patch
+    from vtcore.layout import get_module
+
+    with pytest.raises(InputError, match="module positions"):
+        lattice_patch(get_module("cyskin10"), 0.0, (0, 0), np.zeros(2), 50.0)
