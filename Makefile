@@ -20,11 +20,12 @@ demo:
 	$(VENV)/bin/vtcore run scenes/demo.toml --out $(OUT)
 	@echo "demo: open $(OUT)/report.md"
 
-# Both lanes run even when the first fails; the exit status says whether both passed.
+# Both lanes run even when the first fails; the exit status says whether both passed. The CPU
+# seconds (workers included) say what a lane costs when the machine is shared.
 test: setup
 	@rc=0; for py in $(PY) $(PY313); do \
 	    echo "== lane $$($$py -c 'import sys, numpy, bpy; print(f"Python {sys.version.split()[0]}, numpy {numpy.__version__}, bpy {bpy.app.version_string}")')"; \
-	    SECONDS=0; $$py $(PYTEST) $(ARGS) || rc=1; echo "== lane took $${SECONDS} s"; \
+	    TIMEFORMAT="== lane took %0R s wall, %0U s user + %0S s sys CPU"; time $$py $(PYTEST) $(ARGS) || rc=1; \
 	done; exit $$rc
 
 test-fast: ARGS = -m "not slow"
