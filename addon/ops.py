@@ -51,9 +51,9 @@ def _failing(what: str):
 
 
 def _need_skin(context, message: str, *, taxels: bool = False, attribute: str | None = None):
-    """The skin the user means (see ``_skin_of``), or cancel with ``message`` when there is
+    """The skin the user means (see ``skin.skin_of``), or cancel with ``message`` when there is
     none, it has no taxels (``taxels``) or lacks ``attribute``."""
-    ob = _skin_of(context)
+    ob = skin.skin_of(context)
     if (ob is None or (taxels and len(ob.data.vertices) == 0)
             or (attribute is not None and attribute not in ob.data.attributes)):
         raise _Cancel(message)
@@ -170,18 +170,6 @@ def _direction(rotation):
     return np.array([np.cos(rotation), np.sin(rotation), 0.0])
 
 
-def _skin_of(context):
-    """The taxel object the user means: the active one, or the skin on the active end-effector."""
-    ob = context.active_object
-    if skin.is_taxels(ob):
-        return ob
-    if ob is not None:
-        for other in context.scene.objects:
-            if skin.is_taxels(other) and other.vtskin.end_effector == ob:
-                return other
-    return None
-
-
 def _apply_report(ob, report):
     from vtcore.layout.summary import report_lines
 
@@ -229,7 +217,7 @@ class VTSKIN_OT_lay_patch(_Op, bpy.types.Operator):
         ee = context.active_object
         if ee is None or ee.type != "MESH" or skin.is_taxels(ee):
             raise _Cancel("Select the end-effector mesh to lay the skin on (the active object)")
-        existing = _skin_of(context)
+        existing = skin.skin_of(context)
         frame = _frame(existing) if existing is not None else _frame(ee)
         verts, tri = _ee_input(ee, frame)
         if len(tri) == 0:
@@ -325,7 +313,7 @@ class VTSKIN_OT_move_module(_Op, bpy.types.Operator):
 def _contact_input(op, context):
     """(skin object, layout, triangles, indenter verts (own frame), faces, pose in skin frame) or an error string."""
     s = context.scene.vtskin
-    ob = _skin_of(context)
+    ob = skin.skin_of(context)
     if ob is None or len(ob.data.vertices) == 0:
         return "Select a skin with taxels (lay a patch first)"
     ind = s.indenter
@@ -430,7 +418,7 @@ class VTSKIN_OT_clear_bake(_Op, bpy.types.Operator):
     bl_label = "Clear Bake"
 
     def run(self, context):
-        ob = _skin_of(context)
+        ob = skin.skin_of(context)
         if ob is None or ob.vtskin.cache is None:
             raise _Cancel("The selected skin has no baked contact")
         bake.clear(ob)

@@ -48,9 +48,9 @@ def _row(col, s, *names, enabled=True):
 
 
 def _skin(context):
-    from .ops import _skin_of
+    from .skin import skin_of
 
-    return _skin_of(context)
+    return skin_of(context)
 
 
 class VTSKIN_PT_layout(_Panel, bpy.types.Panel):

@@ -83,3 +83,16 @@ def triangles(ob) -> np.ndarray:
 
 def is_taxels(ob) -> bool:
     return ob is not None and ob.type == "MESH" and ob.vtskin.role == "TAXELS"
+
+
+def skin_of(context):
+    """The taxel object the user means: the active one, or the skin on the active end-effector
+    (None when there is neither). Operators and panels ask this one question the same way."""
+    ob = context.active_object
+    if is_taxels(ob):
+        return ob
+    if ob is not None:
+        for other in context.scene.objects:
+            if is_taxels(other) and other.vtskin.end_effector == ob:
+                return other
+    return None
