@@ -15,6 +15,7 @@ from vtcore.scene.sections.layer import LAYER, build_layer, layer_options
 def test_layer_choices_are_the_contact_packages_constants():
     discover()
     assert LAYER.fields["model"].choices is elastic.MODELS
+    assert LAYER.fields["base"].choices is elastic.BASES
     assert LAYER.fields["geometry"].choices is GEOMETRIES
     assert LAYER.fields["backend"].choices == ("auto",) + proximity.BACKENDS
     assert EFFECTS["soft_layer"].params.fields["kernel"].choices is elastic.SPREADINGS

@@ -10,7 +10,7 @@ sets, so a new model or back-end there is valid here without an edit.
 
 from __future__ import annotations
 
-from ...contact.elastic import MODELS
+from ...contact.elastic import BASES, MODELS
 from ...contact.materials import MATERIALS, SoftLayer
 from ...contact.press import GEOMETRIES
 from ...contact.proximity import BACKENDS
@@ -23,7 +23,7 @@ LAYER = Section({
     "young_modulus": Field("float", default=None, gt=0, unit="Pa", doc="overrides the material's E"),
     "poisson": Field("float", default=None, ge=0, lt=0.5, doc="overrides the material's Poisson ratio"),
     "extent": Field("float", default=None, gt=0, unit="m", doc="radius of the layer (seed 001: 0.04)"),
-    "base": Field("str", default="bonded", choices=("bonded", "frictionless"),
+    "base": Field("str", default="bonded", choices=BASES,
                   doc="the layer's interface with the end-effector: glued, or a pad that slides"),
     "model": Field("str", default="finite_layer", choices=MODELS,
                    doc="contact model (see docs/contact.md)"),
