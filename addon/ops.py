@@ -209,9 +209,10 @@ class VTSKIN_OT_lay_patch(_Op, bpy.types.Operator):
     fill: bpy.props.BoolProperty(name="Fill region", default=False,
                                  description="Tile the selected faces with whole modules")
 
-    def run(self, context):
+    def _gather(self, context):
+        """Everything the placement needs, read from the scene (no writes): the end-effector,
+        the skin already on it (or None), the skin frame and lay_patch's arguments."""
         from vtcore.layout import get_module
-        from vtcore.scene import interactive
 
         s = context.scene.vtskin
         ee = context.active_object
@@ -235,13 +236,84 @@ class VTSKIN_OT_lay_patch(_Op, bpy.types.Operator):
         base = skin.read_layout(existing) if existing is not None and len(existing.data.vertices) else None
         with _failing("Cannot lay the patch"):
             module = get_module(s.module, mirror=s.mirror)
-            edit = interactive.lay_patch(verts, tri, at, existing=base, patch=patch, module=module,
-                                         direction=_direction(s.rotation), offset=s.offset, method=s.method,
-                                         fill_region=region, max_faces=s.solve_faces or None)
-        ob = _write_edit(context, ee, existing, frame, edit, s.module)
+        args = dict(vertices=verts, triangles=tri, at=at, existing=base, patch=patch, module=module,
+                    direction=_direction(s.rotation), offset=s.offset, method=s.method, fill_region=region,
+                    max_faces=s.solve_faces or None)
+        return ee, existing, frame, args
+
+    def _write(self, context, ee, existing, frame, edit):
+        ob = _write_edit(context, ee, existing, frame, edit, context.scene.vtskin.module)
         self.report({"INFO"}, f"{ob.name}: {len(edit.layout)} taxels, max strain "
                     f"{ob.vtskin.strain_max:.1f} %, {ob.vtskin.overlaps} overlaps")
         return {"FINISHED"}
+
+    def run(self, context):
+        from vtcore.scene import interactive
+
+        ee, existing, frame, args = self._gather(context)
+        with _failing("Cannot lay the patch"):
+            edit = interactive.lay_patch(**args)
+        return self._write(context, ee, existing, frame, edit)
+
+    # A fill from the UI runs as a modal operator: vtcore fills in a worker thread (vtcore's Job)
+    # while a timer shows its progress on the cursor and in the status bar, and Esc cancels it
+    # (the fill stops at its next progress call; the scene is left as it was). In background
+    # mode (the bpy wheel, scripts: no event loop) and from execute() it runs to completion.
+
+    def invoke(self, context, event):
+        if not self.fill or bpy.app.background or context.window is None:
+            return self.execute(context)
+        try:
+            self._start(context)
+        except _Cancel as exc:
+            return _fail(self, str(exc))
+        context.window_manager.modal_handler_add(self)
+        return {"RUNNING_MODAL"}
+
+    def _start(self, context):
+        """Gather the input, start the fill in a Job, the timer and the progress display."""
+        from vtcore.scene import interactive
+
+        self._input = self._gather(context)
+        self._job = interactive.Job(interactive.lay_patch, **self._input[3])
+        wm = context.window_manager
+        self._timer = wm.event_timer_add(0.1, window=context.window)
+        wm.progress_begin(0, 100)
+        self._status(context)
+
+    def _status(self, context, text=None):
+        if text is None:
+            text = f"Filling selected faces: {100 * self._job.fraction:.0f} % (Esc to cancel)"
+        context.window_manager.progress_update(int(100 * self._job.fraction))
+        if context.workspace is not None:
+            context.workspace.status_text_set(text)
+
+    def _end(self, context):
+        wm = context.window_manager
+        wm.event_timer_remove(self._timer)
+        wm.progress_end()
+        if context.workspace is not None:
+            context.workspace.status_text_set(None)
+
+    def modal(self, context, event):
+        if event.type == "ESC":
+            # the worker stops at its next progress call and its result is dropped: no need to wait
+            self._job.cancel()
+            self._end(context)
+            self.report({"WARNING"}, "Fill cancelled: the skin is unchanged")
+            return {"CANCELLED"}
+        if event.type != "TIMER" or not self._job.done:
+            if event.type == "TIMER":
+                self._status(context)
+            return {"RUNNING_MODAL"}  # other input waits until the fill is done or cancelled
+        self._end(context)
+        try:
+            with _failing("Cannot lay the patch"):
+                edit = self._job.result()
+        except _Cancel as exc:
+            return _fail(self, str(exc))
+        ee, existing, frame, _ = self._input
+        return self._write(context, ee, existing, frame, edit)
 
 
 def _selected_modules(ob):

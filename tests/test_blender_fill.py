@@ -224,3 +224,68 @@ def test_mirror_setting_lays_mirror_image_modules():
             np.testing.assert_array_equal(tid, np.arange(12))
         else:
             assert np.abs(pos - ref.positions).max() > 5e-3  # the mirror image is another placement
+
+
+def modal_stand_in():
+    """The Fill operator's own methods bound to a stand-in: Python cannot make an operator
+    instance, and the bpy wheel has no event loop to send a real one timer events and Esc."""
+    import types
+
+    from addon.ops import VTSKIN_OT_lay_patch as Op
+
+    op = types.SimpleNamespace(fill=True, reports=[])
+    op.report = lambda kind, msg: op.reports.append((set(kind).pop(), msg))
+    for name in ("_gather", "_write", "_start", "_status", "_end", "modal"):
+        setattr(op, name, types.MethodType(getattr(Op, name), op))
+    return op
+
+
+def events(op, *kinds):
+    """Send ``op.modal`` events of these types; its answer to the last one."""
+    import types
+
+    out = None
+    for kind in kinds:
+        out = op.modal(bpy.context, types.SimpleNamespace(type=kind))
+    return out
+
+
+def test_modal_fill_runs_in_steps_and_matches_vtcore():
+    import time
+
+    ee = add_object(nonmanifold_link(), "link")
+    cent, nrm, _ = face_data(ee)
+    sel = (nrm[:, 2] > 0.99) & (np.abs(cent[:, 0]) < 0.035)
+    select_faces(ee, sel)
+    op = modal_stand_in()
+    op._start(bpy.context)
+    assert events(op, "MOUSEMOVE") == {"RUNNING_MODAL"}  # other input waits for the fill
+    fractions = []
+    t0 = time.perf_counter()
+    while (out := events(op, "TIMER")) == {"RUNNING_MODAL"}:
+        fractions.append(op._job.fraction)
+        assert time.perf_counter() - t0 < 600
+        time.sleep(0.05)
+    assert out == {"FINISHED"} and op.reports[-1][0] == "INFO"
+    assert fractions == sorted(fractions) and all(0 <= f <= 1 for f in fractions)
+    ob = next(o for o in bpy.data.objects if o.vtskin.role == "TAXELS")
+    check_against_direct(ob, ee, sel)
+
+
+def test_modal_fill_esc_cancels_and_changes_nothing():
+    from bl_helpers import scene_state
+
+    ee = add_object(nonmanifold_link(), "link")
+    _, nrm, _ = face_data(ee)
+    select_faces(ee, nrm[:, 2] > 0.99)
+    before = scene_state()
+    op = modal_stand_in()
+    op._start(bpy.context)
+    assert events(op, "TIMER", "ESC") == {"CANCELLED"}
+    assert op.reports[-1] == ("WARNING", "Fill cancelled: the skin is unchanged")
+    assert op._job.wait(600)
+    from vtcore.errors import Cancelled
+
+    with pytest.raises(Cancelled):
+        op._job.result()
+    assert scene_state() == before

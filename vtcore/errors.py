@@ -15,6 +15,10 @@ class VtError(Exception):
     """Base of all vtcore errors caused by input (files, scenes, arguments)."""
 
 
+class Cancelled(VtError):
+    """The caller stopped a long computation: its progress callback returned False."""
+
+
 def _locate(file=None, key=None, line=None) -> str:
     parts = []
     if file is not None:

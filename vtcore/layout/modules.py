@@ -159,6 +159,12 @@ class ModuleType:
             mirrored=not self.mirrored, doc=self.doc, meta=dict(self.meta))
 
     @property
+    def area(self) -> float:
+        """Area of the outline, square metres."""
+        x, y = self.outline.T
+        return float(abs(x @ np.roll(y, -1) - np.roll(x, -1) @ y) / 2)
+
+    @property
     def radius(self) -> float:
         """Largest distance from the module origin to its outline, metres."""
         return float(np.hypot(*self.outline.T).max())

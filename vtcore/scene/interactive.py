@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .._progress import Job, keep_going  # noqa: F401  (Job: the add-on runs a long fill in one)
 from ..errors import InputError
 from ..layout import Layout, skin_mesh
 
@@ -181,7 +182,7 @@ def _edit(layout: Layout, report: dict) -> LayoutEdit:
 
 def lay_patch(vertices, triangles, at, *, existing: Layout | None = None, patch: str = "hexagon",
               module: str = "cyskin10", direction=None, offset: float = 0.0, method: str = "logmap",
-              fill_region=None, max_faces: int | None = 20_000) -> LayoutEdit:
+              fill_region=None, max_faces: int | None = 20_000, progress=None) -> LayoutEdit:
     """Conform a patch (or fill a face region with modules) onto a mesh, added to ``existing``.
 
     vertices : (V, 3) metres and triangles : (F, 3) of the end-effector surface, in
@@ -191,6 +192,10 @@ def lay_patch(vertices, triangles, at, *, existing: Layout | None = None, patch:
     fill_region : (F,) bool face mask: tile that region with whole modules instead.
     max_faces : the log map is solved on a copy simplified to about this many faces
         (vtcore.layout.place's speed/accuracy knob; None: the full mesh).
+    progress : None or ``progress(fraction) -> bool`` (0..1); returning False stops a fill,
+        which raises :class:`vtcore.errors.Cancelled` (nothing is returned or changed).
+        It is told 0 when the fill starts and 1 when it ends (the fill itself reports no
+        steps yet, so a stop takes effect when it returns).
     Returns the merged layout, its skin mesh and the placement report.
     """
     from ..layout import fill, place
@@ -207,8 +212,10 @@ def lay_patch(vertices, triangles, at, *, existing: Layout | None = None, patch:
         region = np.asarray(fill_region, dtype=bool).reshape(-1)
         if len(region) != len(mesh.faces) or not region.any():
             raise InputError("select at least one face of the end-effector to fill", key="region")
+        keep_going(progress, 0.0, "the fill")
         new, rep = fill(mesh, at, direction, module=module, region=region, offset=offset, max_faces=max_faces,
                         existing=existing)
+        keep_going(progress, 1.0, "the fill")
     else:
         new, rep = place(mesh, patch, at, direction, module=module, offset=offset, method=method,
                          max_faces=max_faces, existing=existing)
