@@ -194,8 +194,8 @@ def lay_patch(vertices, triangles, at, *, existing: Layout | None = None, patch:
         (vtcore.layout.place's speed/accuracy knob; None: the full mesh).
     progress : None or ``progress(fraction) -> bool`` (0..1); returning False stops a fill,
         which raises :class:`vtcore.errors.Cancelled` (nothing is returned or changed).
-        It is told 0 when the fill starts and 1 when it ends (the fill itself reports no
-        steps yet, so a stop takes effect when it returns).
+        It is told 0 when the fill starts, the fill's own fractions as its growth proceeds
+        (after each chart, so a stop takes effect at the next one) and 1 when it ends.
     Returns the merged layout, its skin mesh and the placement report.
     """
     from ..layout import fill, place
@@ -214,7 +214,7 @@ def lay_patch(vertices, triangles, at, *, existing: Layout | None = None, patch:
             raise InputError("select at least one face of the end-effector to fill", key="region")
         keep_going(progress, 0.0, "the fill")
         new, rep = fill(mesh, at, direction, module=module, region=region, offset=offset, max_faces=max_faces,
-                        existing=existing)
+                        existing=existing, progress=progress)
         keep_going(progress, 1.0, "the fill")
     else:
         new, rep = place(mesh, patch, at, direction, module=module, offset=offset, method=method,
