@@ -9,6 +9,7 @@ import scipy.sparse as sp
 
 from ..errors import InputError
 from ..geometry import tangent_basis
+from ..tolerances import EPS, TINY
 
 #: A component whose second moments differ by less than this fraction of their sum
 #: (a single point, a symmetric blob) has no orientation and is left out of the mean.
@@ -59,7 +60,7 @@ def plane_basis(normal) -> np.ndarray:
     """
     n = np.asarray(normal, dtype=np.float64).reshape(3)
     norm = np.linalg.norm(n)
-    if not np.isfinite(norm) or norm < 1e-12:
+    if not np.isfinite(norm) or norm < EPS:
         raise InputError(f"plane normal must be a non-zero finite vector, got {n}", key="normal")
     n = n / norm
     u, v = tangent_basis(n)
@@ -162,7 +163,7 @@ def component_orientation(plane_points, labels, weights=None, n_components=None)
     a, b = mu20 - mu02, 2.0 * mu11
     spread = mu20 + mu02
     aniso = np.hypot(a, b)
-    oriented = (m0 > 0) & (aniso > ISOTROPY_TOL * np.maximum(spread, 1e-300)) & (spread > 0)
+    oriented = (m0 > 0) & (aniso > ISOTROPY_TOL * np.maximum(spread, TINY)) & (spread > 0)
     thetas = np.where(oriented, 0.5 * np.arctan2(b, a), 0.0)
     thetas = wrap_half_pi(thetas)
     return thetas, oriented, m0
@@ -186,7 +187,7 @@ def mean_axis(thetas, weights=None) -> float:
         return 0.0
     w = np.ones_like(t) if weights is None else np.asarray(weights, dtype=np.float64)
     c, s = np.sum(w * np.cos(2 * t)), np.sum(w * np.sin(2 * t))
-    if np.hypot(c, s) < 1e-12 * max(np.sum(np.abs(w)), 1e-300):
+    if np.hypot(c, s) < EPS * max(np.sum(np.abs(w)), TINY):
         return 0.0
     return float(wrap_half_pi(0.5 * np.arctan2(s, c)))
 
