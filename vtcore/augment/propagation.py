@@ -41,6 +41,9 @@ _CHUNK = 16384
 #: (the benchmark sets it to 0 to time the KD-tree path on the same data).
 BRUTE_FORCE_MAX = 64
 
+#: Largest |coordinate| accepted (any unit): squared distances stay far from float64's 1.8e308.
+COORD_MAX = 1e150
+
 
 # ---------------------------------------------------------------------------
 # validation
@@ -62,6 +65,10 @@ def _points(x, name: str, allow_empty: bool = True) -> np.ndarray:
     if not np.all(np.isfinite(a)):
         bad = int(np.flatnonzero(~np.isfinite(a).all(axis=1))[0])
         raise InputError(f"row {bad} is not finite", key=name)
+    if a.size and np.abs(a).max() > COORD_MAX:
+        # squared distances (the Gram expansion, KD-tree queries) overflow past ~1e154
+        raise InputError(f"coordinates must be within +-{COORD_MAX:g} (in the cloud's unit), got "
+                         f"{np.abs(a).max():g}", key=name)
     return np.ascontiguousarray(a)
 
 

@@ -138,6 +138,8 @@ def cluster_match(labels, target) -> np.ndarray:
 def accuracy(labels, target) -> float:
     """Fraction of objects whose matched cluster (Eq. 7) equals the task's, in [0.5, 1] for N even."""
     v, t = _check_pair(labels, target)
+    if len(v) == 0:  # the mean of nothing is NaN: say so instead of returning it
+        raise InputError("no objects: accuracy needs at least one label", key="labels")
     return float(np.mean(cluster_match(v, t) == t))
 
 

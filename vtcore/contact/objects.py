@@ -27,6 +27,10 @@ DEFAULTS: dict[str, dict] = {
 }
 
 
+#: Accepted object dimensions, metres (make_object raises outside).
+SIZE_RANGE_M = (1e-6, 1e3)
+
+
 def _positive(kind, dims):
     for k, v in dims.items():
         if k in ("subdivisions", "sections"):
@@ -35,8 +39,9 @@ def _positive(kind, dims):
                                  key=k)
             continue
         vals = np.atleast_1d(np.asarray(v, dtype=float))
-        if not np.all(np.isfinite(vals)) or np.any(vals <= 0):
-            raise InputError(f"{kind}: {k} must be > 0 m, got {v}", key=k)
+        # a micrometre to a kilometre: below, the mesh's normals underflow to 0/0; above, areas overflow
+        if not np.all(np.isfinite(vals)) or np.any(vals < SIZE_RANGE_M[0]) or np.any(vals > SIZE_RANGE_M[1]):
+            raise InputError(f"{kind}: {k} must be in [{SIZE_RANGE_M[0]:g}, {SIZE_RANGE_M[1]:g}] m, got {v}", key=k)
 
 
 def _halfcylinder(radius, length, sections):

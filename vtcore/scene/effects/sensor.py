@@ -142,7 +142,8 @@ register_effect(EffectSpec("saturation", "sensor", 80, Saturation, Section({
     "max_counts": Field("float", default=65535.0, gt=0, doc="16-bit ceiling"),
     "min_counts": Field("float", default=0.0, doc="floor")}), doc="clip to the converter's range"))
 register_effect(EffectSpec("quantisation", "sensor", 90, Quantisation, Section({
-    "step": Field("float", default=1.0, gt=0, doc="counts per step")}), doc="integer counts"))
+    "step": Field("float", default=1.0, ge=1e-6, le=1e6,
+                  doc="counts per step (1e-6..1e6: finer is no quantisation, and counts / 1e-320 overflow)")}), doc="integer counts"))
 register_effect(EffectSpec("sampling", "sensor", 95, Sampling, Section({
     "rate": Field("float", default=20.0, gt=0, unit="Hz", doc="read-out clock"),
     "phase": Field("float", default=0.0, ge=0, unit="s", doc="first tick after the first frame")}),

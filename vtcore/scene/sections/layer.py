@@ -20,7 +20,8 @@ from ..schema import Field, Section
 LAYER = Section({
     "thickness": Field("float", default=3e-3, gt=0, unit="m", doc="soft layer thickness"),
     "material": Field("str", default="ecoflex_00_20", choices=tuple(MATERIALS), doc="layer material"),
-    "young_modulus": Field("float", default=None, gt=0, unit="Pa", doc="overrides the material's E"),
+    "young_modulus": Field("float", default=None, ge=1.0, le=1e12, unit="Pa",
+                           doc="overrides the material's E (1 Pa..1 TPa; silicones 1e4-1e6, steel 2e11)"),
     "poisson": Field("float", default=None, ge=0, lt=0.5, doc="overrides the material's Poisson ratio"),
     "extent": Field("float", default=None, gt=0, unit="m", doc="radius of the layer (seed 001: 0.04)"),
     "base": Field("str", default="bonded", choices=BASES,

@@ -24,6 +24,7 @@ import numpy as np
 
 from ...layout import Layout, make_patch, wrap_on_sphere
 from ...layout.modules import MODULES, PITCH
+from ..budget import MAX_STRIP_MODULES
 from ..registry import register_section
 from ..schema import Field, Section
 
@@ -43,6 +44,9 @@ def _patch_ok(v: str) -> str | None:
     if v in ("auto", "triangle", "hexagon", "fill"):
         return None
     if v.startswith("strip:") and v[6:].isdigit() and int(v[6:]) >= 1:
+        if int(v[6:]) > MAX_STRIP_MODULES:
+            return (f"a strip of {int(v[6:])} modules is longer than the {MAX_STRIP_MODULES} modules accepted "
+                    "(vtcore.scene.budget.MAX_STRIP_MODULES); use fill for large areas")
         return None
     return f"must be auto, triangle, hexagon, fill or strip:N (N >= 1), got {v!r}"
 
@@ -154,7 +158,16 @@ def _scaled_patch(lay: dict):
 
 def build_layout(scene) -> Layout:
     """The layout of ``scene``: a loaded file, a seed end-effector's own skin, or a patch
-    placed on the end-effector."""
+    placed on the end-effector. The scene's counts are checked against the memory budget
+    (:mod:`vtcore.scene.budget`) as soon as the number of taxels is known."""
+    from ..budget import check_run_sizes
+
+    layout = _build_layout(scene)
+    check_run_sizes(scene, len(layout))
+    return layout
+
+
+def _build_layout(scene) -> Layout:
     from ... import layout as L
 
     ee, lay = _tables(scene)

@@ -33,10 +33,11 @@ from ...errors import UnreachableTargetError
 from ...tolerances import EPS
 from ..registry import TaskSpec, register_task
 from ..runner import TaskResult
+from ..budget import MAX_FORCE_N
 from ..schema import Field, Section
 
 _COMMON = {
-    "force": Field("float", default=10.0, gt=0, unit="N", doc="total normal force of each press (seed 001: 10 N)"),
+    "force": Field("float", default=10.0, gt=0, le=MAX_FORCE_N, unit="N", doc="total normal force of each press (seed 001: 10 N)"),
     "readings": Field("int", default=10, ge=1, doc="readings averaged while the force is held (seed 001: 10)"),
     "trials": Field("int", default=3, ge=1, doc="trials averaged per object (seed 001: 3)"),
     "kmeans_runs": Field("int", default=3, ge=1, doc="K-Means runs that must agree (seed 001: 3)"),

@@ -23,6 +23,7 @@ import numpy as np
 from ...plots import png_writer, pyplot
 from ..registry import TaskSpec, register_task
 from ..runner import TaskResult
+from ..budget import MAX_FORCE_N
 from ..schema import Field, Section
 
 METHODS = ("mesh", "image", "subtaxel")
@@ -55,7 +56,7 @@ PARAMS = Section({
     "active_depth": Field("float", default=0.012, gt=0, unit="m",
                           doc="press only taxels within this depth of the tangent plane at x_R "
                               "(the rest cannot touch a flat-topped object; <1% change, 3-5x faster)"),
-    "force": Field("float", default=15.0, gt=0, unit="N", doc="force held at each tap (seed 002: 15 N)"),
+    "force": Field("float", default=15.0, gt=0, le=MAX_FORCE_N, unit="N", doc="force held at each tap (seed 002: 15 N)"),
     "step": Field("float", default=5e-3, gt=0, unit="m", doc="s of Eq. 9 (seed 002: 5 mm)"),
     "lift": Field("float", default=0.01, ge=0, unit="m", doc="lift between taps (seed 002: 1 cm)"),
     "runs": Field("int", default=3, ge=1, doc="experiments per method (seed 002: 3)"),

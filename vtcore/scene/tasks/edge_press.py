@@ -13,6 +13,7 @@ import numpy as np
 from ...tolerances import LENGTH_TOL
 from ..registry import TaskSpec, register_task
 from ..runner import TaskResult
+from ..budget import MAX_FORCE_N
 from ..schema import Field, Section
 
 FINGER = Section({
@@ -23,7 +24,7 @@ FINGER = Section({
 PARAMS = Section({
     "end_effector": Field("str", default="seed002_curved", choices=("seed002_planar", "seed002_curved")),
     "fingers": Field("tables", default=[], section=FINGER, doc="[[task.fingers]] tables"),
-    "force": Field("float", default=10.0, gt=0, unit="N", doc="total force of all fingers"),
+    "force": Field("float", default=10.0, gt=0, le=MAX_FORCE_N, unit="N", doc="total force of all fingers"),
     "fraction": Field("float", default=0.15, ge=0, le=1, doc="Eq. 7 threshold / strongest response"),
     "readings": Field("int", default=5, ge=1, doc="sensor readings while holding the force"),
     "rate": Field("float", default=20.0, gt=0, unit="Hz", doc="CySkin: 20 Hz (seed 002)"),

@@ -28,13 +28,14 @@ from ...plots import pyplot, skin_3d, taxel_map
 from ...tolerances import EPS
 from ..registry import TaskSpec, register_task
 from ..runner import TaskResult
+from ..budget import MAX_FORCE_N
 from ..schema import Field, Section
 from ..sections.layer import build_layer, layer_options
 from ..sections.objects import keyframe_poses, object_compliance, object_mesh, object_pose
 from ..sections.layout import build_end_effector, build_layout
 
 PARAMS = Section({
-    "force": Field("float", default=10.0, gt=0, unit="N", doc="target total normal force"),
+    "force": Field("float", default=10.0, gt=0, le=MAX_FORCE_N, unit="N", doc="target total normal force"),
     "target_response": Field("float", default=None, gt=0,
                              doc="target mean response p-bar* in counts (replaces force; seed 000: 4000)"),
     "object": Field("int", default=0, ge=0, doc="which [[objects]] entry to press"),
