@@ -38,11 +38,13 @@ Pass ``units="m"`` or ``units="mm"`` to declare them instead.
 from __future__ import annotations
 
 import json
+import warnings
 from pathlib import Path
 
 import numpy as np
 
-from ...errors import InputError
+from ...errors import FormatError, InputError, VtError
+from ...inputs import check_input, clean, read_bytes
 from ..model import Layout
 from . import csv, cyskin, icub, mjcf, native, ply, urdf
 
@@ -54,13 +56,17 @@ READ_FORMATS = tuple(n for n, m in FORMAT_MODULES.items() if m.read is not None)
 SUFFIX_FORMATS = {s: n for n, m in reversed(FORMAT_MODULES.items()) for s in m.SUFFIXES if s}
 
 
+#: Largest |coordinate| of a taxel, metres: a skin larger than a kilometre is a unit or file error.
+MAX_COORDINATE_M = 1e3
+
+
 def detect_format(path: Path) -> str:
     """The format of an existing file: from its suffix and, for ``.json``, its content."""
     ext = path.suffix.lower()
     if ext == ".json":
         try:
-            data = json.loads(path.read_text(encoding="utf-8", errors="replace"))
-        except (OSError, ValueError):
+            data = json.loads(read_bytes(path, "layout file").decode("utf-8", errors="replace"))
+        except (OSError, ValueError, RecursionError):
             return native.NAME
         if isinstance(data, dict) and data.get("format") != "vtcore-layout" and (
                 "skin" in data or "tactile_maps" in data or "info" in data):
@@ -82,14 +88,30 @@ def load(path, format: str | None = None, *, units: str | None = None) -> Layout
     to declare the file's length unit; by default declared units in the file
     are used, else millimetres are detected (and warned about).
     """
-    path = Path(path)
-    if not path.is_file():
-        raise InputError("file not found", file=path)
+    path = check_input(Path(path), "layout file")  # folders, pipes and devices refused unopened
     fmt = format or detect_format(path)
     if fmt not in READ_FORMATS:
         raise InputError(f"cannot read format {fmt!r}; readable: {', '.join(READ_FORMATS)}", file=path,
                          key="format")
-    return FORMAT_MODULES[fmt].read(path, units=units)
+    try:
+        with warnings.catch_warnings():
+            # overflow or an empty mean inside a reader shows as a non-finite result, refused below
+            warnings.simplefilter("ignore", RuntimeWarning)
+            with np.errstate(all="ignore"):
+                layout = FORMAT_MODULES[fmt].read(path, units=units)
+    except VtError:
+        raise
+    except (ValueError, TypeError, KeyError, IndexError, AttributeError, OverflowError, RecursionError) as exc:
+        # the boundary's last line: a value of a type or size a reader did not expect
+        raise FormatError(f"not a readable {fmt} layout: {type(exc).__name__}: {clean(exc)}", file=path) from None
+    for key in ("positions", "normals"):
+        a = np.asarray(getattr(layout, key), dtype=np.float64)
+        if not np.isfinite(a).all():
+            raise FormatError(f"{key} hold non-finite values", file=path, key=key)
+    if len(layout) and np.abs(layout.positions).max() > MAX_COORDINATE_M:
+        raise FormatError(f"positions must be within +-{MAX_COORDINATE_M:g} m, got "
+                          f"{np.abs(layout.positions).max():g} m (wrong units?)", file=path, key="positions")
+    return layout
 
 
 def save(layout: Layout, path, format: str | None = None, *, transform=None, **options) -> None:

@@ -9,6 +9,7 @@ import warnings
 import numpy as np
 
 from ...errors import FormatError, InputError
+from ...inputs import read_text
 from ...tolerances import ZERO_NORMAL
 from ..mesh import LayoutWarning, nn_spacing, estimate_normals
 from ..model import Layout
@@ -180,9 +181,11 @@ def read_json_doc(path):
     from pathlib import Path
 
     try:
-        return json.loads(Path(path).read_text(encoding="utf-8"))
+        return json.loads(read_text(Path(path), "JSON file"))
     except json.JSONDecodeError as exc:
         raise FormatError(f"not valid JSON: {exc.msg}", file=path, line=exc.lineno) from None
+    except RecursionError:  # [[[[... nested past Python's stack
+        raise FormatError("not valid JSON: nested too deeply", file=path) from None
 
 
 def read_robot_xml(model, root_tag: str):

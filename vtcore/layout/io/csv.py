@@ -17,6 +17,7 @@ import numpy as np
 
 from ..._io import atomic_write
 from ...errors import FormatError
+from ...inputs import read_text
 from ..model import Layout
 from ..uids import cyskin_modules
 from .common import ImportReport, check_repeats, clean_normals, finish, number, parse_number, units_scale
@@ -58,7 +59,7 @@ def write(layout: Layout, path) -> None:
 
 def read(path, units: str | None = None) -> Layout:
     report = ImportReport(path)
-    text = Path(path).read_bytes().decode("utf-8-sig", errors="replace").replace("\r\n", "\n").replace("\r", "\n")
+    text = read_text(path, "layout file").replace("\r\n", "\n").replace("\r", "\n")
     lines = text.split("\n")
     header = None
     declared = None

@@ -20,6 +20,7 @@ import numpy as np
 
 from ..._io import atomic_write
 from ...errors import FormatError
+from ...inputs import finite_json
 from ..model import Layout
 from ..uids import cyskin_modules
 from .common import (ImportReport, array_digest, check_repeats, clean_normals, default_faces, finish, parse_number,
@@ -267,6 +268,7 @@ def write(layout: Layout, path, faces: np.ndarray | None = None, *, estimate_nor
     else:
         f = default_faces(layout) if faces is None else np.asarray(faces, dtype=np.int64).reshape(-1, 3)
         doc = _fresh_doc(layout, f.tolist(), estimate_normals)
+    finite_json(doc)  # a NaN tf or coordinate would be written as the non-JSON token NaN
     with atomic_write(path, "w", encoding="utf-8") as fh:
-        json.dump(doc, fh, indent=1)
+        json.dump(doc, fh, indent=1, allow_nan=False)
         fh.write("\n")

@@ -21,6 +21,7 @@ import numpy as np
 
 from ..._io import atomic_write
 from ...errors import FormatError, InputError
+from ...inputs import decode, read_bytes
 from ..model import Layout
 from .common import (ImportReport, check_repeats, clean_normals, finish, number, parse_number, row_digests,
                      unchanged_rows, units_scale)
@@ -36,7 +37,7 @@ def read(path, units: str | None = None) -> Layout:
     """Read an iCub skinGui positions file. Every calibration row is read (the
     reference reader drops the last one); rows of six zeros are empty slots."""
     report = ImportReport(path)
-    raw = Path(path).read_bytes().decode("utf-8", errors="replace")
+    raw = decode(read_bytes(path, "layout file"), path)  # UTF-8 (BOM ok), else the byte offset
     text = raw.replace("\r\n", "\n").replace("\r", "\n")
     lines = text.split("\n")
     header: dict = {}

@@ -9,6 +9,7 @@ import numpy as np
 
 from ..._io import atomic_write
 from ...errors import FormatError
+from ...inputs import finite_json
 from ..model import Layout
 from .common import ImportReport, as_list, clean_normals, finish, read_json_doc, units_scale
 
@@ -49,8 +50,9 @@ def write(layout: Layout, path) -> None:
         },
         "meta": _jsonable(layout.meta),
     }
+    finite_json(doc)  # a NaN tf or coordinate would be written as the non-JSON token NaN
     with atomic_write(path, "w", encoding="utf-8") as fh:
-        json.dump(doc, fh, indent=1)
+        json.dump(doc, fh, indent=1, allow_nan=False)
         fh.write("\n")
 
 

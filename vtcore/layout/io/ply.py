@@ -20,6 +20,7 @@ import numpy as np
 
 from ..._io import atomic_write
 from ...errors import FormatError
+from ...inputs import read_bytes
 from ..model import Layout
 from .common import ImportReport, clean_normals, default_faces, finish, number, parse_number, units_scale
 
@@ -72,7 +73,7 @@ _PLY_TYPES = {"char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1", "short":
 
 def read(path, units: str | None = None) -> Layout:
     report = ImportReport(path)
-    raw = Path(path).read_bytes()
+    raw = read_bytes(path, "layout file")
     end = raw.find(b"end_header")
     if not raw.startswith(b"ply") or end < 0:
         raise FormatError("not a PLY file (no 'ply' magic or no end_header)", file=path, line=1)
