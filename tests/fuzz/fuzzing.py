@@ -29,16 +29,17 @@ import os
 import re
 import signal
 import warnings
-from collections import Counter
+from collections import Counter, defaultdict
 
 from hypothesis import HealthCheck, settings
 from hypothesis import strategies as st
 
-DEFAULT_EXAMPLES = 40
+DEFAULT_EXAMPLES = 25
 LONG_EXAMPLES = 10_000
 HANG_SECONDS = 60
 
 COUNTS: Counter = Counter()
+OUTCOMES: defaultdict = defaultdict(Counter)  # reader -> outcome (exit 0, exit 2, traceback, hang) -> inputs
 
 NASTY_NUMBERS = ["nan", "NaN", "inf", "-inf", "Infinity", "1e308", "-1e308", "1e400", "-0", "-0.0", "1e-320",
                  "4.9e-324", "18446744073709551616", "99999999999999999999999999", "-9223372036854775809",
@@ -168,11 +169,32 @@ def run_cli(reader: str, argv: list[str]) -> tuple[int, str, str]:
 
     COUNTS[reader] += 1
     out, err = io.StringIO(), io.StringIO()
-    with warnings.catch_warnings():
-        warnings.simplefilter("error", RuntimeWarning)
-        with alarm(HANG_SECONDS), contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-            rc = main([str(a) for a in argv])
+    outcome = "traceback"
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", RuntimeWarning)
+            with alarm(HANG_SECONDS), contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+                rc = main([str(a) for a in argv])
+        outcome = f"exit {rc}" if rc in (0, 2) else f"exit {rc} (unexpected)"
+    except Hang:
+        outcome = "hang"
+        raise
+    finally:
+        OUTCOMES[reader][outcome] += 1
+        _flush_progress()
     return rc, out.getvalue(), err.getvalue()
+
+
+def _flush_progress(every: int = 25) -> None:
+    """``VTCORE_FUZZ_PROGRESS=FILE``: rewrite FILE with the outcomes per reader every ``every`` inputs
+    (a long run shows its counts while it runs, and keeps them if it is stopped)."""
+    path = os.environ.get("VTCORE_FUZZ_PROGRESS")
+    if not path or sum(COUNTS.values()) % every:
+        return
+    tmp = f"{path}.{os.getpid()}.tmp"
+    with open(tmp, "w", encoding="utf-8") as fh:
+        json.dump({r: {"inputs": COUNTS[r], **dict(OUTCOMES[r])} for r in sorted(COUNTS)}, fh, indent=1)
+    os.replace(tmp, path)
 
 
 def assert_clean_exit(rc: int, out: str, err: str, *, lines: int | None = 1) -> None:
@@ -185,6 +207,18 @@ def assert_clean_exit(rc: int, out: str, err: str, *, lines: int | None = 1) -> 
         if lines is not None:
             assert len(got) == lines, err
         assert not re.search(r"[\x00-\x08\x0b-\x1f\x7f]", err.replace("\n", "")), f"control bytes: {err!r}"
+
+
+def fuzz(config, strategy, body) -> None:
+    """Run ``body(example)`` on ``examples(config)`` draws of ``strategy`` (hypothesis shrinks a failure)."""
+    from hypothesis import given
+
+    @fuzz_settings(config)
+    @given(strategy)
+    def check(example):
+        body(example)
+
+    check()
 
 
 def record_counts() -> None:

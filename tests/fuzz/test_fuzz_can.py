@@ -11,10 +11,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import given
 from hypothesis import strategies as st
 
-from fuzzing import assert_clean_exit, fuzz_settings, mutated, record_counts, run_cli
+from fuzzing import assert_clean_exit, fuzz, mutated, run_cli
 
 ROOT = Path(__file__).resolve().parents[2]
 DATA = ROOT / "scenes" / "data"
@@ -56,12 +55,6 @@ def seeds(tmp_path_factory):
     return out
 
 
-@pytest.fixture(scope="module", autouse=True)
-def _report():
-    yield
-    record_counts()
-
-
 def _check_frames_npz(path):
     from vtcore.can import load_frames_npz
 
@@ -77,8 +70,6 @@ def test_fuzz_can_decode(fmt, seeds, tmp_path, pytestconfig):
     suffix, blobs, codec = seeds[f"decode{fmt}"]
     src, out = tmp_path / f"in{suffix}", tmp_path / "out.npz"
 
-    @fuzz_settings(pytestconfig)
-    @given(mutated(blobs))
     def check(data):
         src.write_bytes(data)
         out.unlink(missing_ok=True)
@@ -87,15 +78,13 @@ def test_fuzz_can_decode(fmt, seeds, tmp_path, pytestconfig):
         if rc == 0:
             _check_frames_npz(out)
 
-    check()
+    fuzz(pytestconfig, mutated(blobs), check)
 
 
 def test_fuzz_recording_import(seeds, tmp_path, pytestconfig):
     _, blobs, _ = seeds["recording"]
     src, out, rep = tmp_path / "rec.txt", tmp_path / "out.npz", tmp_path / "report.json"
 
-    @fuzz_settings(pytestconfig)
-    @given(mutated(blobs))
     def check(data):
         src.write_bytes(data)
         out.unlink(missing_ok=True)
@@ -110,22 +99,20 @@ def test_fuzz_recording_import(seeds, tmp_path, pytestconfig):
                 assert z["frames"].dtype == np.uint16
             json.loads(rep.read_text(encoding="utf-8"))   # strict JSON (no NaN token)
 
-    check()
+    fuzz(pytestconfig, mutated(blobs), check)
 
 
 def test_fuzz_can_encode_bytes(seeds, tmp_path, pytestconfig):
     _, blobs, codec = seeds["frames"]
     src, out = tmp_path / "f.npz", tmp_path / "out.log"
 
-    @fuzz_settings(pytestconfig)
-    @given(mutated(blobs))
     def check(data):
         src.write_bytes(data)
         out.unlink(missing_ok=True)
         rc, so, se = run_cli("can encode (bytes)", ["can", "encode", src, "--codec", codec, "--out", out])
         assert_clean_exit(rc, so, se)
 
-    check()
+    fuzz(pytestconfig, mutated(blobs), check)
 
 
 _VALUES = st.one_of(st.floats(allow_nan=True, allow_infinity=True), st.integers(-2**70, 2**70),
@@ -169,8 +156,6 @@ def frames_arrays(draw):
 def test_fuzz_can_encode_arrays(codec, tmp_path, pytestconfig):
     src, out = tmp_path / "f.npz", tmp_path / "out.log"
 
-    @fuzz_settings(pytestconfig)
-    @given(frames_arrays())
     def check(arrays):
         np.savez(src, **arrays)
         out.unlink(missing_ok=True)
@@ -182,4 +167,4 @@ def test_fuzz_can_encode_arrays(codec, tmp_path, pytestconfig):
             assert rc2 == 0, se2
             _check_frames_npz(back)
 
-    check()
+    fuzz(pytestconfig, frames_arrays(), check)

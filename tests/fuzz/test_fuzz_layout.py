@@ -12,18 +12,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import given
 
-from fuzzing import assert_clean_exit, fuzz_settings, mutated, record_counts, run_cli
+from fuzzing import assert_clean_exit, fuzz, mutated, run_cli
 
 ROOT = Path(__file__).resolve().parents[2]
 LAYOUTS = ROOT / "scenes" / "layouts"
-
-
-@pytest.fixture(scope="module", autouse=True)
-def _report():
-    yield
-    record_counts()
 
 
 @pytest.fixture(scope="module")
@@ -47,8 +40,6 @@ def test_fuzz_layout_import(fmt, seeds, tmp_path, pytestconfig):
     suffix, blobs = seeds[fmt]
     src, out = tmp_path / f"in{suffix}", tmp_path / "out.json"
 
-    @fuzz_settings(pytestconfig)
-    @given(mutated(blobs))
     def check(data):
         src.write_bytes(data)
         out.unlink(missing_ok=True)
@@ -58,4 +49,4 @@ def test_fuzz_layout_import(fmt, seeds, tmp_path, pytestconfig):
             back = load(out)
             assert np.isfinite(back.positions).all() and np.isfinite(back.normals).all()
 
-    check()
+    fuzz(pytestconfig, mutated(blobs), check)

@@ -12,20 +12,13 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from hypothesis import given
 from hypothesis import strategies as st
 
-from fuzzing import NASTY_NUMBERS, assert_clean_exit, fuzz_settings, mutated, record_counts, run_cli
+from fuzzing import NASTY_NUMBERS, assert_clean_exit, fuzz, mutated, run_cli
 
 ROOT = Path(__file__).resolve().parents[2]
 SEEDS = ["press_cube_3mm.toml", "category_3mm.toml", "replay_icub_press.toml", "demo.toml",
          "augment_sponge_ball.toml", "contour_mug_curved.toml"]
-
-
-@pytest.fixture(scope="module", autouse=True)
-def _report():
-    yield
-    record_counts()
 
 
 @pytest.fixture(scope="module")
@@ -43,14 +36,12 @@ def test_fuzz_scene_files(scene_dir, tmp_path, pytestconfig):
     blobs = [(ROOT / "scenes" / s).read_bytes() for s in SEEDS]
     src = scene_dir / "fuzzed.toml"
 
-    @fuzz_settings(pytestconfig)
-    @given(mutated(blobs))
     def check(data):
         src.write_bytes(data)
         rc, so, se = run_cli("scene file", ["run", src, "--check", "--out", tmp_path / "out"])
         assert_clean_exit(rc, so, se, lines=None)
 
-    check()
+    fuzz(pytestconfig, mutated(blobs), check)
 
 
 _KEYS = ["scene", "scene.seed", "scene.task", "task", "task.force", "task.readings", "layer", "layer.thickness",
@@ -68,8 +59,6 @@ def test_fuzz_scene_overrides(scene_dir, tmp_path, pytestconfig):
     src = scene_dir / "press.toml"
     shutil.copy(ROOT / "scenes" / "press_cube_3mm.toml", src)
 
-    @fuzz_settings(pytestconfig)
-    @given(st.lists(st.tuples(st.sampled_from(_KEYS), _VALUES), min_size=1, max_size=3))
     def check(pairs):
         argv = ["run", src, "--check", "--out", tmp_path / "out"]
         for k, v in pairs:
@@ -77,4 +66,4 @@ def test_fuzz_scene_overrides(scene_dir, tmp_path, pytestconfig):
         rc, so, se = run_cli("scene --set", argv)
         assert_clean_exit(rc, so, se, lines=None)
 
-    check()
+    fuzz(pytestconfig, st.lists(st.tuples(st.sampled_from(_KEYS), _VALUES), min_size=1, max_size=3), check)
