@@ -33,7 +33,9 @@ def test_missing_and_odd_fields_are_left_out():
     assert report_lines(f) == ["overlaps 2 module pairs (1 within the patch, 1 with modules already there)",
                                "3 taxels off the mapped surface"]
     assert report_lines({"charts": 7, "seam_modules": 3}) == ["grown through 7 charts, 3 modules closing the seam"]
-    assert report_lines({"charts": 1}) == []
+    assert report_lines({"charts": 1, "normal_outliers": []}) == []
+    assert report_lines({"normal_outliers": [4, 9], "normal_deviation_max_deg": 81.2}) == [
+        "2 taxels with a normal off their face's (up to 81 deg)"]
 
 
 def test_cli_place_and_info_show_the_report(tmp_path, capsys):

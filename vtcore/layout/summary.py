@@ -40,17 +40,20 @@ def report_fields(placement: dict | None) -> dict:
     edges, fractions), ``overlaps``, ``overlaps_within``, ``overlaps_existing`` (module
     pairs), ``off_boundary`` (taxels), ``charts`` (log maps a fill grew through),
     ``seam_modules`` (modules a fill's seam pass added where growth fronts met),
+    ``normal_outliers`` (taxels whose normal is off the normal of the face they lie on by more
+    than the report's threshold), ``normal_deviation_max_deg``,
     ``surface_distance_max_mm``, ``seconds``.
     """
     p = placement or {}
     out = {}
     if isinstance(p.get("method"), str):
         out["method"] = p["method"]
-    for key in ("coverage", "strain_max", "strain_mean", "seconds"):
+    for key in ("coverage", "strain_max", "strain_mean", "seconds", "normal_deviation_max_deg"):
         v = _num(p.get(key))
         if v is not None:
             out[key] = v
-    for key in ("overlaps", "overlaps_within", "overlaps_existing", "off_boundary", "charts", "seam_modules"):
+    for key in ("overlaps", "overlaps_within", "overlaps_existing", "off_boundary", "charts", "seam_modules",
+                "normal_outliers"):
         v = _count(p.get(key))
         if v is not None:
             out[key] = v
@@ -75,6 +78,9 @@ def report_lines(placement: dict | None) -> list[str]:
         lines.append(f"overlaps {f['overlaps']} module pairs" + (f" ({', '.join(parts)})" if parts else ""))
     if f.get("off_boundary"):
         lines.append(f"{f['off_boundary']} taxels off the mapped surface")
+    if f.get("normal_outliers"):
+        worst = f" (up to {f['normal_deviation_max_deg']:.0f} deg)" if "normal_deviation_max_deg" in f else ""
+        lines.append(f"{f['normal_outliers']} taxels with a normal off their face's{worst}")
     if f.get("charts", 1) > 1 or "seam_modules" in f:
         seam = f", {f['seam_modules']} modules closing the seam" if "seam_modules" in f else ""
         lines.append(f"grown through {f.get('charts', 1)} charts{seam}")
