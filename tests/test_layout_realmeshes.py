@@ -171,3 +171,18 @@ def test_too_big_a_request_fails_before_allocating():
 
     with pytest.raises(InputError, match="module positions"):
         lattice_patch(get_module("cyskin10"), 0.0, (0, 0), np.zeros(2), 50.0)
+
+
+def test_normals_never_cross_a_sharp_edge():
+    """A hexagon laid over a box edge: every taxel has the normal of the face it lies on (before,
+    vertex normals averaged the two sides: 45 degrees at the edge); the report lists taxels whose
+    normal is off their face's, and on a coarse sphere it does list them."""
+    box = trimesh.creation.box(extents=[0.1, 0.1, 0.06]).subdivide_to_size(0.01)
+    lay, rep = quiet(place, box, "hexagon", (0.0, 0.04, 0.03), (1, 0, 0))
+    _, _, face = trimesh.proximity.closest_point(box, lay.positions)
+    cos = np.einsum("ij,ij->i", lay.normals, box.face_normals[face])
+    assert cos.min() > np.cos(np.radians(1.0))
+    assert rep.normal_deviation_max < 1.0 and len(rep.normal_outliers) == 0
+    coarse = trimesh.creation.icosphere(1, radius=0.04)
+    _, rep2 = quiet(place, coarse, "triangle", (0, 0, 0.04), (1, 0, 0))
+    assert len(rep2.normal_outliers) > 0 and rep2.as_dict()["normal_deviation_max_deg"] > 5

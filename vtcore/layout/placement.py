@@ -15,7 +15,7 @@ from .mesh import LayoutWarning
 from .model import Layout
 from .patches import Patch, make_patch
 from .repair import boundary_faces, clean_mesh
-from .report import (OVERLAP_FRACTION, PlacementReport, coverage_of, find_overlaps, find_overlaps_between,
+from .report import (NORMAL_DEVIATION_DEG, OVERLAP_FRACTION, PlacementReport, coverage_of, find_overlaps, find_overlaps_between,
                      layout_strain, overlap_note)
 from .surface import at_notes, closest_points, frame_at, snap, surface_normals
 
@@ -101,7 +101,11 @@ def finish(p: Patch, pos, nrm, found, surf_mesh, *, method, notes, info, offset,
            coverage, t0, charts=1, seam_modules=0, kind="place"):
     """The layout of patch ``p`` with taxels at ``pos`` (N, 3) on ``surf_mesh`` (normals ``nrm``,
     ``found`` (N,) bool), moved ``offset`` metres along the normals, and its report."""
-    _, _, dist = closest_points(surf_mesh, pos)
+    _, sface, dist = closest_points(surf_mesh, pos)
+    # taxels whose normal is more than a few degrees off the face they lie on (interpolated over a
+    # coarse curved mesh, or next to a crease): listed, never hidden
+    fn = np.asarray(surf_mesh.face_normals)[sface] if len(pos) else np.zeros((0, 3))
+    dev = np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", fn, nrm), -1.0, 1.0))) if len(pos) else np.zeros(0)
     pos = pos + offset * nrm
     meta = {"placement_method": method, "at": np.asarray(at, float).tolist(),
             "direction": None if direction is None else np.asarray(direction, float).tolist(),
@@ -123,7 +127,9 @@ def finish(p: Patch, pos, nrm, found, surf_mesh, *, method, notes, info, offset,
                      "the cut locus of a closed one where the log map is unreliable)")
     report = PlacementReport(strain, mstrain, overlaps, off, coverage, float(dist.max()) if len(dist) else 0.0,
                              method, time.perf_counter() - t0, notes + info, ex_overlaps, charts=int(charts),
-                             seam_modules=int(seam_modules))
+                             seam_modules=int(seam_modules),
+                             normal_outliers=np.flatnonzero(dev > NORMAL_DEVIATION_DEG),
+                             normal_deviation_max=float(dev.max()) if len(dev) else 0.0)
     layout.meta["placement"] = report.as_dict()
     for msg in notes:
         warnings.warn(f"{kind}: {msg}", LayoutWarning, stacklevel=3)

@@ -18,6 +18,7 @@ from ..errors import InputError
 from .model import Layout
 from .patches import Patch
 
+NORMAL_DEVIATION_DEG = 5.0  #: a taxel normal further than this from its face's is listed in the report
 OVERLAP_FRACTION = 0.75  #: taxels of different modules closer than this many pitches overlap
 
 
@@ -39,6 +40,8 @@ class PlacementReport:
     method : "logmap" or "project"; notes : list of str.
     charts : how many log maps (charts) the placement grew through (1: a single log map).
     seam_modules : modules the seam pass of ``fill`` added where growth fronts met.
+    normal_outliers : (K,) int, taxels whose normal is more than ``NORMAL_DEVIATION_DEG`` off the
+        normal of the face they lie on; normal_deviation_max : degrees, the largest such angle.
     """
 
     strain: np.ndarray
@@ -53,6 +56,8 @@ class PlacementReport:
     existing_overlaps: list = field(default_factory=list)
     charts: int = 1
     seam_modules: int = 0
+    normal_outliers: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    normal_deviation_max: float = 0.0
 
     @property
     def strain_max(self) -> float:
@@ -73,6 +78,8 @@ class PlacementReport:
                 "off_boundary": [int(i) for i in self.off_boundary], "coverage": _f(self.coverage),
                 "surface_distance_max_m": float(self.surface_distance_max), "seconds": float(self.seconds),
                 "charts": int(self.charts), "seam_modules": int(self.seam_modules),
+                "normal_outliers": [int(i) for i in self.normal_outliers],
+                "normal_deviation_max_deg": float(self.normal_deviation_max),
                 "notes": list(self.notes)}
 
 
