@@ -112,7 +112,8 @@ def module_strain(patch: Patch, pos: np.ndarray, nrm: np.ndarray, modules: np.nd
 
 def grow(prepared: PreparedSurface, at, direction, patch: Patch, *, check=None, max_strain: float | None = None,
          max_charts: int = 400, chart_radius: float | None = None, progress=None,
-         first: LogMap | None = None, avoid: np.ndarray | None = None) -> Growth:
+         first: LogMap | None = None, avoid: np.ndarray | None = None,
+         faces: np.ndarray | None = None) -> Growth:
     """Map the modules of ``patch`` (a flat lattice, origin at ``at``) chart by chart.
 
     prepared : the surface. at : (3,) metres. direction : (3,) or None, the lattice x axis at ``at``.
@@ -125,6 +126,8 @@ def grow(prepared: PreparedSurface, at, direction, patch: Patch, *, check=None, 
         growth (:func:`cancelled` is raised, nothing is returned).
     first : the log map at ``at`` on ``prepared`` if already solved (chart 0).
     avoid : (P, 3) taxel positions already on the skin: no module is placed over them.
+    faces : (F,) bool of ``prepared.mesh``, the faces taxels may land on (a chart's trusted
+        radius only looks at those).
     """
     mod = patch.module
     M, N = patch.n_modules, len(patch)
@@ -151,7 +154,7 @@ def grow(prepared: PreparedSurface, at, direction, patch: Patch, *, check=None, 
     while queue and len(charts) < max_charts:
         o, a3, d3 = queue.pop(0)
         lm = first if (first is not None and not charts) else LogMap(None, a3, d3, prepared=prepared)
-        R = lm.trusted_radius()
+        R = lm.trusted_radius(faces=faces)
         if chart_radius is not None:
             R = min(R, chart_radius)
         if not charts:
@@ -250,7 +253,7 @@ def grow(prepared: PreparedSurface, at, direction, patch: Patch, *, check=None, 
         # the module whole), else placed modules next to wanted ones; apart in the lattice (flat)
         # and on the surface (3-D: round a closed link the lattice goes on, the surface does not)
         inner = np.flatnonzero(want & (d <= R - 0.5 * mod.pitch))
-        inner = inner[np.argsort(d[inner], kind="stable")]
+        inner = inner[np.argsort(-d[inner], kind="stable")]  # farthest first: fewer charts
         near_want = cKDTree(centre[want]).query_ball_point(centre[kept], hood, return_length=True) > 0
         front = np.flatnonzero(kept)[near_want]
         front = front[np.argsort(np.linalg.norm(centre[front], axis=1), kind="stable")]

@@ -156,12 +156,15 @@ class LogMap:
         self.t1, self.t2 = t1, t2
         self._grid = None
 
-    def trusted_radius(self, band: float = 0.25) -> float:
+    def trusted_radius(self, band: float = 0.25, faces: np.ndarray | None = None) -> float:
         """Geodesic radius (metres) within which the map is trusted: up to the nearest face whose
         image is folded or stretched more than ``band`` (25 %) against the surface, which is where
-        the cut locus (or strong curvature) starts; inf when no face is. See :meth:`index`."""
+        the cut locus (or strong curvature) starts; inf when no face is. ``faces`` (F,) bool of
+        ``mesh``: only these faces count (the region a fill may use). See :meth:`index`."""
         self.index()
         bad = self._reach & (self._folded | (self._stretch > band) | ~self._consistent)
+        if faces is not None:  # only the faces that may carry taxels count (a fill's region)
+            bad &= np.asarray(faces, bool)
         # a face's distance: its farthest vertex's in the map, or its Euclidean distance (a lower
         # bound of the geodesic one) if larger: at the cut locus the heat method averages opposite
         # directions, so a vertex there can map next to the source

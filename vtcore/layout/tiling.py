@@ -218,9 +218,11 @@ def fill(mesh, at, direction=None, *, module: str = "cyskin10", region=None, rad
     first = int(np.argmin([np.linalg.norm(clean.triangles_center[f] - at, axis=1).min() for f in islands]))
     islands.insert(0, islands.pop(first))
     # the log map is solved on the region and the surface round it, not on the region alone: a
-    # narrow band gives the heat method no room (14 mm of error 20 mm along a 26 mm band)
+    # narrow band gives the heat method no room (14 mm of error 20 mm along a 26 mm band); a wider
+    # margin gives geodesics shortcuts off the region (across the cap of a cylinder whose side is
+    # filled), which shrink the charts
     cen = np.asarray(clean.triangles_center)
-    dist, _ = cKDTree(cen[creg]).query(cen, distance_upper_bound=4 * mod.radius)
+    dist, _ = cKDTree(cen[creg]).query(cen, distance_upper_bound=2 * mod.pitch)
     sub = clean.submesh([np.flatnonzero(np.isfinite(dist))], append=True, repair=False)
     prepared = PreparedSurface(sub, resolution=mod.pitch, max_faces=max_faces)
     _, near = cKDTree(cen).query(np.asarray(prepared.mesh.triangles_center))
@@ -452,7 +454,7 @@ def _fill_island(prepared, preg, samples, start, direction, mod, radius, max_str
     notes = list(prepared.notes) if island == 0 else []
     lm0 = LogMap(None, start, direction, prepared=prepared)
     tag = f"island #{island}: " if island else ""
-    R0 = lm0.trusted_radius()
+    R0 = lm0.trusted_radius(faces=preg)
     pairs, w, n_open, n_sharp = samples
 
     def check(chart, patch, modules, tfaces, tmod):
@@ -511,7 +513,7 @@ def _fill_island(prepared, preg, samples, start, direction, mod, radius, max_str
     _, ang, sh = best
     latt = lattice_patch(mod, ang, sh, np.zeros(2), extent, radius)
     g = grow(prepared, lm0.at, direction, latt, check=check, max_strain=max_strain, first=lm0, avoid=avoid,
-             progress=progress)
+             progress=progress, faces=preg)
     kept = np.flatnonzero(g.kept)
     poses, chart_of = latt.poses[kept], g.chart[kept]
     n_seam = 0
