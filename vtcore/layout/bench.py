@@ -228,7 +228,7 @@ def _fill_summary(lay, rep):
             "overlaps": len(rep.overlaps), "strain_max": rep.strain_max, "seam_modules": rep.seam_modules}
 
 
-def _fill_rows(quick):
+def _fill_rows(quick, on_row=None):
     from . import cadmeshes
     from .placement import place
     from .tiling import fill, fill_one_chart
@@ -243,6 +243,8 @@ def _fill_rows(quick):
              "extra": err or ", ".join(f"{k}={v:.3g}" if isinstance(v, float) else f"{k}={v}"
                                        for k, v in (res or {}).items() if k != "coverage")}
         rows.append(r)
+        if on_row is not None:
+            on_row(r)
         return r
 
     # 1. face count, the side of a 72 mm x 200 mm link (about 100 modules)
