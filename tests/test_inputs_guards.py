@@ -91,3 +91,15 @@ def test_accuracy_of_nothing_and_tiny_objects(strict):
     with pytest.raises(InputError, match=r"radius must be in \[1e-06, 1000\] m"):
         make_object("sphere", radius=1e-200)             # NaN vertices before
     assert np.isfinite(make_object("sphere", radius=1e-6).vertices).all()
+
+
+def test_press_refuses_a_force_it_cannot_solve(strict):
+    from test_can_helpers import hexagon_layout
+    from vtcore.contact import SoftLayer, press
+    from vtcore.contact.objects import make_object
+
+    pose = np.eye(4)
+    pose[2, 3] = 0.005
+    with pytest.raises(InputError, match=r"force in \[0, 1e\+09\] N"):    # returned force 0 before
+        press(hexagon_layout(), make_object("sphere", radius=0.03), pose, SoftLayer(thickness=0.003, extent=0.04),
+              force=1e300)

@@ -36,6 +36,8 @@ from .materials import SoftLayer
 from .proximity import envelope_posed, prepared_mesh
 
 GEOMETRIES = ("plane", "unrolled")
+#: Largest target force press() accepts, N (far past any skin; the solve overflows long before 1e300).
+MAX_FORCE_N = 1e9
 
 
 def _surface_height(xy, z, X, Y):
@@ -148,8 +150,9 @@ def press(layout, mesh, pose, layer: SoftLayer, *, force=None, indentation=None,
         raise InputError(f"model must be one of {', '.join(elastic.MODELS)}, got {model!r}", key="model")
     if force is not None and indentation is not None:
         raise InputError("give force or indentation, not both", key="force")
-    if force is not None and not (np.isfinite(force) and force >= 0):
-        raise InputError(f"must be a finite force >= 0 N, got {force}", key="force")
+    if force is not None and not (np.isfinite(force) and 0 <= force <= MAX_FORCE_N):
+        # past ~1e12 N the solve's products overflow and it reported force 0 (issue 13)
+        raise InputError(f"must be a force in [0, {MAX_FORCE_N:g}] N, got {force}", key="force")
     if indentation is not None and not (np.isfinite(indentation) and indentation >= 0):
         raise InputError(f"must be >= 0 m, got {indentation}", key="indentation")
     if not isinstance(layer, SoftLayer):
