@@ -6,7 +6,6 @@ Headless, bpy 4.5 wheel (no window: the operator runs the fill to completion in 
 from __future__ import annotations
 
 import sys
-import warnings
 from pathlib import Path
 
 import numpy as np
@@ -15,23 +14,12 @@ import trimesh
 
 bpy = pytest.importorskip("bpy")
 sys.path.insert(0, str(Path(__file__).parent / "blender"))
-from bl_helpers import register_addon, reset_scene  # noqa: E402
+from bl_helpers import addon_fixtures  # noqa: E402
 
 pytestmark = [pytest.mark.blender, pytest.mark.filterwarnings("ignore::UserWarning")]
 
 
-@pytest.fixture(scope="module")
-def addon():
-    mod = register_addon()
-    yield mod
-    mod.unregister()  # the bpy wheel hangs at exit while Python classes stay registered
-
-
-@pytest.fixture(autouse=True)
-def factory(addon):
-    reset_scene()
-    warnings.simplefilter("ignore")
-    yield
+addon, factory = addon_fixtures()
 
 
 def nonmanifold_link() -> trimesh.Trimesh:

@@ -5,7 +5,6 @@ leaves the scene unchanged. Headless, bpy 4.5 wheel, one xdist worker (loadfile)
 from __future__ import annotations
 
 import sys
-import warnings
 from pathlib import Path
 
 import numpy as np
@@ -13,23 +12,12 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 sys.path.insert(0, str(Path(__file__).parent / "blender"))
-from bl_helpers import build_scene, register_addon, reset_scene, scene_state  # noqa: E402
+from bl_helpers import addon_fixtures, build_scene, scene_state  # noqa: E402
 
 pytestmark = [pytest.mark.blender, pytest.mark.filterwarnings("ignore::UserWarning")]
 
 
-@pytest.fixture(scope="module")
-def addon():
-    mod = register_addon()
-    yield mod
-    mod.unregister()  # the bpy wheel hangs at exit while Python classes stay registered
-
-
-@pytest.fixture(autouse=True)
-def factory(addon):
-    reset_scene()
-    warnings.simplefilter("ignore")
-    yield
+addon, factory = addon_fixtures()
 
 
 def M(ob):
