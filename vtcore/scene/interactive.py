@@ -78,11 +78,7 @@ def run_scene_file(path, out, overrides=None) -> SceneOutput:
     if pressure is None:
         pressure = response if response is not None else np.zeros(n)
         response = pressure
-    try:
-        tri = skin_mesh(layout).triangles
-    except ValueError:
-        tri = np.zeros((0, 3), np.int64)
-    return SceneOutput(layout, np.asarray(tri, np.int64), pressure, response, result, out)
+    return SceneOutput(layout, skin_triangles(layout), pressure, response, result, out)
 
 
 def _mean_frames(a, n):
@@ -169,15 +165,19 @@ class LayoutEdit:
     report: dict
 
 
+def skin_triangles(layout: Layout) -> np.ndarray:
+    """(F, 3) int64 skin mesh triangles of ``layout`` to show; none for fewer than three taxels
+    or a layout the skin mesh refuses (its InputError), so the add-on shows the taxels alone."""
+    if len(layout) < 3:
+        return np.zeros((0, 3), np.int64)
+    try:
+        return np.asarray(skin_mesh(layout).triangles, np.int64)
+    except ValueError:
+        return np.zeros((0, 3), np.int64)
+
+
 def _edit(layout: Layout, report: dict) -> LayoutEdit:
-    if len(layout) >= 3:
-        try:
-            tri = skin_mesh(layout).triangles
-        except ValueError:
-            tri = np.zeros((0, 3), np.int64)
-    else:
-        tri = np.zeros((0, 3), np.int64)
-    return LayoutEdit(layout, np.asarray(tri, np.int64), report)
+    return LayoutEdit(layout, skin_triangles(layout), report)
 
 
 def lay_patch(vertices, triangles, at, *, existing: Layout | None = None, patch: str = "hexagon",
