@@ -338,3 +338,44 @@ def test_sigterm_removes_the_staging_folder(tmp_path):
     assert proc.returncode == 143, err
     assert "vtcore: terminated" in err
     assert not out.exists() or not any(out.iterdir())
+
+
+# ----------------------------------------------------------------------------- layout readers
+def _edit(src: Path, old: bytes, new: bytes) -> bytes:
+    data = src.read_bytes()
+    assert old in data
+    return data.replace(old, new, 1)
+
+
+ICUB = ROOT / "scenes" / "layouts" / "icub_two_triangles.txt"
+
+
+@pytest.mark.parametrize("fmt, name, make, needle", [
+    ("cyskin", "l.json", lambda: b"\x80" + LAYOUT.read_bytes(), "byte offset 0"),                     # not UTF-8
+    ("cyskin", "l.json", lambda: _edit(LAYOUT, b'"id": 17', b'"id": "abc"'), "cyskin"),              # int("abc")
+    ("cyskin", "l.json", lambda: _edit(LAYOUT, b'"taxels": [', b'"taxels": {"a": 1}, "x": ['), "l.json"),
+    ("cyskin", "l.json", lambda: _edit(LAYOUT, b'"id": 17', b'"id": 1' + b"0" * 30), "l.json"),       # past int64
+    ("icub", "l.txt", lambda: _edit(ICUB, b"0.0025 -0.0101036297108", b"1e308 -0.0101036297108"), "l.txt"),
+    ("icub", "l.txt", lambda: ICUB.read_text().encode("utf-16"), "UTF-16"),
+])
+def test_layout_readers_refuse_bad_values(tmp_path, fmt, name, make, needle):
+    src = tmp_path / name
+    src.write_bytes(make())
+    rc, _, err = cli("layout", "import", src, "--format", fmt, "--out", tmp_path / "out.json")
+    one_error_line(rc, err, needle)
+    assert not (tmp_path / "out.json").exists()
+
+
+def test_ply_bad_count_and_truncated_faces(tmp_path):
+    from vtcore.layout import load, save
+
+    save(load(ICUB), tmp_path / "s.ply")
+    text = (tmp_path / "s.ply").read_text()
+    for i, bad in enumerate((text.replace("element vertex 24", "element vertex 99999999999999999999"),
+                             text.replace("element vertex 24", "element vertex x"),
+                             text[: len(text) - 40])):
+        (tmp_path / f"b{i}.ply").write_text(bad)
+        rc, _, err = cli("layout", "import", tmp_path / f"b{i}.ply", "--out", tmp_path / f"o{i}.json")
+        assert rc in (0, 2) and "Traceback" not in err, err
+        if rc == 2:
+            one_error_line(rc, err, f"b{i}.ply")
