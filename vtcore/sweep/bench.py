@@ -1,7 +1,8 @@
 """``vtcore bench sweep``: what running a sweep on dask.distributed costs and buys.
 
-The same sweep of 16 points (the demo press at 16 forces, each point about a
-second of work once a process is warm) runs three ways:
+The same sweep of 16 points (the demo press at 16 forces on a fine contact grid,
+each point about 0.6 s of CPU once a process is warm, 1-2 s of wall time on the
+shared machine) runs three ways:
 
 - ``serial``: a plain loop of ``run_scene`` in this process (no dask at all);
 - ``dask, 1 worker`` and ``dask, 2 workers``: ``run_sweep`` on a fresh
@@ -9,9 +10,9 @@ second of work once a process is warm) runs three ways:
   ``sweep.csv`` and ``report.md`` are written and the cluster is closed.
 
 Time: wall seconds of each; *speed-up* of 2 workers over 1; *overhead per
-point* = (wall of 1 worker - wall of the serial loop) / points: what the
+point* = (wall x workers - wall of the serial loop) / points: what the
 scheduler, the worker processes (start and first imports) and the sweep's own
-files add to every point. Accuracy: how many points' ``arrays.npz`` are
+files add to every point, in worker-seconds. Accuracy: how many points' ``arrays.npz`` are
 byte-identical to the serial loop's (all of them, or the sweep is wrong).
 
 The serial loop runs once before it is timed so that its imports are not
@@ -32,9 +33,9 @@ from pathlib import Path
 
 from .._bench import save_png, write_table
 
-#: The benchmark's points: the demo press at 16 forces on a 0.11 mm contact grid (about 1 s of CPU each
+#: The benchmark's points: the demo press at 16 forces on a 0.12 mm contact grid (about 0.6 s of CPU each
 #: once a process is warm; 0.05 s on the scene's own 1 mm grid).
-SETS = ["output.plots=false", "layer.grid_spacing=0.00011"]
+SETS = ["output.plots=false", "layer.grid_spacing=0.00012"]
 FORCES = [round(4.0 + 0.5 * i, 1) for i in range(16)]
 
 
