@@ -73,14 +73,18 @@ class Scene:
         return SceneError(reason, file=self.path, key=key)
 
 
+def split_assignment(text: str, option: str = "--set", form: str = "key=value") -> tuple[str, str]:
+    """``"a.b=rest"`` -> ``("a.b", "rest")``; an error naming ``option`` and ``form`` without a key."""
+    key, eq, raw = text.partition("=")
+    key = key.strip()
+    if not eq or not key:
+        raise SceneError(f"{option} expects {form}, got {text!r}")
+    return key, raw
+
+
 def parse_override(text: str) -> tuple[list[str], Any]:
     """``"layer.thickness=0.01"`` -> (["layer", "thickness"], 0.01); values are TOML."""
-    if "=" not in text:
-        raise SceneError(f"--set expects key=value, got {text!r}")
-    key, raw = text.split("=", 1)
-    key = key.strip()
-    if not key:
-        raise SceneError(f"--set expects key=value, got {text!r}")
+    key, raw = split_assignment(text)
     try:
         value = tomllib.loads(f"v = {raw}")["v"]
     except tomllib.TOMLDecodeError:

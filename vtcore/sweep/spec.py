@@ -27,7 +27,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import SceneError
-from ..scene.loader import load_scene, parse_override
+from ..scene.loader import load_scene, parse_override, split_assignment
 
 #: Most points one sweep may have; checked on the product of the sizes before any list is built.
 MAX_POINTS = 10_000
@@ -114,12 +114,7 @@ def parse_values(raw: str, key: str) -> list:
 
 def parse_grid_arg(text: str) -> tuple[str, list]:
     """``"layer.thickness=0.003,0.006"`` -> ``("layer.thickness", [0.003, 0.006])``."""
-    if "=" not in text:
-        raise SceneError(f"--grid expects KEY=V1,V2,..., got {text!r}")
-    key, raw = text.split("=", 1)
-    key = key.strip()
-    if not key:
-        raise SceneError(f"--grid expects KEY=V1,V2,..., got {text!r}")
+    key, raw = split_assignment(text, "--grid", "KEY=V1,V2,...")
     return key, parse_values(raw, key)
 
 
