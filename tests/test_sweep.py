@@ -42,6 +42,18 @@ def free_port() -> int:
         return s.getsockname()[1]
 
 
+def vtcore_run(out, *sets):
+    """``vtcore run demo.toml --set ...`` in a fresh process, as a user runs it.
+
+    Not in-process: in the full suite, the pytest process has run other tests first, and
+    a run there gave other last bits than a fresh process (see docs/sweeps.md).
+    """
+    args = [a for s in sets for a in ("--set", s)]
+    res = subprocess.run([sys.executable, "-m", "vtcore", "run", str(DEMO), "--out", str(out), *args],
+                         capture_output=True, text=True, timeout=600, env={**os.environ, "VTCORE_PROGRESS": "0"})
+    assert res.returncode == 0, res.stderr[-2000:]
+
+
 def no_cluster(monkeypatch):
     """Make any attempt to start or reach a cluster fail the test."""
     import vtcore.sweep.engine as engine
@@ -201,8 +213,7 @@ def test_a_failing_point_is_recorded_and_the_others_finish(demo_sweep):
 def test_point_arrays_are_byte_identical_to_vtcore_run(demo_sweep, tmp_path):
     _, out = demo_sweep
     single = tmp_path / "single"
-    assert main(["run", str(DEMO), "--out", str(single), "--set", FAST[0], "--set", "task.object=0",
-                 "--set", "task.force=5", "--set", "scene.seed=2"]) == 0
+    vtcore_run(single, FAST[0], "task.object=0", "task.force=5", "scene.seed=2")
     point = out / "task.object=0__task.force=5__seed=2"
     assert (point / "arrays.npz").read_bytes() == (single / "arrays.npz").read_bytes()
     a, b = (json.loads((d / "result.json").read_text()) for d in (point, single))
@@ -312,8 +323,7 @@ def test_sweep_through_a_real_scheduler_and_two_workers(tmp_path):
         assert [r["status"] for r in rows] == ["ok"] * 4
         assert all(r["worker"] and r["worker"].split(":")[-1] != str(os.getpid()) for r in rows)
         single = tmp_path / "single"
-        assert main(["run", str(DEMO), "--out", str(single), "--set", FAST[0], "--set", "task.force=10",
-                     "--set", "scene.seed=1"]) == 0
+        vtcore_run(single, FAST[0], "task.force=10", "scene.seed=1")
         assert (out / "task.force=10__seed=1" / "arrays.npz").read_bytes() == (single / "arrays.npz").read_bytes()
     finally:
         for proc, fh in reversed(procs):
