@@ -186,3 +186,14 @@ def test_normals_never_cross_a_sharp_edge():
     coarse = trimesh.creation.icosphere(1, radius=0.04)
     _, rep2 = quiet(place, coarse, "triangle", (0, 0, 0.04), (1, 0, 0))
     assert len(rep2.normal_outliers) > 0 and rep2.as_dict()["normal_deviation_max_deg"] > 5
+
+
+def test_fill_reports_progress_and_stops_when_told(cylinder20):
+    from vtcore.errors import Cancelled
+
+    side = np.abs(cylinder20.face_normals[:, 2]) < 0.5
+    seen = []
+    quiet(fill, cylinder20, (0.02, 0, 0), (0, 1, 0), region=side, progress=lambda f: seen.append(f))
+    assert seen and all(0 <= f <= 1 for f in seen)
+    with pytest.raises(Cancelled, match="fill was cancelled"):
+        quiet(fill, cylinder20, (0.02, 0, 0), (0, 1, 0), region=side, progress=lambda f: False)

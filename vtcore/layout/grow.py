@@ -31,6 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
+from .._progress import keep_going
 from .logmap import LogMap, PreparedSurface
 from .patches import Patch
 from .report import OVERLAP_FRACTION, arc_lengths
@@ -79,13 +80,6 @@ class Growth:
         return ", ".join(out) if out else "nothing"
 
 
-def cancelled(what: str) -> Exception:
-    """The exception a stopped computation raises: vtcore.errors.Cancelled where it exists."""
-    from .. import errors
-
-    return getattr(errors, "Cancelled", InterruptedError)(f"{what} was cancelled")
-
-
 def taxel_index(counts: np.ndarray, starts: np.ndarray, modules: np.ndarray) -> np.ndarray:
     """Indices of the taxels of ``modules`` (module-major patch with per-module counts and starts)."""
     c = counts[modules]
@@ -123,7 +117,7 @@ def grow(prepared: PreparedSurface, at, direction, patch: Patch, *, check=None, 
         ``max_strain``, fall off the surface or overlap a module already placed.
     chart_radius : metres, cap on every chart's radius (default: each chart's trusted radius).
     progress : None or ``progress(fraction) -> bool`` called after each chart; False stops the
-        growth (:func:`cancelled` is raised, nothing is returned).
+        growth (``vtcore.errors.Cancelled`` is raised, nothing is returned).
     first : the log map at ``at`` on ``prepared`` if already solved (chart 0).
     avoid : (P, 3) taxel positions already on the skin: no module is placed over them.
     faces : (F,) bool of ``prepared.mesh``, the faces taxels may land on (a chart's trusted
@@ -230,8 +224,7 @@ def grow(prepared: PreparedSurface, at, direction, patch: Patch, *, check=None, 
         frames[km] = np.stack([fp[:k], x, fn[:k]], axis=1)
         if progress is not None:
             # the share of charts done among those known so far (the queue grows as it goes)
-            if progress(min(0.95, len(charts) / (len(charts) + len(queue) + 1))) is False:
-                raise cancelled("the fill")
+            keep_going(progress, min(0.95, len(charts) / (len(charts) + len(queue) + 1)), "the fill")
         # new charts at the frontier: placed modules (of any chart) next to modules still to try
         # that lie on the surface; seeds at least ``spacing`` apart (each chart costs a solve)
         spacing = max(0.7 * (R - reach), mod.pitch)
