@@ -241,8 +241,13 @@ def fill(mesh, at, direction=None, *, module: str = "cyskin10", region=None, rad
     if not any(r.n_modules for r in reports):
         raise InputError("no whole module fits in the region: " + "; ".join(r.why for r in reports), key="region")
     chosen = [r for r in reports if r.n_modules]
-    poses = np.concatenate([r.patch.poses for r in chosen])
-    p = patch_from_poses(mod, poses, "fill")
+    # the islands' own patches side by side (re-building one from all poses would drop taxels that
+    # coincide in the flat domain across islands, whose flat frames differ, and leave pos longer)
+    first = np.cumsum([0] + [r.patch.n_modules for r in chosen[:-1]])
+    p = Patch(mod, np.concatenate([r.patch.poses for r in chosen]), np.concatenate([r.patch.flat for r in chosen]),
+              np.concatenate([r.patch.module_ids + f for r, f in zip(chosen, first)]),
+              np.concatenate([r.patch.sensors for r in chosen]), np.concatenate([r.patch.roles for r in chosen]),
+              "fill")
     pos = np.concatenate([r.pos for r in chosen])
     nrm = np.concatenate([r.nrm for r in chosen])
     found = np.concatenate([r.found for r in chosen])
