@@ -197,3 +197,26 @@ def test_fill_reports_progress_and_stops_when_told(cylinder20):
     assert seen and all(0 <= f <= 1 for f in seen)
     with pytest.raises(Cancelled, match="fill was cancelled"):
         quiet(fill, cylinder20, (0.02, 0, 0), (0, 1, 0), region=side, progress=lambda f: False)
+
+
+def test_a_chart_seed_with_a_degenerate_axis_is_skipped_not_fatal(cylinder20, monkeypatch):
+    # On a 200k-face link a seed's pushed-forward lattice axis came out along the surface normal
+    # (a sliver of the decimated solve mesh) and the whole fill died with "direction is parallel
+    # to the surface normal". Reproduce that seed here: the third chart the growth asks for fails
+    # the same way; the fill must go on with the other seeds.
+    from vtcore.layout import grow as grow_mod
+
+    real, calls = grow_mod.LogMap, []
+
+    def flaky(*args, **kwargs):
+        calls.append(1)
+        if len(calls) == 3:
+            raise InputError("direction is parallel to the surface normal at 'at'; give an in-plane direction",
+                             key="direction")
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(grow_mod, "LogMap", flaky)
+    side = np.abs(cylinder20.face_normals[:, 2]) < 0.5
+    lay, rep = quiet(fill, cylinder20, (0.02, 0, 0), (0, 1, 0), region=side)
+    assert len(calls) > 3 and lay.n_modules > 0
+    assert no_overlap(lay) and rep.overlaps == []

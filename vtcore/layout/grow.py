@@ -31,6 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
+from ..errors import InputError
 from .._progress import keep_going
 from .logmap import LogMap, PreparedSurface
 from .patches import Patch
@@ -147,7 +148,19 @@ def grow(prepared: PreparedSurface, at, direction, patch: Patch, *, check=None, 
     ctree = cKDTree(centre) if M else None
     while queue and len(charts) < max_charts:
         o, a3, d3 = queue.pop(0)
-        lm = first if (first is not None and not charts) else LogMap(None, a3, d3, prepared=prepared)
+        if first is not None and not charts:
+            lm = first
+        else:
+            try:
+                lm = LogMap(None, a3, d3, prepared=prepared)
+            except InputError as exc:
+                if not charts or exc.key != "direction":
+                    raise
+                # the lattice axis carried to this seed lies along the surface normal there (a
+                # sliver of a decimated mesh tilts the pushed-forward frame): another seed on the
+                # same front maps these modules, so this one is dropped, not the whole fill (modules
+                # no other chart reaches stay unplaced and are reported as such)
+                continue
         R = lm.trusted_radius(faces=faces)
         if chart_radius is not None:
             R = min(R, chart_radius)
