@@ -14,23 +14,11 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 sys.path.insert(0, str(Path(__file__).parent / "blender"))
-from bl_helpers import register_addon, reset_scene, scene_state  # noqa: E402
+from bl_helpers import addon_fixtures, scene_state  # noqa: E402
 
 pytestmark = pytest.mark.blender
 
-
-@pytest.fixture(scope="module")
-def addon():
-    mod = register_addon()
-    yield mod
-    # bpy (4.5 wheel) hangs at interpreter exit while Python-defined classes are still registered.
-    mod.unregister()
-
-
-@pytest.fixture(autouse=True)
-def factory(addon):
-    reset_scene()
-    yield
+addon, factory = addon_fixtures()
 
 
 def attribute(ob, name):

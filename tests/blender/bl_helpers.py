@@ -26,30 +26,6 @@ def register_addon():
     return addon
 
 
-def addon_fixtures():
-    """The ``addon`` (module scope: registered once, unregistered after the module's tests, as
-    the bpy wheel hangs at exit while Python classes stay registered) and autouse ``factory``
-    (an empty scene per test, warnings ignored) fixtures of an operator test module:
-    ``addon, factory = addon_fixtures()`` at its top level."""
-    import warnings
-
-    import pytest
-
-    @pytest.fixture(scope="module")
-    def addon():
-        mod = register_addon()
-        yield mod
-        mod.unregister()
-
-    @pytest.fixture(autouse=True)
-    def factory(addon):
-        reset_scene()
-        warnings.simplefilter("ignore")
-        yield
-
-    return addon, factory
-
-
 def _unregister_if_registered(addon):
     import bpy
 
