@@ -139,14 +139,31 @@ def read_cyskin_txt(path, layout=None, taxel_ids=None) -> Recording:
         "clipped_high": clipped_high,
         "clipped_low": clipped_low,
         "rows": int(len(t)),
+        "layout_taxels": int(len(ids)),
     }
     return Recording(t, frames, mask, ids, rows[:, 0].astype(np.int64), report)
+
+
+def mismatch_lines(recording_only, layout_only, layout_size: int) -> list[str]:
+    """The mismatch report in words (CLI summary, the add-on's panel): one finding a line."""
+    rec, lay = sorted(int(x) for x in recording_only), sorted(int(x) for x in layout_only)
+    out = []
+    if rec:
+        out.append(f"{len(rec)} recorded taxel(s) the layout lacks (e.g. {rec[:6]})")
+    if lay:
+        out.append(f"{len(lay)} of {layout_size} layout taxel(s) never in the recording (e.g. {lay[:6]})")
+    if not out:
+        out.append(f"every recorded taxel is on the layout, all {layout_size} layout taxels recorded")
+    return out
 
 
 def report_text(report: dict) -> str:
     """A few lines for the CLI."""
     out = [f"{report['rows']} rows, {report['matched_uids']} of {report['recorded_uids']} recorded UIDs "
            f"matched to the layout"]
+    if "layout_taxels" in report:  # the mismatch both ways, in words (also the add-on's Replay panel)
+        out += ["  " + line for line in mismatch_lines(report["unmatched_uids"], report["unrecorded_taxels"],
+                                                        report["layout_taxels"])]
     for key in ("unmatched_uids", "temperature_uids", "unrecorded_taxels", "duplicate_uids", "shared_layout_uids"):
         v = report.get(key, [])
         if v:

@@ -43,31 +43,9 @@ PARAMS = Section({
 })
 
 
-def _hold(values: np.ndarray, mask: np.ndarray) -> np.ndarray:
-    """Forward-fill masked samples with the taxel's previous received value (0 before any)."""
-    t, n = values.shape
-    idx = np.where(mask, np.arange(t)[:, None], -1)
-    np.maximum.accumulate(idx, axis=0, out=idx)
-    out = values[np.maximum(idx, 0), np.arange(n)[None, :]]
-    return np.where(idx >= 0, out, 0.0)
-
-
-def _baseline(counts: np.ndarray, mask: np.ndarray, rows: int) -> np.ndarray:
-    """Per-taxel median of the first ``rows`` received samples (0 for a taxel never received)."""
-    rank = np.cumsum(mask, axis=0)
-    use = mask & (rank <= rows)
-    vals = np.where(use, counts, np.nan)
-    with np.errstate(all="ignore"):
-        import warnings
-
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", RuntimeWarning)
-            base = np.nanmedian(vals, axis=0) if len(vals) else np.zeros(counts.shape[1])
-    return np.nan_to_num(base, nan=0.0)
-
-
 def run(scene, ctx) -> TaskResult:
     from ...can import decode_log, icub_wire_to_counts
+    from ...can.timeline import baseline_first, hold
     from ...layout import skin_mesh
 
     p = scene["task"]
@@ -78,9 +56,9 @@ def run(scene, ctx) -> TaskResult:
     wire, mask = res.frames, res.mask
     counts = icub_wire_to_counts(wire) if p["codec"] == "icub" else wire.astype(np.float64)
     counts = np.where(mask, counts, 0.0)
-    base = _baseline(counts, mask, p["baseline_rows"])
-    response = np.clip(_hold(counts, mask) - base, 0.0, None)
-    response = np.where(_hold(mask.astype(float), mask) > 0, response, 0.0)
+    base = baseline_first(counts, mask, p["baseline_rows"])
+    response = np.clip(hold(counts, mask) - base, 0.0, None)
+    response = np.where(hold(mask.astype(float), mask) > 0, response, 0.0)
 
     edge_resp = edge = None
     sections = ["## Replay summary\n\n```\n" + s.text() + "\n```"]
