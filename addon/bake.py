@@ -1,8 +1,10 @@
-"""Baked contacts: per-frame values stored with the .blend and played back.
+"""Baked contacts and loaded recordings: per-frame values stored with the .blend and played back.
 
 The cache of a taxel object is a separate mesh datablock (``Object.vtskin.cache``,
 fake user so it is saved) with one vertex per taxel and one point attribute per
-baked frame and quantity: ``pressure_00012``, ``response_00012``, ``edge_00012``.
+baked frame and quantity: ``pressure_00012``, ``response_00012``, ``edge_00012``
+(a contact bake); ``response``, ``response_compensated``, ``edge`` and ``held`` (a
+recording, see ``ops.VTSKIN_OT_load_recording``).
 Playback copies one frame's attributes to the taxel object with two
 ``foreach_get``/``foreach_set`` calls per quantity: nothing is recomputed.
 """
@@ -14,7 +16,7 @@ import numpy as np
 
 from . import bridge
 
-QUANTITIES = ("pressure", "response", "edge")
+QUANTITIES = ("pressure", "response", "response_compensated", "edge", "held")
 
 
 def _key(name: str, frame: int) -> str:
@@ -25,7 +27,7 @@ def store(ob, frames, **series):
     """Store a bake on taxel object ``ob``.
 
     frames : (T,) int scene frames. series : name -> (T, N) array for the names
-    in QUANTITIES (``edge`` bool). Replaces any previous cache of ``ob``.
+    in QUANTITIES (``edge``, ``held`` bool). Replaces any previous cache of ``ob``.
     """
     n = len(ob.data.vertices)
     frames = np.asarray(frames, dtype=np.int64)
@@ -37,7 +39,7 @@ def store(ob, frames, **series):
         values = np.asarray(values)
         if values.shape != (len(frames), n):
             raise ValueError(f"bake {name}: shape {values.shape}, expected {(len(frames), n)}")
-        kind = "BOOLEAN" if name == "edge" else "FLOAT"
+        kind = "BOOLEAN" if values.dtype == bool else "FLOAT"
         for f, row in zip(frames, values):
             bridge.set_attribute(cache, _key(name, int(f)), row, kind)
     ob.vtskin.cache = cache

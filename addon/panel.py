@@ -103,6 +103,32 @@ class VTSKIN_PT_contact(_Panel, bpy.types.Panel):
             col.label(text=f"Baked frames {ob.vtskin.bake_start}..{ob.vtskin.bake_end}")
 
 
+class VTSKIN_PT_replay(_Panel, bpy.types.Panel):
+    bl_idname = "VTSKIN_PT_replay"
+    bl_label = "Replay"
+    props = ("recording_file", "recording_codec")
+
+    def draw_more(self, col, s, context):
+        if s.recording_codec == "icub":
+            col.prop(s, "recording_boards")
+        col.prop(s, "replay_rate")
+        _row(col, s, "baseline", "baseline_rows")
+        col.prop(s, "min_response")
+        _button(col, "vtskin.load_recording", "FILE_MOVIE")
+        ob = _skin(context)
+        if ob is None or not ob.vtskin.replay_source or ob.vtskin.cache is None:
+            return
+        v = ob.vtskin
+        box = col.box()
+        box.label(text=f"{bpy.path.basename(v.replay_source)}: frames {v.bake_start}..{v.bake_end}")
+        box.label(text=f"{v.replay_rows} rows at {v.recording_hz:.4g} Hz")
+        box.label(text=f"Lost: {v.lost_rows} rows ({v.lost_samples} samples), shown held in {v.lost_frames} frames")
+        # vtcore words the mismatch report and the decoder's summary
+        for line in v.replay_report.splitlines():
+            box.label(text=line.strip())
+        box.prop(v, "color_by")
+
+
 class VTSKIN_PT_filters(_Panel, bpy.types.Panel):
     bl_idname = "VTSKIN_PT_filters"
     bl_label = "Filters"
@@ -137,5 +163,6 @@ class VTSKIN_PT_scene(_Panel, bpy.types.Panel):
     button = ("vtskin.run_scene", "PLAY")
 
 
-CLASSES = (VTSKIN_PT_layout, VTSKIN_PT_layer, VTSKIN_PT_contact, VTSKIN_PT_filters, VTSKIN_PT_augment,
+CLASSES = (VTSKIN_PT_layout, VTSKIN_PT_layer, VTSKIN_PT_contact, VTSKIN_PT_replay, VTSKIN_PT_filters,
+           VTSKIN_PT_augment,
            VTSKIN_PT_export, VTSKIN_PT_scene)

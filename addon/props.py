@@ -13,6 +13,7 @@ from bpy.props import (BoolProperty, EnumProperty, FloatProperty, IntProperty, P
 
 COLOR_BY = [
     ("response", "Response", "Sensor response (counts)"),
+    ("response_compensated", "Compensated", "Recorded response above each taxel's baseline (counts)"),
     ("pressure", "Pressure", "Pressure at the taxels (Pa)"),
     ("edge", "Edge", "Taxels on an edge of the contact"),
     ("tactile_color", "Tactile colour", "Colour propagated onto a point cloud"),
@@ -57,6 +58,17 @@ class VTSKIN_PG_object(bpy.types.PropertyGroup):
     force: FloatProperty(name="Force", default=0.0, unit="NONE", description="Force of the last contact (N)")
     edge_threshold: FloatProperty(name="Edge threshold", default=0.0,
                                   description="Edge response threshold used (counts^2/m)")
+    # The recording loaded into the cache (shown in the Replay panel).
+    replay_source: StringProperty(name="Recording", default="", description="File of the loaded recording")
+    replay_rows: IntProperty(name="Recorded rows", default=0)
+    recording_hz: FloatProperty(name="Recording rate (Hz)", default=0.0)
+    lost_rows: IntProperty(name="Lost rows", default=0,
+                           description="Recorded rows with a lost sample of a recorded taxel")
+    lost_samples: IntProperty(name="Lost samples", default=0)
+    lost_frames: IntProperty(name="Lost frames", default=0,
+                             description="Frames that show a held (last good) value for a lost sample")
+    replay_report: StringProperty(name="Replay report", default="",
+                                  description="The mismatch report and the decoder's summary, one finding a line")
 
 
 def _modules():
@@ -79,6 +91,14 @@ def _formats():
     return [(f, f, f"vtcore layout format {f}") for f in FORMATS]
 
 
+def _codecs():
+    from vtcore.can.timeline import KINDS
+
+    words = {"cyskin16": "CySkin CAN log (cyskin16)", "icub": "iCub CAN log", "cyskin-txt": "CySkin text recording"}
+    return [(k, words.get(k, k), f"vtcore recording kind {k}") for k in KINDS]
+
+
+_CODECS = _codecs()
 _MATERIALS = _materials()
 _FORMATS = _formats()
 
@@ -147,6 +167,23 @@ class VTSKIN_PG_scene(bpy.types.PropertyGroup):
     export_format: EnumProperty(name="Format", items=_FORMATS)
     export_frame: PointerProperty(name="In frame of", type=bpy.types.Object,
                                   description="Write positions in this object's frame (empty: the skin's own)")
+
+    # Replay
+    recording_file: StringProperty(name="Recording", subtype="FILE_PATH",
+                                   description="A CAN log (.log .asc .blf .trc .csv) or a CySkin text recording")
+    recording_codec: EnumProperty(name="Codec", items=_CODECS, default="cyskin16")
+    recording_boards: StringProperty(name="Boards", default="",
+                                     description="iCub: board address of each 192-taxel block of the skin, "
+                                                 "e.g. 3 or 14,13 (empty: the skin's own CAN addresses)")
+    replay_rate: EnumProperty(name="Timing", items=[
+        ("SCENE", "Scene rate", "Frames at the scene's frame rate, each showing the last row at or before its time"),
+        ("RECORDING", "Own rate", "One frame per recorded row")], default="SCENE")
+    baseline: EnumProperty(name="Baseline", items=[
+        ("first", "First rows", "Median of each taxel's first received samples (iCub skinManager style)"),
+        ("quiet", "Quiet window", "Median over the consecutive rows with the least variation")], default="first")
+    baseline_rows: IntProperty(name="Rows", default=5, min=1, description="Rows the baseline is taken over")
+    min_response: FloatProperty(name="Min response", default=0.0, min=0.0,
+                                description="Counts: a frame whose strongest response is below this has no edges")
 
     scene_file: StringProperty(name="Scene file", subtype="FILE_PATH",
                                description="A vtcore scene (TOML) to run")
