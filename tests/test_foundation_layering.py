@@ -24,6 +24,7 @@ ALLOWED = {
     "categorize": {"layout", "contact"},
     "can": {"layout", "contact", "filters"},
     "control": {"layout", "contact", "filters", "augment", "categorize"},
+    "learn": {"layout", "contact", "augment"},
     "scene": set(PACKAGES) - {"cli", "scene", "sweep"},
     "sweep": set(PACKAGES) - {"cli", "sweep"},
     "cli": set(PACKAGES) - {"cli"},

@@ -1,0 +1,131 @@
+"""Seed 000's classification experiment (Sect. 4.1, Table 1) and the active-touch comparison.
+
+:func:`train_and_test` trains and tests PointNet on one data set version;
+:func:`active_vs_random` scores test clouds whose touches a policy chose with the
+networks trained on random touches, and the held-out compliance-map error of each
+policy, over several seeds.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .active import map_error, select_touches
+from .datasets import TEST, TRAIN, VAL, DataSet, ObjectScan, build_clouds, normalise_xyz, propagate
+
+#: Table 1 of seed 000 (accuracy in %), for the report
+PAPER_TABLE1 = {"g0": 44.44, "cluster_g3": 79.34, "cluster_g7": 94.84, "cluster_g10": 97.35, "cluster_g13": 98.55,
+                "smooth_g3": 70.62, "smooth_g7": 86.37, "smooth_g10": 91.28, "smooth_g13": 97.78}
+
+
+@dataclass
+class VersionResult:
+    """One trained and tested data set version.
+
+    accuracy : fraction of the test clouds classified right. confusion : (k, k) counts.
+    seconds_data / seconds_train : wall time to build the clouds / to train.
+    infer_ms : wall milliseconds per test cloud.
+    """
+
+    name: str
+    accuracy: float
+    confusion: np.ndarray
+    curves: dict
+    best_epoch: int
+    seconds_data: float
+    seconds_train: float
+    cpu_seconds_train: float
+    infer_ms: float
+    counts: dict
+    model: object = field(repr=False, default=None)
+
+
+def train_and_test(ds: DataSet, scans: list[ObjectScan], subsamples, cfg, *, scale: float, beta: float = -300.0,
+                   progress=None) -> VersionResult:
+    """Build the clouds of ``ds``, train PointNet on its train split (validation chooses the epoch),
+    test on its test split. ``cfg`` : :class:`vtcore.learn.train.TrainConfig`."""
+    from .train import confusion, predict, train
+
+    t0 = time.perf_counter()
+    x = build_clouds(ds, scans, subsamples, scale=scale, beta=beta)
+    seconds_data = time.perf_counter() - t0
+    y = ds.labels
+    tr, va, te = (ds.split == c for c in (TRAIN, VAL, TEST))
+    res = train(x[tr], y[tr], x[va], y[va], len(scans), cfg, progress=progress)
+    t0 = time.perf_counter()
+    pred = predict(res.model, x[te]).argmax(axis=1)
+    infer_ms = 1e3 * (time.perf_counter() - t0) / max(int(te.sum()), 1)
+    conf = confusion(y[te], pred, len(scans))
+    return VersionResult(ds.name, float(np.mean(pred == y[te])) if te.any() else float("nan"), conf, res.curves,
+                         res.best_epoch, seconds_data, res.seconds, res.cpu_seconds, infer_ms, ds.counts(),
+                         res.model)
+
+
+def policy_clouds(policy: str, scans: list[ObjectScan], subsamples, g: int, per_object: int, rng, *,
+                  propagation: str, scale: float, beta: float = -300.0):
+    """Clouds ``(M, P, 4)`` and labels ``(M,)`` whose G touches ``policy`` chose (seeded).
+
+    Each cloud takes a random disjoint subsample of V_o and a fresh choice of touches
+    (for ``farthest``: a random first touch, then farthest-point coverage).
+    """
+    rng = np.random.default_rng(rng)
+    size = subsamples[0].shape[1]
+    x = np.empty((len(scans) * per_object, size, 4), dtype=np.float32)
+    y = np.repeat(np.arange(len(scans)), per_object)
+    for o, scan in enumerate(scans):
+        for k in range(per_object):
+            s = int(rng.integers(len(subsamples[o])))
+            t = select_touches(policy, scan.touch_points, g, rng)
+            pts = scan.points[subsamples[o][s]]
+            j = o * per_object + k
+            x[j, :, :3] = normalise_xyz(pts)
+            x[j, :, 3] = propagate(propagation, scan.touch_points[t], scan.touch_values[t], pts, beta) / scale
+    return x, y
+
+
+def active_vs_random(models: dict, scans: list[ObjectScan], subsamples, *, policies=("random", "farthest"),
+                     seeds: int = 5, per_object: int = 20, seed: int = 0, scale: float, beta: float = -300.0,
+                     error_touches=None) -> dict:
+    """Accuracy and compliance-map error against G for each policy, per seed.
+
+    models : ``(propagation, G) -> trained network`` (trained on random touches).
+    Returns ``{"accuracy": {(propagation, policy): (G list, (seeds, len(G)) array)},
+    "map_error": {(propagation, policy): (G list, (seeds, len(G)) array)}}``; the map error is
+    averaged over objects, at every G from 1 to the fewest probes minus one (``error_touches``).
+    """
+    from .train import predict
+
+    acc, err = {}, {}
+    for prop in sorted({p for p, _ in models}):
+        gs = sorted(g for p, g in models if p == prop)
+        for policy in policies:
+            a = np.full((seeds, len(gs)), np.nan)
+            for si in range(seeds):
+                for gi, g in enumerate(gs):
+                    x, y = policy_clouds(policy, scans, subsamples, g, per_object, [seed, si, g, 7],
+                                         propagation=prop, scale=scale, beta=beta)
+                    a[si, gi] = float(np.mean(predict(models[(prop, g)], x).argmax(axis=1) == y))
+            acc[(prop, policy)] = (gs, a)
+    n_min = min(len(s.touch_values) for s in scans)
+    eg = list(error_touches or range(1, n_min))
+    for prop in sorted({p for p, _ in models}) or ["cluster"]:
+        for policy in policies:
+            e = np.full((seeds, len(eg)), np.nan)
+            for si in range(seeds):
+                for gi, g in enumerate(eg):
+                    vals = [map_error(s.touch_points, s.touch_values,
+                                      select_touches(policy, s.touch_points, g, [seed, si, g, o, 11]), prop, beta)
+                            for o, s in enumerate(scans)]
+                    e[si, gi] = float(np.nanmean(vals))
+            err[(prop, policy)] = (eg, e)
+    return {"accuracy": acc, "map_error": err}
+
+
+def touches_to_reach(gs, acc: np.ndarray, level: float = 0.95) -> float:
+    """The smallest G whose mean accuracy over seeds reaches ``level``; NaN if none does."""
+    m = np.nanmean(np.asarray(acc, float), axis=0)
+    hit = [g for g, v in zip(gs, m) if v >= level]
+    return float(min(hit)) if hit else float("nan")

@@ -1,0 +1,225 @@
+"""Task ``classify``: seed 000's visuo-tactile classification against the number of touches (Table 1).
+
+Scan each object (two virtual D415s) and probe it (17 or 24 touches, the contact probe
+of the augment scenes or the closed-form series probe), build the data sets of Sect. 4.1
+(:mod:`vtcore.learn.datasets`), train and test PointNet for G = 0 and every G and
+propagation listed, then compare active (farthest-point) and random touch selection
+with the trained networks. Needs the optional extra ``vtcore[learn]`` (torch).
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from ...augment import ProbeModel, make_seed000_object, two_cameras
+from ...augment.experiment import probe_object
+from ...augment.objects import OBJECTS
+from ...learn import datasets as D
+from ...learn.experiment import PAPER_TABLE1, active_vs_random, touches_to_reach, train_and_test
+from ...plots import png_writer
+from ..registry import TaskSpec, register_task
+from ..runner import TaskResult
+from ..schema import Field, Section
+from .augment import PARAMS as AUGMENT
+from .augment import contact_prober
+
+#: probing keys shared with the augment task (same meaning, same defaults)
+SHARED = ("target_response", "probe", "counts_per_pa", "readings", "counts_per_newton", "layer_stiffness",
+          "response_noise", "position_noise", "cameras", "depth_noise", "beta")
+
+PARAMS = Section({
+    "objects": Field("list", default=list(OBJECTS), item=Field("str", choices=OBJECTS),
+                     doc="objects to tell apart (labels in this order)"),
+    "probes_bottle": Field("int", default=24, ge=1, doc="|T_o| of the bottles (paper: 24)"),
+    "probes_other": Field("int", default=17, ge=1, doc="|T_o| of the balls and cubes (paper: 17)"),
+    "points": Field("int", default=33676, ge=1, doc="points of each visual cloud V_o (paper's bottle: 33,676)"),
+    "touches": Field("list", default=list(D.TOUCHES), item=Field("int", ge=1), doc="G values (paper: 3, 7, 10, 13)"),
+    "propagations": Field("list", default=list(D.PROPAGATIONS), item=Field("str", choices=D.PROPAGATIONS),
+                          doc="propagations to train on"),
+    "geometry_only": Field("bool", default=True, doc="also train on the visual clouds alone (G = 0)"),
+    "per_object": Field("int", default=D.PER_OBJECT, ge=1, doc="augmented clouds per object (paper: 500)"),
+    "subsamples": Field("int", default=D.SUBSAMPLES, ge=1, doc="disjoint subsamples of V_o (paper: 15)"),
+    "cloud_points": Field("int", default=D.POINTS, ge=8, doc="points per PointNet input (paper: 512)"),
+    "epochs": Field("int", default=20, ge=1, doc="training epochs (paper: 20)"),
+    "batch": Field("int", default=16, ge=2, doc="batch size (paper: 16)"),
+    "learning_rate": Field("float", default=1e-3, gt=0, doc="Adam step"),
+    "input_transform": Field("bool", default=False, doc="PointNet's input T-net (3x3)"),
+    "feature_transform": Field("bool", default=False, doc="PointNet's feature T-net (64x64)"),
+    # One thread by default: on this 2-core machine under load, one training step of 16 x 128
+    # points took 1.9 s with one torch thread and 11.7 s with two (the second spins on a busy core).
+    "threads": Field("int", default=1, ge=0, doc="torch threads, capped at the cores this process may use "
+                                                  "(0: all of them)"),
+    "active": Field("bool", default=True, doc="compare active (farthest-point) and random touch selection"),
+    "active_seeds": Field("int", default=5, ge=1, doc="seeds of the active-vs-random comparison"),
+    "active_clouds": Field("int", default=20, ge=1, doc="test clouds per object, seed and G in that comparison"),
+    "quick": Field("bool", default=False,
+                   doc="a smoke run: at most 16 clouds per object, 6 epochs, 128 points per cloud, 2 active "
+                       "seeds of 4 clouds"),
+    **{k: AUGMENT.fields[k] for k in SHARED},
+})
+
+QUICK = {"per_object": 16, "epochs": 6, "cloud_points": 128, "active_seeds": 2, "active_clouds": 4}
+
+
+def scan_objects(scene, ctx, names, p) -> list[D.ObjectScan]:
+    """Visual cloud and probes of every object (seeded per object, independent of the others)."""
+    probe = ProbeModel(target=p["target_response"], counts_per_newton=p["counts_per_newton"],
+                       layer_stiffness=p["layer_stiffness"], response_noise=p["response_noise"],
+                       position_noise=p["position_noise"])
+    scans = []
+    for name in ctx.progress(names, desc="scanning and probing", total=len(names)):
+        obj = make_seed000_object(name)
+        lo, hi = np.asarray(obj.mesh.bounds)
+        cams = two_cameras(target=tuple((lo + hi) / 2), depth_noise=p["depth_noise"])[:p["cameras"]]
+        n_touch = p["probes_bottle"] if "bottle" in name else p["probes_other"]
+        prober = contact_prober(scene, ctx, obj) if p["probe"] == "contact" else None
+        t0 = time.perf_counter()
+        probed = probe_object(obj, n_touch, probe, cameras=cams, n_points=p["points"], rng=ctx.child_rng(f"scan.{name}"),
+                              probe_fn=prober)
+        c = probed.tactile.values
+        scans.append(D.ObjectScan(name, probed.points, probed.tactile.points, c if c.ndim == 1 else c[:, 0],
+                                  meta={"probe_seconds": time.perf_counter() - t0,
+                                        "probes_unreachable": len(prober.failures) if prober else 0}))
+    return scans
+
+
+def run(scene, ctx) -> TaskResult:
+    from ...learn.pointnet import require_torch
+    from ...learn.train import TrainConfig
+
+    p = dict(scene["task"])
+    if p["quick"]:
+        p.update({k: min(p[k], v) for k, v in QUICK.items()})
+    names = list(p["objects"])
+    if len(set(names)) != len(names) or len(names) < 2:
+        raise scene.error("task.objects", f"needs two or more distinct objects, got {names}")
+    if not p["touches"] and not p["geometry_only"]:
+        raise scene.error("task.touches", "is empty and geometry_only is false: nothing to train")
+    require_torch()                                   # before the scans: a missing extra fails in a second
+    for g in p["touches"]:
+        few = [n for n in names if (p["probes_bottle"] if "bottle" in n else p["probes_other"]) < g]
+        if few:
+            raise scene.error("task.touches", f"G = {g} touches per cloud but {', '.join(few)} "
+                                              f"{'has' if len(few) == 1 else 'have'} fewer probes "
+                                              f"(probes_bottle / probes_other)")
+    log = (ctx.out / "training.log").open("w", encoding="utf-8")
+
+    def say(text):
+        log.write(text + "\n")
+        log.flush()
+
+    t0 = time.perf_counter()
+    scans = scan_objects(scene, ctx, names, p)
+    t_scan = time.perf_counter() - t0
+    say(f"scanned and probed {len(scans)} objects in {t_scan:.1f} s")
+    subs = D.object_subsamples(scans, scene.seed, subsets=p["subsamples"], size=p["cloud_points"])
+    scale = D.c_scale(scans)
+    versions = ([D.make_dataset(scans, 0, seed=scene.seed, subsamples=subs)] if p["geometry_only"] else [])
+    versions += [D.make_dataset(scans, g, prop, per_object=p["per_object"], seed=scene.seed, subsamples=subs)
+                 for prop in p["propagations"] for g in p["touches"]]
+    cfg = dict(epochs=p["epochs"], batch=p["batch"], lr=p["learning_rate"], input_transform=p["input_transform"],
+               feature_transform=p["feature_transform"], threads=p["threads"] or None)
+    results, metrics = {}, {}
+    for i, ds in enumerate(versions):
+        def progress(epoch, epochs, row, name=ds.name):
+            say(f"{name}: epoch {epoch}/{epochs} loss {row['train_loss']:.4f} "
+                f"train {row['train_accuracy']:.3f} val {row['val_accuracy']:.3f} ({time.perf_counter() - t0:.0f} s)")
+
+        r = train_and_test(ds, scans, subs, TrainConfig(seed=scene.seed + i, **cfg), scale=scale, beta=p["beta"],
+                           progress=progress)
+        results[ds.name] = r
+        say(f"{ds.name}: test accuracy {r.accuracy:.4f}, {r.seconds_train:.1f} s training")
+        metrics[f"accuracy_{ds.name}"] = r.accuracy
+        metrics[f"train_seconds_{ds.name}"] = r.seconds_train
+        metrics[f"train_cpu_seconds_{ds.name}"] = r.cpu_seconds_train
+        metrics[f"data_seconds_{ds.name}"] = r.seconds_data
+        metrics[f"infer_ms_per_cloud_{ds.name}"] = r.infer_ms
+        metrics[f"best_epoch_{ds.name}"] = r.best_epoch
+    metrics["scan_seconds"] = t_scan
+    metrics["clouds_per_object"] = int(p["per_object"])
+    metrics["epochs"] = int(p["epochs"])
+
+    figures, sections = {}, [_table(results, versions, p)]
+    objects = tuple(names)
+    from ...learn.plots import active_figure, confusion_figure, curves_figure
+
+    fig8 = {k: results[k].confusion for k in ("g0", f"cluster_g{max(p['touches'], default=0)}") if k in results}
+    if fig8:
+        figures["fig8_confusion"] = png_writer(confusion_figure, fig8, objects,
+                                               "Fig. 8: test-set confusion (rows: true object)")
+    figures["confusion_all"] = png_writer(confusion_figure, {k: r.confusion for k, r in results.items()}, objects)
+    figures["training_curves"] = png_writer(curves_figure, {k: r.curves for k, r in results.items()})
+    arrays = {f"confusion_{k}": r.confusion for k, r in results.items()}
+    arrays.update({f"curve_val_accuracy_{k}": np.asarray(r.curves["val_accuracy"]) for k, r in results.items()})
+    for o, s in enumerate(scans):
+        arrays[f"probe_points_{s.name}"] = s.touch_points
+        arrays[f"probe_values_{s.name}"] = s.touch_values
+        arrays[f"subsamples_{s.name}"] = subs[o]
+    for ds in versions:
+        arrays[f"dataset_{ds.name}_labels"] = ds.labels
+        arrays[f"dataset_{ds.name}_subsample"] = ds.subsample
+        arrays[f"dataset_{ds.name}_touches"] = ds.touches
+        arrays[f"dataset_{ds.name}_split"] = ds.split
+
+    models = {(r_ds.propagation, r_ds.touches_g): results[r_ds.name].model for r_ds in versions if r_ds.touches_g}
+    if p["active"] and models:
+        t1 = time.perf_counter()
+        av = active_vs_random(models, scans, subs, seeds=p["active_seeds"], per_object=p["active_clouds"],
+                              seed=scene.seed, scale=scale, beta=p["beta"])
+        metrics["active_seconds"] = time.perf_counter() - t1
+        for (prop, policy), (gs, a) in av["accuracy"].items():
+            for gi, g in enumerate(gs):
+                metrics[f"active_accuracy_{prop}_{policy}_g{g}"] = float(np.mean(a[:, gi]))
+                metrics[f"active_accuracy_std_{prop}_{policy}_g{g}"] = float(np.std(a[:, gi]))
+            metrics[f"active_touches_to_95_{prop}_{policy}"] = touches_to_reach(gs, a)
+            arrays[f"active_accuracy_{prop}_{policy}"] = a
+        for (prop, policy), (gs, e) in av["map_error"].items():
+            for gi, g in enumerate(gs):
+                metrics[f"active_map_error_{prop}_{policy}_g{g}"] = float(np.nanmean(e[:, gi]))
+            arrays[f"active_map_error_{prop}_{policy}"] = e
+        acc = {f"{prop} {pol}": v for (prop, pol), v in av["accuracy"].items()}
+        err = {f"{prop} {pol}": v for (prop, pol), v in av["map_error"].items()}
+        figures["active_vs_random"] = png_writer(active_figure, acc, err,
+                                                 f"farthest-point vs random touches, {p['active_seeds']} seeds")
+        sections.append(_active_table(av, p))
+    log.close()
+    manifest = D.manifest(versions, scans, scale=scale)
+    from ..._io import write_json
+
+    write_json(ctx.out / "manifest.json", manifest)
+    return TaskResult(metrics=metrics, arrays=arrays, figures=figures, sections=sections,
+                      files=["manifest.json", "training.log"], extra={"datasets": manifest["datasets"]})
+
+
+def _table(results, versions, p) -> str:
+    lines = ["## Accuracy against touches (test split), beside seed 000's Table 1", "",
+             f"{p['per_object']} clouds per object (G = 0: {p['subsamples']}), {p['cloud_points']} points, "
+             f"{p['epochs']} epochs, batch {p['batch']}, probe `{p['probe']}`.", "",
+             "| data set | ours (%) | paper (%) | test clouds | best epoch | data (s) | training (s) | "
+             "inference (ms/cloud) |", "|---|---|---|---|---|---|---|---|"]
+    for ds in versions:
+        r = results[ds.name]
+        paper = PAPER_TABLE1.get(ds.name)
+        lines.append(f"| {ds.name} | {100 * r.accuracy:.2f} | {'-' if paper is None else f'{paper:.2f}'} | "
+                     f"{r.counts['test']} | {r.best_epoch} | {r.seconds_data:.1f} | {r.seconds_train:.1f} | "
+                     f"{r.infer_ms:.2f} |")
+    return "\n".join(lines)
+
+
+def _active_table(av, p) -> str:
+    lines = ["## Active (farthest-point) vs random touches", "",
+             f"Networks trained on random touches; {p['active_clouds']} test clouds per object, seed and G; "
+             f"mean ± std over {p['active_seeds']} seeds.", "",
+             "| propagation | policy | " + " | ".join(f"G={g}" for g in
+                                                    next(iter(av["accuracy"].values()))[0]) + " |",
+             "|---|---|" + "---|" * len(next(iter(av["accuracy"].values()))[0])]
+    for (prop, policy), (gs, a) in av["accuracy"].items():
+        cells = [f"{100 * np.mean(a[:, i]):.1f} ± {100 * np.std(a[:, i]):.1f}" for i in range(len(gs))]
+        lines.append(f"| {prop} | {policy} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+register_task(TaskSpec("classify", run, PARAMS,
+                       doc="seed 000: PointNet on augmented clouds against the number of touches (needs torch)"))
