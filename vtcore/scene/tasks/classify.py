@@ -97,13 +97,13 @@ def run(scene, ctx) -> TaskResult:
         raise scene.error("task.objects", f"needs two or more distinct objects, got {names}")
     if not p["touches"] and not p["geometry_only"]:
         raise scene.error("task.touches", "is empty and geometry_only is false: nothing to train")
-    require_torch()                                   # before the scans: a missing extra fails in a second
     for g in p["touches"]:
         few = [n for n in names if (p["probes_bottle"] if "bottle" in n else p["probes_other"]) < g]
         if few:
             raise scene.error("task.touches", f"G = {g} touches per cloud but {', '.join(few)} "
                                               f"{'has' if len(few) == 1 else 'have'} fewer probes "
                                               f"(probes_bottle / probes_other)")
+    require_torch()                                   # before the scans: a missing extra fails in a second
     log = (ctx.out / "training.log").open("w", encoding="utf-8")
 
     def say(text):
