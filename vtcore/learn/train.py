@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import VtError
+from ..errors import InputError, VtError
 from .pointnet import build_pointnet, limit_threads, orthogonality_loss, require_torch
 
 
@@ -28,7 +28,11 @@ class TrainingDivergedError(VtError, ArithmeticError):
 class TrainConfig:
     """Hyper-parameters. epochs, batch : the paper's 20 and 16. lr : Adam's step.
     jitter, jitter_clip : normalised units. threads : torch threads, at most the cores this
-    process may use (None: all of them)."""
+    process may use (None: all of them). recalibrate_bn : before each validation, recompute batch
+    norm's statistics from the training clouds at the current weights. With few optimisation
+    steps (quick runs, tests: tens of batches) the running averages lag the weights and the
+    network in evaluation mode gives one class for every input; this costs one forward pass
+    over the training set per epoch."""
 
     epochs: int = 20
     batch: int = 16
@@ -40,6 +44,7 @@ class TrainConfig:
     feature_transform: bool = False
     seed: int = 0
     threads: int | None = None
+    recalibrate_bn: bool = False
 
 
 @dataclass
@@ -110,6 +115,11 @@ def train(x_train: np.ndarray, y_train: np.ndarray, x_val: np.ndarray, y_val: np
     """
     torch = require_torch()
     cfg = cfg or TrainConfig()
+    if not (np.isfinite(cfg.lr) and 0 < cfg.lr <= 1e30):   # Adam's float32 step overflows past ~3e38
+        raise InputError(f"must be > 0 and <= 1e30, got {cfg.lr}", key="learning_rate")
+    if cfg.epochs < 1 or cfg.batch < 2:
+        raise InputError(f"epochs must be >= 1 and batch >= 2 (batch norm), got {cfg.epochs} and {cfg.batch}",
+                         key="epochs")
     threads = limit_threads(cfg.threads)
     torch.manual_seed(cfg.seed)                         # weight initialisation and dropout
     gen = torch.Generator().manual_seed(cfg.seed + 1)   # shuffling and augmentation
@@ -137,13 +147,16 @@ def train(x_train: np.ndarray, y_train: np.ndarray, x_val: np.ndarray, y_val: np
             loss, logits = _loss(torch, model, xb, yb, cfg)
             if not torch.isfinite(loss):
                 raise TrainingDivergedError(
-                    f"training diverged: the loss is {float(loss)} at epoch {epoch}, batch {b + 1} "
+                    f"training diverged: the loss is {loss.item()} at epoch {epoch}, batch {b + 1} "
                     f"(learning rate {cfg.lr:g}); lower task.learning_rate or check the clouds' colours")
             loss.backward()
             opt.step()
             tot += loss.item() * len(idx)
             correct += int((logits.argmax(1) == yb).sum())
             seen += len(idx)
+        if cfg.recalibrate_bn:
+            # torch's own recalibration (cumulative averages over one pass, as for weight averaging)
+            torch.optim.swa_utils.update_bn([xt[i:i + 64] for i in range(0, len(xt), 64)], model)
         vloss, vacc = _eval(torch, model, x_val, y_val)
         row = {"train_loss": tot / max(seen, 1), "train_accuracy": correct / max(seen, 1), "val_loss": vloss,
                "val_accuracy": vacc}

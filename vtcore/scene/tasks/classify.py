@@ -44,11 +44,14 @@ PARAMS = Section({
     "cloud_points": Field("int", default=D.POINTS, ge=8, doc="points per PointNet input (paper: 512)"),
     "epochs": Field("int", default=20, ge=1, doc="training epochs (paper: 20)"),
     "batch": Field("int", default=16, ge=2, doc="batch size (paper: 16)"),
-    "learning_rate": Field("float", default=1e-3, gt=0, doc="Adam step"),
+    "learning_rate": Field("float", default=1e-3, gt=0, le=1e30, doc="Adam step"),
     "input_transform": Field("bool", default=False, doc="PointNet's input T-net (3x3)"),
     "feature_transform": Field("bool", default=False, doc="PointNet's feature T-net (64x64)"),
     # One thread by default: on this 2-core machine under load, one training step of 16 x 128
     # points took 1.9 s with one torch thread and 11.7 s with two (the second spins on a busy core).
+    "recalibrate_bn": Field("bool", default=False,
+                            doc="recompute batch norm statistics from the training set before each validation "
+                                "(needed with few steps: the quick mode turns it on)"),
     "threads": Field("int", default=1, ge=0, doc="torch threads, capped at the cores this process may use "
                                                   "(0: all of them)"),
     "active": Field("bool", default=True, doc="compare active (farthest-point) and random touch selection"),
@@ -56,11 +59,12 @@ PARAMS = Section({
     "active_clouds": Field("int", default=20, ge=1, doc="test clouds per object, seed and G in that comparison"),
     "quick": Field("bool", default=False,
                    doc="a smoke run: at most 16 clouds per object, 6 epochs, 128 points per cloud, 2 active "
-                       "seeds of 4 clouds"),
+                       "seeds of 4 clouds, batch norm recalibrated each epoch"),
     **{k: AUGMENT.fields[k] for k in SHARED},
 })
 
 QUICK = {"per_object": 16, "epochs": 6, "cloud_points": 128, "active_seeds": 2, "active_clouds": 4}
+QUICK_ON = ("recalibrate_bn",)
 
 
 def scan_objects(scene, ctx, names, p) -> list[D.ObjectScan]:
@@ -92,6 +96,7 @@ def run(scene, ctx) -> TaskResult:
     p = dict(scene["task"])
     if p["quick"]:
         p.update({k: min(p[k], v) for k, v in QUICK.items()})
+        p.update({k: True for k in QUICK_ON})
     names = list(p["objects"])
     if len(set(names)) != len(names) or len(names) < 2:
         raise scene.error("task.objects", f"needs two or more distinct objects, got {names}")
@@ -120,7 +125,8 @@ def run(scene, ctx) -> TaskResult:
     versions += [D.make_dataset(scans, g, prop, per_object=p["per_object"], seed=scene.seed, subsamples=subs)
                  for prop in p["propagations"] for g in p["touches"]]
     cfg = dict(epochs=p["epochs"], batch=p["batch"], lr=p["learning_rate"], input_transform=p["input_transform"],
-               feature_transform=p["feature_transform"], threads=p["threads"] or None)
+               feature_transform=p["feature_transform"], threads=p["threads"] or None,
+               recalibrate_bn=p["recalibrate_bn"])
     results, metrics = {}, {}
     for i, ds in enumerate(versions):
         def progress(epoch, epochs, row, name=ds.name):
