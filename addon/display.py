@@ -144,8 +144,8 @@ def _viridis(ramp):
 
 
 def shader_nodes(mat):
-    """The shader node tree of material ``mat``. Blender 5.x gives every new material one
-    (``Material.use_nodes`` is deprecated there, to go in 6.0); 4.x makes it only when
+    """The shader node tree of material (or world) ``mat``. Blender 5.x gives every new material
+    and world one (``use_nodes`` is deprecated there, to go in 6.0); 4.x makes it only when
     ``use_nodes`` is switched on."""
     if mat.node_tree is None:
         mat.use_nodes = True

@@ -85,6 +85,7 @@ class VTSKIN_OT_run_scene(_Op, bpy.types.Operator):
         if not Path(path).is_file():  # before _out_dir, which may create a temporary folder
             raise _Cancel(f"{path}: not a readable scene file")
         with _failing("Scene run failed"):
+            # a replay scene also comes back prepared for the timeline, at its [output] fps
             res = run_scene_file(path, _out_dir(settings))
         name = res.result.get("name") or Path(path).stem
         ob = skin.new_object(context, f"{name} taxels")
@@ -95,11 +96,21 @@ class VTSKIN_OT_run_scene(_Op, bpy.types.Operator):
             other.select_set(False)
         ob.select_set(True)
         context.view_layer.objects.active = ob
+        rendered = ""
+        if res.replay is not None:
+            _store_replay(context.scene, ob, res.replay, res.replay.meta.get("path", path))
+            if res.output.get("video"):
+                from . import render
+
+                try:
+                    rendered = f", rendered {render.render_replay(context, ob, res.out, res.output)}"
+                except RuntimeError as exc:  # Blender's render failed (no GPU context, codec missing)
+                    self.report({"WARNING"}, f"The skin and replay are loaded; rendering failed: {exc}")
         metrics = res.result.get("metrics", {})
         force = metrics.get("force_n")
         self.report({"INFO"}, f"{name}: {len(res.layout)} taxels"
                     + (f", {force:.3g} N" if isinstance(force, (int, float)) else "")
-                    + f", results in {res.out}")
+                    + f", results in {res.out}" + rendered)
         return {"FINISHED"}
 
 
@@ -512,6 +523,29 @@ def _boards(text: str):
         raise _Cancel(f"Boards: expected board addresses like 3 or 14,13, got {text!r}") from None
 
 
+def _store_replay(scene, ob, rep, path):
+    """Write a vtcore ``Replay`` into the bake cache of taxel object ``ob`` from the scene's
+    first frame on, the panel's numbers, and show the current frame."""
+    me = ob.data
+    n = len(me.vertices)
+    for name in ("response", "response_compensated", "edge", "held"):
+        if name not in me.attributes:  # playback writes into existing attributes only
+            flag = name in ("edge", "held")
+            bridge.set_attribute(me, name, np.zeros(n, bool if flag else np.float32), "BOOLEAN" if flag else "FLOAT")
+    frames = scene.frame_start + np.arange(len(rep.rows))
+    bake.store(ob, frames, response=rep.counts, response_compensated=rep.response, edge=rep.edge, held=rep.held)
+    scene.frame_end = int(frames[-1])
+    v = ob.vtskin
+    v.replay_source = str(path)
+    v.replay_rows = len(rep.timestamps)
+    v.recording_hz = rep.rate_hz
+    v.lost_rows, v.lost_samples, v.lost_frames = rep.lost_rows, rep.lost_samples, rep.lost_frames
+    v.replay_report = "\n".join(rep.mismatch() + rep.summary.splitlines())
+    v.color_by = "response_compensated"
+    display.ensure_display(ob)
+    bake.apply(ob, scene.frame_current)
+
+
 class VTSKIN_OT_load_recording(_Op, bpy.types.Operator):
     """Load a recording (CAN log or CySkin text) onto the skin's taxels for playback on the timeline"""
 
@@ -546,25 +580,7 @@ class VTSKIN_OT_load_recording(_Op, bpy.types.Operator):
             rep = load_recording(path, skin.read_layout(ob), skin.triangles(ob), kind=kind, boards=boards, fps=fps,
                                  baseline=s.baseline, baseline_rows=s.baseline_rows,
                                  edge_fraction=s.edge_fraction, min_response=s.min_response)
-        me = ob.data
-        n = len(me.vertices)
-        for name in ("response", "response_compensated", "edge", "held"):
-            if name not in me.attributes:  # playback writes into existing attributes only
-                bridge.set_attribute(me, name, np.zeros(n, bool if name in ("edge", "held") else np.float32),
-                                     "BOOLEAN" if name in ("edge", "held") else "FLOAT")
-        frames = scene.frame_start + np.arange(len(rep.rows))
-        bake.store(ob, frames, response=rep.counts, response_compensated=rep.response, edge=rep.edge,
-                   held=rep.held)
-        scene.frame_end = int(frames[-1])
-        v = ob.vtskin
-        v.replay_source = str(path)
-        v.replay_rows = len(rep.timestamps)
-        v.recording_hz = rep.rate_hz
-        v.lost_rows, v.lost_samples, v.lost_frames = rep.lost_rows, rep.lost_samples, rep.lost_frames
-        v.replay_report = "\n".join(rep.mismatch() + rep.summary.splitlines())
-        v.color_by = "response_compensated"
-        display.ensure_display(ob)
-        bake.apply(ob, scene.frame_current)
+        _store_replay(scene, ob, rep, path)
         self.report({"INFO"}, f"{Path(path).name}: {len(rep.rows)} frames ({len(rep.timestamps)} rows) on "
                     f"{ob.name}, {rep.lost_frames} frames with lost samples; " + "; ".join(rep.mismatch()))
         return {"FINISHED"}

@@ -180,3 +180,40 @@ def test_bad_recordings_change_nothing(skin_ob, tmp_path):
     ob.data.attributes.remove(ob.data.attributes["taxel_id"])   # a skin without UIDs
     before = scene_state()
     refused("no taxel_id attribute", filepath=str(log), codec="cyskin16")
+
+
+def _replay_scene(tmp_path, output: str) -> Path:
+    """scenes/replay_cyskin16_slide.toml with its log path made absolute and ``output`` as [output]."""
+    src = (ROOT / "scenes" / "replay_cyskin16_slide.toml").read_text()
+    src = src.replace('log = "data/', f'log = "{(ROOT / "scenes" / "data").as_posix()}/')
+    path = tmp_path / "replay.toml"
+    path.write_text(src + "\n[output]\nplots = false\n" + output + "\n")
+    return path
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("engine,video", [("workbench", "mp4"), ("cycles", "frames")])
+def test_replay_scene_renders_headless(tmp_path, engine, video):
+    """A replay scene run from Blender loads the log into the cache and renders it per [output]."""
+    from vtcore.scene.interactive import run_scene_file
+
+    fps = 2.0  # 3 s of recording: 6 frames, kept small for the test
+    scene_file = _replay_scene(tmp_path, f'video = "{video}"\nengine = "{engine}"\nresolution = [64, 48]\n'
+                                         f"samples = 1\nfps = {fps}")
+    out = tmp_path / "out"
+    bpy.context.scene.vtskin.out_dir = str(out)
+    assert bpy.ops.vtskin.run_scene(filepath=str(scene_file)) == {"FINISHED"}
+    ob = bpy.context.view_layer.objects.active
+    ref = run_scene_file(scene_file, tmp_path / "ref").replay
+    s = ob.vtskin
+    assert s.bake_end - s.bake_start + 1 == len(ref.rows) and s.lost_samples == ref.lost_samples == 7
+    bpy.context.scene.frame_set(s.bake_start + 3)
+    np.testing.assert_array_equal(attr(ob, "response_compensated"), ref.response[3])
+    np.testing.assert_array_equal(attr(ob, "edge"), ref.edge[3])
+    if video == "mp4":
+        data = (out / "replay.mp4").read_bytes()
+        assert data[4:8] == b"ftyp" and len(data) > 1000
+    else:
+        pngs = sorted(out.glob("replay_*.png"))
+        assert len(pngs) == len(ref.rows)
+        assert all(p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" for p in pngs)

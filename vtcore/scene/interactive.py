@@ -39,13 +39,17 @@ class SceneOutput:
     response: np.ndarray
     result: dict = field(default_factory=dict)
     out: Path | None = None
+    replay: object = None  # a vtcore.can.timeline.Replay for a ``replay`` scene
+    output: dict = field(default_factory=dict)  # the scene's [output] (render settings)
 
 
-def run_scene_file(path, out, overrides=None) -> SceneOutput:
+def run_scene_file(path, out, overrides=None, fps: float | None = None) -> SceneOutput:
     """Run the scene file ``path`` into folder ``out`` and return what to display.
 
-    Raises the scene's ``SceneError`` (naming file and key) on a bad scene and
-    ``InputError`` when the run produced no per-taxel arrays.
+    For a ``replay`` scene, ``replay`` holds the recording prepared for playback on the
+    timeline at ``fps`` (None: the scene's ``[output] fps``). Raises the scene's
+    ``SceneError`` (naming file and key) on a bad scene and ``InputError`` when the run
+    produced no per-taxel arrays.
     """
     from .loader import load_scene
     from .runner import run_scene
@@ -78,7 +82,17 @@ def run_scene_file(path, out, overrides=None) -> SceneOutput:
     if pressure is None:
         pressure = response if response is not None else np.zeros(n)
         response = pressure
-    return SceneOutput(layout, skin_triangles(layout), pressure, response, result, out)
+    tri = skin_triangles(layout)
+    replay = None
+    if scene.task == "replay":
+        from ..can.timeline import load_recording
+
+        p = scene["task"]
+        replay = load_recording(p["log"], layout, tri, kind=p["codec"], boards=p["boards"] or None,
+                                fps=fps or scene["output"]["fps"], baseline_rows=p["baseline_rows"],
+                                edge_fraction=p["edge_fraction"], min_response=p["min_response"],
+                                period=p["period"] or None, window=p["window"])
+    return SceneOutput(layout, tri, pressure, response, result, out, replay, dict(scene["output"]))
 
 
 def _mean_frames(a, n):

@@ -39,6 +39,14 @@ MAX_SCENE_BYTES = 16 << 20
 OUTPUT_SECTION = Section({
     "plots": Field("bool", default=True, doc="write PNG plots and show them in report.md"),
     "arrays": Field("bool", default=True, doc="write arrays.npz"),
+    # Rendering needs Blender: the add-on's Run Scene (also `blender -b`) renders what these ask;
+    # `vtcore run` alone validates them and renders nothing.
+    "video": Field("str", default="", choices=("", "frames", "mp4"),
+                   doc="Blender: render the replay as PNG frames or an MP4 into the output folder"),
+    "engine": Field("str", default="workbench", choices=("workbench", "cycles"), doc="Blender render engine"),
+    "resolution": Field("vec", default=[640, 480], length=2, doc="rendered image size, pixels"),
+    "samples": Field("int", default=16, ge=1, le=4096, doc="Cycles samples per pixel"),
+    "fps": Field("float", default=24.0, gt=0, le=1000, unit="1/s", doc="frame rate of the rendered replay"),
 })
 
 
