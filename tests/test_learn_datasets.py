@@ -169,3 +169,14 @@ def test_import_vtcore_learn_does_not_import_torch():
     code = "import sys, vtcore, vtcore.learn, vtcore.learn.experiment; print('torch' in sys.modules)"
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert r.stdout.strip() == "False", r.stderr
+
+
+def test_bench_without_torch_says_it_did_not_run(tmp_path, root):
+    code = ("import sys; sys.modules['torch'] = None\n"
+            "from pathlib import Path\nfrom vtcore.learn.bench import run\n"
+            f"rows = run(Path({str(tmp_path)!r}), quick=True)\nprint(rows[0]['status'])")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, cwd=root)
+    assert r.returncode == 0, r.stderr
+    assert "not run" in r.stdout and "vtcore[learn]" in r.stdout
+    assert "not run" in (tmp_path / "table.md").read_text()
+    assert (tmp_path / "accuracy_vs_time.png").stat().st_size > 1000

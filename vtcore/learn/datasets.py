@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..augment import ClusterPropagation, SmoothPropagation
+from ..augment import ClusterPropagation, GPPropagation, SmoothPropagation
 from ..errors import InputError
 
 #: the paper's sizes: points per PointNet input, disjoint subsamples of V_o, touch counts, clouds per object
@@ -36,6 +36,8 @@ TOUCHES = (3, 7, 10, 13)
 PER_OBJECT = 500
 SPLIT = (0.7, 0.1, 0.2)
 PROPAGATIONS = ("cluster", "smooth")
+#: also accepted: the appendix's GP baseline (plain GP regression on the G touches; not in Table 1)
+COLOURINGS = PROPAGATIONS + ("gp",)
 #: split codes in :attr:`DataSet.split`
 TRAIN, VAL, TEST = 0, 1, 2
 
@@ -176,8 +178,8 @@ def make_dataset(scans: list[ObjectScan], g: int, propagation: str = "cluster", 
     paper's 15 clouds per object). subsamples : per object ``(S, 512)`` indices from
     :func:`disjoint_subsamples` (drawn from ``seed`` when None).
     """
-    if propagation not in PROPAGATIONS:
-        raise InputError(f"unknown propagation {propagation!r}; valid: {', '.join(PROPAGATIONS)}",
+    if propagation not in COLOURINGS:
+        raise InputError(f"unknown propagation {propagation!r}; valid: {', '.join(COLOURINGS)}",
                          key="propagation")
     if subsamples is None:
         subsamples = object_subsamples(scans, seed)
@@ -221,8 +223,12 @@ def normalise_xyz(points: np.ndarray) -> np.ndarray:
 
 
 def propagate(method: str, touch_points, touch_values, points, beta: float = -300.0) -> np.ndarray:
-    """Colours (P,) at ``points`` (P, 3) from probes (G, 3), (G,) with the named propagation."""
-    est = ClusterPropagation() if method == "cluster" else SmoothPropagation(beta=beta)
+    """Colours (P,) at ``points`` (P, 3) from probes (G, 3), (G,) with the named propagation
+    (one of :data:`COLOURINGS`; ``gp`` is the plain GP of the appendix, seeded, no neighbourhoods)."""
+    if method == "gp":
+        est = GPPropagation(random_state=0)
+    else:
+        est = ClusterPropagation() if method == "cluster" else SmoothPropagation(beta=beta)
     return est.fit(touch_points, touch_values).predict(points)
 
 
