@@ -1,9 +1,9 @@
 """Seed 000's classification experiment (Sect. 4.1, Table 1) and the active-touch comparison.
 
 :func:`train_and_test` trains and tests PointNet on one data set version;
-:func:`active_vs_random` scores test clouds whose touches a policy chose with the
-networks trained on random touches, and the held-out compliance-map error of each
-policy, over several seeds.
+:func:`train_mixed` trains one network on random touches at several G;
+:func:`active_vs_random` scores test clouds whose touches a policy chose with such a
+network, and the held-out compliance-map error of each policy, over several seeds.
 """
 
 from __future__ import annotations
@@ -64,6 +64,26 @@ def train_and_test(ds: DataSet, scans: list[ObjectScan], subsamples, cfg, *, sca
                          res.model)
 
 
+def train_mixed(scans: list[ObjectScan], subsamples, touches, propagation: str, cfg, *, per_object: int, seed: int,
+                scale: float, beta: float = -300.0, progress=None):
+    """One PointNet trained on random touches at every G of ``touches`` (``per_object`` clouds per
+    object in all, shared evenly among the G values): the network the active-touch comparison
+    tests at each G. Returns ``(model, test accuracy on its own random-touch test split, seconds)``."""
+    from .datasets import make_dataset
+    from .train import predict, train
+
+    each = max(1, per_object // len(touches))
+    parts = [make_dataset(scans, g, propagation, per_object=each, seed=seed + 1000, subsamples=subsamples)
+             for g in touches]
+    x = np.concatenate([build_clouds(ds, scans, subsamples, scale=scale, beta=beta) for ds in parts])
+    y = np.concatenate([ds.labels for ds in parts])
+    split = np.concatenate([ds.split for ds in parts])
+    tr, va, te = (split == c for c in (TRAIN, VAL, TEST))
+    res = train(x[tr], y[tr], x[va], y[va], len(scans), cfg, progress=progress)
+    acc = float(np.mean(predict(res.model, x[te]).argmax(axis=1) == y[te])) if te.any() else float("nan")
+    return res.model, acc, res.seconds
+
+
 def policy_clouds(policy: str, scans: list[ObjectScan], subsamples, g: int, per_object: int, rng, *,
                   propagation: str, scale: float, beta: float = -300.0):
     """Clouds ``(M, P, 4)`` and labels ``(M,)`` whose G touches ``policy`` chose (seeded).
@@ -91,7 +111,8 @@ def active_vs_random(models: dict, scans: list[ObjectScan], subsamples, *, polic
                      error_touches=None) -> dict:
     """Accuracy and compliance-map error against G for each policy, per seed.
 
-    models : ``(propagation, G) -> trained network`` (trained on random touches).
+    models : ``(propagation, G) -> trained network`` (trained on random touches, e.g. by
+    :func:`train_mixed`: one network for every G).
     Returns ``{"accuracy": {(propagation, policy): (G list, (seeds, len(G)) array)},
     "map_error": {(propagation, policy): (G list, (seeds, len(G)) array)}}``; the map error is
     averaged over objects, at every G from 1 to the fewest probes minus one (``error_touches``).
