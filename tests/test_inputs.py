@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from helpers import wall_clock_limit
 from vtcore import inputs
 from vtcore.cli import main
 from vtcore.errors import FormatError, InputError
@@ -25,18 +26,8 @@ LAYOUT = ROOT / "scenes" / "layouts" / "seed001_hexagon.cyskin.json"
 SCENE = ROOT / "scenes" / "press_cube_3mm.toml"
 
 
-@contextlib.contextmanager
 def no_hang(seconds=30):
-    def fire(signum, frame):
-        raise AssertionError(f"hung for {seconds} s")
-
-    old = signal.signal(signal.SIGALRM, fire)
-    signal.alarm(seconds)
-    try:
-        yield
-    finally:
-        signal.alarm(0)
-        signal.signal(signal.SIGALRM, old)
+    return wall_clock_limit(seconds)
 
 
 def cli(*argv):

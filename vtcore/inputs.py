@@ -272,9 +272,9 @@ def to_int(value, *, dtype=np.int64, lo: int | None = None, hi: int | None = Non
     return v
 
 
-def to_float(value, *, lo: float | None = None, hi: float | None = None,
+def to_float(value, *, lo: float | None = None, hi: float | None = None, gt: float | None = None,
              file=None, key: str | None = None, line: int | None = None) -> float:
-    """``value`` (a number or a numeric string) as a finite float within ``[lo, hi]``."""
+    """``value`` (a number or a numeric string) as a finite float within ``[lo, hi]`` and ``> gt``."""
     where = _where(file, key, line)
     if isinstance(value, (bool, np.bool_)):
         raise InputError("must be a number, got a boolean", **where)
@@ -287,7 +287,11 @@ def to_float(value, *, lo: float | None = None, hi: float | None = None,
     if not math.isfinite(v):
         raise InputError(f"must be finite, got {clean(value)}", **where)
     if (lo is not None and v < lo) or (hi is not None and v > hi):
-        raise InputError(f"must be in [{lo}, {hi}], got {v:g}", **where)
+        raise InputError(f"must be in [{lo}, {hi}], got {v:g}" if lo is not None and hi is not None else
+                         f"must be >= {lo:g}, got {v:g}" if lo is not None else f"must be <= {hi:g}, got {v:g}",
+                         **where)
+    if gt is not None and not v > gt:
+        raise InputError(f"must be > {gt:g}, got {v:g}", **where)
     return v
 
 

@@ -27,12 +27,13 @@ import io
 import json
 import os
 import re
-import signal
 import warnings
 from collections import Counter, defaultdict
 
 from hypothesis import HealthCheck, settings
 from hypothesis import strategies as st
+
+from helpers import wall_clock_limit
 
 DEFAULT_EXAMPLES = 25
 LONG_EXAMPLES = 10_000
@@ -149,20 +150,6 @@ class Hang(Exception):
     pass
 
 
-@contextlib.contextmanager
-def alarm(seconds: int):
-    def fire(signum, frame):
-        raise Hang(f"no answer after {seconds} s")
-
-    old = signal.signal(signal.SIGALRM, fire)
-    signal.alarm(seconds)
-    try:
-        yield
-    finally:
-        signal.alarm(0)
-        signal.signal(signal.SIGALRM, old)
-
-
 def run_cli(reader: str, argv: list[str]) -> tuple[int, str, str]:
     """``vtcore.cli.main(argv)`` in-process: (exit status, stdout, stderr). Counts the input."""
     from vtcore.cli import main
@@ -173,7 +160,8 @@ def run_cli(reader: str, argv: list[str]) -> tuple[int, str, str]:
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("error", RuntimeWarning)
-            with alarm(HANG_SECONDS), contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+            with wall_clock_limit(HANG_SECONDS, Hang), contextlib.redirect_stdout(out), \
+                    contextlib.redirect_stderr(err):
                 rc = main([str(a) for a in argv])
         outcome = f"exit {rc}" if rc in (0, 2) else f"exit {rc} (unexpected)"
     except Hang:

@@ -18,8 +18,15 @@ from .._io import Terminated, check_terminated, sigterm_raises
 from ..errors import VtError
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse with the one-line error every other vtcore error has (sub-commands inherit it)."""
+
+    def error(self, message):
+        self.exit(2, f"vtcore: error: {_error_lines(f'{self.prog}: {message} (see {self.prog} -h)')}\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="vtcore", description="Robot-skin simulation and tools: run scenes, lay out skins, decode CAN.")
     parser.add_argument("--version", action="version", version=f"vtcore {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
@@ -40,7 +47,10 @@ def _error_lines(text) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # --help, --version (0) or a usage error (2): a status, like every other outcome
+        return exc.code if isinstance(exc.code, int) else 2
     if not getattr(args, "func", None):
         parser.print_help(sys.stderr)
         return 2

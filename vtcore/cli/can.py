@@ -10,6 +10,13 @@ from __future__ import annotations
 
 import math
 
+#: seconds: --period (a skin samples at 1 Hz .. 1 MHz; past this range the row arithmetic overflows)
+PERIOD_S = (1e-6, 3600.0)
+#: --window periods (the decoder compares row numbers in int64)
+WINDOW_PERIODS = (1, 10**9)
+#: --speed: 0 (or inf) sends at once; a positive factor below this would take hours per second of log
+MIN_SPEED = 1e-3
+
 
 def _load_layout(path):
     from ..errors import InputError
@@ -37,6 +44,11 @@ def cmd_decode(args) -> int:
     from ..can import decode_log, save_frames_npz
     from ..inputs import check_output_file
 
+    from ..inputs import to_float, to_int
+
+    if args.period is not None:
+        to_float(args.period, lo=PERIOD_S[0], hi=PERIOD_S[1], key="--period")
+    to_int(args.window, lo=WINDOW_PERIODS[0], hi=WINDOW_PERIODS[1], key="--window")
     check_output_file(args.out)
     if args.summary:
         check_output_file(args.summary, key="--summary")
@@ -69,6 +81,11 @@ def cmd_encode(args) -> int:
 def cmd_replay(args) -> int:
     from ..can import Summary, replay
 
+    from ..errors import InputError
+
+    if not (args.speed == 0 or args.speed >= MIN_SPEED):  # nan fails both
+        raise InputError(f"must be 0 (no waiting) or at least {MIN_SPEED:g} (1 = real time, inf = no waiting), "
+                         f"got {args.speed:g}", key="--speed")
     summary = Summary()
     stats = replay(args.log, channel=args.channel, speed=args.speed, interface=args.interface, summary=summary)
     print(f"{args.log}: sent {stats['frames_sent']} frames spanning {stats['log_seconds']:.3f} s of log "

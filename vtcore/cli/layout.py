@@ -22,6 +22,14 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import InputError
+
+#: metres: --subdivide below a micrometre is a unit error (refine coarsens to its face budget anyway); one
+#: past a kilometre splits nothing on an accepted mesh, and its square overflows near 1e154
+SUBDIVIDE_M = (1e-6, 1e3)
+#: metres: the MJCF writer's --site-radius and --pad-thickness (a taxel is millimetres across)
+MJCF_SIZE_M = (1e-6, 1.0)
+
 
 def _patch_arg(value: str) -> str:
 
@@ -32,23 +40,37 @@ def _patch_arg(value: str) -> str:
     raise argparse.ArgumentTypeError(f"must be triangle, hexagon, fill or strip:N, got {value!r}")
 
 
-def _load_mesh(path: str, scale: float):
-    import trimesh
+def _check_place_numbers(args) -> None:
+    """Refuse, before the mesh is read, numbers no placement can use (docs/inputs.md lists the ranges).
 
-    from ..errors import InputError
+    ``--scale`` is checked with the mesh (:func:`vtcore.layout.meshinput.checked_mesh`); ``--offset``
+    against the mesh's size once it is loaded (:func:`_check_offset`).
+    """
+    from ..inputs import to_float
+    from ..layout.io import MAX_COORDINATE_M
 
-    p = Path(path)
-    if not p.is_file():
-        raise InputError("mesh file not found", file=p)
-    try:
-        mesh = trimesh.load(p, force="mesh", process=True)
-    except Exception as exc:  # trimesh raises many types for bad files
-        raise InputError(f"cannot read mesh: {exc}", file=p) from None
-    if not len(getattr(mesh, "faces", [])):
-        raise InputError("the mesh has no triangles", file=p)
-    if scale != 1.0:
-        mesh.apply_scale(scale)
-    return mesh
+    args.at = [to_float(v, lo=-MAX_COORDINATE_M, hi=MAX_COORDINATE_M, key="--at") for v in args.at]
+    if args.direction is not None:
+        d = [to_float(v, key="--direction") for v in args.direction]
+        big = max(abs(v) for v in d)
+        if big == 0:
+            raise InputError("must not be the zero vector (the in-plane x direction of the patch)",
+                             key="--direction")
+        args.direction = [v / big for v in d]  # unit-free: 1e300 or 1e-300 lengths must not overflow a norm
+    to_float(args.offset, key="--offset")
+    if args.radius is not None:
+        to_float(args.radius, gt=0.0, key="--radius")
+    if args.subdivide is not None:
+        to_float(args.subdivide, lo=SUBDIVIDE_M[0], hi=SUBDIVIDE_M[1], key="--subdivide")
+
+
+def _check_offset(offset: float, mesh) -> None:
+    """``--offset`` (metres along the normal) within +-the mesh's size: a skin further off than the
+    part is large is a unit error, and past about 1e300 the placed positions overflow."""
+    size = float(np.ptp(mesh.vertices, axis=0).max())
+    if abs(offset) > size:
+        raise InputError(f"must be within +-{size:.3g} m (the mesh's size), got {offset:g}", key="--offset")
+
 
 
 def _print_warnings(caught):
@@ -58,8 +80,11 @@ def _print_warnings(caught):
 
 def cmd_place(args) -> int:
     from ..layout import fill, get_module, place, save
+    from ..layout.meshinput import load_mesh
 
-    mesh = _load_mesh(args.mesh, args.scale)
+    _check_place_numbers(args)
+    mesh = load_mesh(args.mesh, args.scale, key=None, scale_key="--scale")
+    _check_offset(args.offset, mesh)
     if args.subdivide:
         from ..layout.repair import refine
 
@@ -97,8 +122,6 @@ def cmd_import(args) -> int:
 
 
 def _read_transform(value: list[str]) -> np.ndarray:
-    from ..errors import InputError
-
     if len(value) == 1:
         p = Path(value[0])
         if not p.is_file():
@@ -125,8 +148,11 @@ def _read_transform(value: list[str]) -> np.ndarray:
 
 def _export_options(args) -> dict:
     """The writer options the chosen format takes; an option given for another format is an error."""
-    from ..errors import InputError
+    from ..inputs import to_float
 
+    for k in ("site_radius", "pad_thickness"):
+        if getattr(args, k) is not None:
+            to_float(getattr(args, k), lo=MJCF_SIZE_M[0], hi=MJCF_SIZE_M[1], key="--" + k.replace("_", "-"))
     given = {k: getattr(args, k) for k in ("model", "body", "parent", "footprint", "pad", "site_radius",
                                            "pad_thickness") if getattr(args, k) is not None}
     given.update({k: True for k in ("estimate_normals", "mesh") if getattr(args, k)})  # store_true flags

@@ -6,10 +6,17 @@ import shlex
 import sys
 from pathlib import Path
 
+MAX_WORKERS = 1024  #: local worker processes (each is a Python process of its own)
+MAX_RETRIES = 100   #: worker deaths one point may survive
+
 
 def cmd_sweep(args) -> int:
+    from ..inputs import to_int
     from ..sweep import plan_sweep, run_sweep
 
+    if args.workers is not None:
+        to_int(args.workers, lo=1, hi=MAX_WORKERS, key="--workers")
+    to_int(args.retries, lo=0, hi=MAX_RETRIES, key="--retries")
     plan = plan_sweep(args.scene, args.grid, args.seeds, args.set)  # every point validated; nothing runs yet
     out = Path(args.out)
     where = args.scheduler or f"a local cluster of {args.workers or 'one worker per core'}"

@@ -16,8 +16,10 @@ from pathlib import Path
 import numpy as np
 
 from .._progress import Job, keep_going  # noqa: F401  (Job: the add-on runs a long fill in one)
+from ..contact.objects import SIZE_RANGE_M
 from ..errors import InputError
 from ..layout import Layout, skin_mesh
+from ..layout.meshinput import SURFACE_SIZE_M, checked_mesh
 
 
 @dataclass
@@ -110,16 +112,13 @@ def _mean_frames(a, n):
 # Skin layout
 
 
-def _trimesh(vertices, triangles):
-    import trimesh
-
-    v = np.asarray(vertices, dtype=np.float64).reshape(-1, 3)
-    f = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
-    if len(f) == 0:
+def _trimesh(vertices, triangles, size_range=SURFACE_SIZE_M):
+    """The add-on's mesh (vertices (V, 3) metres, triangles (F, 3)) under the checks every mesh entering
+    vtcore takes (:func:`vtcore.layout.meshinput.checked_mesh`); indenters pass the objects' size range."""
+    if len(np.asarray(triangles).reshape(-1)) == 0:
         raise InputError("has no faces: a skin can only be laid on (and pressed by) a surface", key="mesh")
-    if not np.isfinite(v).all():
-        raise InputError("has non-finite vertex coordinates", key="mesh")
-    return trimesh.Trimesh(v, f, process=False)
+    return checked_mesh(vertices, triangles, size_range=size_range, key="mesh", scale_key="the object's scale",
+                        process=False)
 
 
 def merge(base: Layout | None, extra: Layout) -> Layout:
@@ -371,7 +370,7 @@ def simulate(layout: Layout, triangles, indenter_vertices, indenter_triangles, p
     if len(layout) == 0:
         raise InputError("the skin has no taxels", key="layout")
     layer = soft_layer(thickness, material)
-    mesh = _trimesh(indenter_vertices, indenter_triangles)
+    mesh = _trimesh(indenter_vertices, indenter_triangles, SIZE_RANGE_M)
     res = press(layout, mesh, np.asarray(pose, float), layer, force=force if force else None, geometry=geometry)
     response = _response(res.pressure, counts_per_pa)
     er, edge = _edges(layout, triangles, response, edge_fraction)
@@ -399,7 +398,7 @@ def bake(layout: Layout, triangles, indenter_vertices, indenter_triangles, poses
     if n == 0:
         raise InputError("the skin has no taxels", key="layout")
     layer = soft_layer(thickness, material)
-    mesh = _trimesh(indenter_vertices, indenter_triangles)
+    mesh = _trimesh(indenter_vertices, indenter_triangles, SIZE_RANGE_M)
     f = None if forces is None else np.broadcast_to(np.asarray(forces, float), (t,))
     pressure = np.zeros((t, n))
     force = np.zeros(t)

@@ -136,10 +136,17 @@ def save(layout: Layout, path, format: str | None = None, *, transform=None, **o
         if t.shape != (4, 4) or not np.isfinite(t).all():
             raise InputError("transform must be a finite 4x4 matrix", key="transform")
         r = t[:3, :3]
-        if not np.allclose(r @ r.T, np.eye(3), atol=1e-4) or not np.allclose(t[3], [0, 0, 0, 1]):
-            raise InputError("transform must be rigid (orthonormal rotation, bottom row 0 0 0 1)",
-                             key="transform")
+        if not np.allclose(r @ r.T, np.eye(3), atol=1e-4) or not np.allclose(t[3], [0, 0, 0, 1]) \
+                or np.linalg.det(r) < 0:  # a mirror keeps r r^T = I but turns the skin inside out
+            raise InputError("transform must be rigid (a rotation: orthonormal, determinant +1; bottom row "
+                             "0 0 0 1)", key="transform")
+        if np.abs(t[:3, 3]).max() > MAX_COORDINATE_M:  # checked first: a translation of 1e308 would overflow
+            raise InputError(f"translation must be within +-{MAX_COORDINATE_M:g} m, got "
+                             f"{np.abs(t[:3, 3]).max():.3g} m", key="transform")
         layout = layout.transformed(t)
+        if len(layout) and np.abs(layout.positions).max() > MAX_COORDINATE_M:
+            raise InputError(f"moves taxels {np.abs(layout.positions).max():.3g} m from the origin, beyond the "
+                             f"+-{MAX_COORDINATE_M:g} m every layout reader accepts", key="transform")
     FORMAT_MODULES[fmt].write(layout, path, **options)
 
 

@@ -22,7 +22,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...errors import InputError
 from ...layout import Layout, make_patch, wrap_on_sphere
+from ...layout.meshinput import load_mesh
 from ...layout.modules import MODULES, PITCH
 from ..budget import MAX_STRIP_MODULES
 from ..registry import register_section
@@ -133,16 +135,10 @@ def build_end_effector(scene) -> "trimesh.Trimesh":
 
         return getattr(L, shape)()[0]
     if shape == "mesh":
-        import trimesh
-
         try:
-            m = trimesh.load(ee["mesh"], force="mesh", process=True)
-        except Exception as exc:  # trimesh raises many types for bad files
-            raise scene.error("end_effector.mesh", f"cannot read mesh file {ee['mesh']}: {exc}") from None
-        if not len(getattr(m, "faces", [])):
-            raise scene.error("end_effector.mesh", f"mesh file {ee['mesh']} has no triangles")
-        m.apply_scale(ee["scale"])
-        return m
+            return load_mesh(ee["mesh"], ee["scale"], key=None, scale_key="end_effector.scale")
+        except InputError as exc:
+            raise scene.error("end_effector.mesh", str(exc)) from None
     return _primitive(ee)
 
 

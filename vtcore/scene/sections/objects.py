@@ -13,8 +13,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...contact.objects import DEFAULTS, make_object, placement_pose
+from ...contact.objects import DEFAULTS, SIZE_RANGE_M, make_object, placement_pose
 from ...contact.proximity import OPEN_MESH
+from ...errors import InputError
+from ...layout.meshinput import load_mesh
 from ..registry import register_section
 from ..schema import Field, Section
 from .layer import build_layer
@@ -68,19 +70,17 @@ register_section("objects", Field("tables", default=[], section=OBJECT))
 
 def object_mesh(scene, i: int):
     """The mesh of ``[[objects]][i]`` (object frame, metres), checked closed unless open_mesh says otherwise."""
-    import trimesh
-
     from ...contact.proximity import prepare_mesh
 
     o = scene["objects"][i]
     key = f"objects[{i}]"
     try:
         if o["kind"] == "mesh":
-            try:
-                mesh = trimesh.load(o["mesh"], force="mesh")
-            except Exception as exc:
-                raise scene.error(f"{key}.mesh", f"cannot read mesh: {exc}") from None
-            mesh.apply_scale(o["scale"])
+            try:  # the primitives' size range (make_object) holds for mesh objects too
+                mesh = load_mesh(o["mesh"], o["scale"], size_range=SIZE_RANGE_M, key=None,
+                                 scale_key=f"{key}.scale")
+            except InputError as exc:
+                raise scene.error(f"{key}.mesh", str(exc)) from None
         else:
             dims = {k: (tuple(o[k]) if k == "extents" else o[k]) for k in _DIMS if o[k] is not None}
             mesh = make_object(o["kind"], **dims)
