@@ -6,6 +6,8 @@ each timed step produced the right data, side by side.
 Writes ``table.md``, ``table.csv`` and ``accuracy_vs_time.png``. Goals (issue 7):
 writing a 4,000-taxel frame to attributes <= 20 ms; laying a hexagonal patch on a
 50k-face mesh <= 0.5 s; playback of a baked 1,000-frame contact >= 60 frames/s.
+Issue 19: a 4,000-taxel, 1,000-row recording loaded (``vtskin.load_recording``) and
+played back at >= 60 frames/s (``--only replay`` runs just those rows).
 Measured, not asserted.
 """
 
@@ -130,7 +132,82 @@ def bench_playback(n, frames, with_display):
              "short": f"play {frames} frames, {n} taxels" + (", discs" if with_display else "")}]
 
 
-def run(out: Path, quick: bool = False) -> list[dict]:
+def replay_skin(n):
+    """A flat skin of ``n`` taxels (4 mm pitch grid, Delaunay skin mesh) with CySkin UIDs
+    ``module << 4 | sensor`` (10 sensors a module)."""
+    import bpy
+    from scipy.spatial import Delaunay
+
+    from addon import skin
+    from vtcore.layout import Layout
+
+    side = int(np.ceil(np.sqrt(n)))
+    g = np.stack(np.meshgrid(np.arange(side), np.arange(side)), -1).reshape(-1, 2)[:n] * 4e-3
+    pos = np.column_stack([g, np.zeros(n)])
+    ids = ((np.arange(n) // 10 + 1) << 4) | (np.arange(n) % 10 + 1)
+    ob = skin.new_object(bpy.context, f"replay {n}")
+    skin.write_layout(ob, Layout(pos, np.tile([0, 0, 1.0], (n, 1)), ids, np.arange(n) // 10 + 1),
+                      Delaunay(g).simplices)
+    return ob, ids
+
+
+def bench_replay(n, frames, with_display, folder: Path):
+    """Load a CySkin text recording of ``frames`` rows x ``n`` taxels (a pressed spot moving over
+    the skin) with the operator, then play every frame."""
+    import resource
+
+    import bpy
+
+    from addon import bridge, display
+
+    rng = np.random.default_rng(2)
+    ob, ids = replay_skin(n)
+    bpy.context.view_layer.objects.active = ob
+    # frames x taxels: a Gaussian spot sliding along the grid, on top of noise
+    idx = np.arange(n)
+    centre = np.linspace(0, n - 1, frames)
+    vals = np.rint(800 * np.exp(-0.5 * ((idx[None, :] - centre[:, None]) / 30.0) ** 2)
+                   + rng.uniform(0, 20, (frames, n))).astype(np.int64)
+    path = folder / f"replay_{n}x{frames}.txt"
+    if not path.exists():
+        body = np.column_stack([np.arange(frames), np.arange(frames) / 100.0, vals])
+        with open(path, "w") as fh:
+            fh.write(" ".join(map(str, ids)) + "\n")
+            np.savetxt(fh, body, fmt=["%d", "%.3f"] + ["%d"] * n)
+    scene = bpy.context.scene
+    scene.frame_start = 1
+    s = scene.vtskin
+    s.replay_rate = "RECORDING"
+    rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    t = time.perf_counter()
+    res = bpy.ops.vtskin.load_recording(filepath=str(path), codec="cyskin-txt")
+    load_s = time.perf_counter() - t
+    rss = (resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - rss0) / 1024
+    assert res == {"FINISHED"}
+    if not with_display:  # the operator adds the disc display; measure the attribute copy alone
+        ob.modifiers.remove(ob.modifiers[display.MODIFIER])
+    scene.frame_set(1)
+    t, cpu = time.perf_counter(), time.process_time()
+    for f in range(1, frames + 1):
+        scene.frame_set(f)
+    seconds = time.perf_counter() - t
+    cpu_fps = frames / (time.process_time() - cpu)
+    fps = frames / seconds
+    err = float(np.abs(bridge.get_attribute(ob.data, "response") - vals[-1]).max())
+    bpy.data.objects.remove(ob)  # the playback handler would go on updating it
+    label = "with disc display" if with_display else "attributes only"
+    rows = [{"case": f"load a {frames}-row recording of {n} taxels (operator, end to end: read, baseline, "
+                     f"edge filter, cache)", "seconds": load_s, "goal": "(context)", "met": None,
+             "accuracy": f"peak RSS grew {rss:.0f} MB", "short": f"load recording {n}x{frames}"}] if not with_display else []
+    rows.append({"case": f"play back a {frames}-frame recording of {n} taxels ({label}; response, compensated, "
+                         "edge, held)", "seconds": seconds, "goal": ">= 60 frames/s", "met": fps >= 60,
+                 "accuracy": f"{fps:.0f} frames/s ({cpu_fps:.0f} per CPU second of this process); last frame "
+                             f"max error vs the file {err:g}",
+                 "short": f"replay {frames} frames, {n} taxels" + (", discs" if with_display else "")})
+    return rows
+
+
+def run(out: Path, quick: bool = False, only: str = "") -> list[dict]:
     import bpy
 
     from tests.blender.bl_helpers import register_addon
@@ -138,16 +215,24 @@ def run(out: Path, quick: bool = False) -> list[dict]:
     addon = register_addon()
     try:
         bpy.ops.wm.read_factory_settings(use_empty=True)
+        out.mkdir(parents=True, exist_ok=True)
         rows = []
+        frames = 100 if quick else 1000
+        if only == "replay":
+            for display_on in (False, True):
+                rows += bench_replay(4000, frames, display_on, out)
+            write(out, rows)
+            return rows
         r, _ = bench_frame_write(4000, 20 if quick else 100)
         rows += r
         bench_lay_patch(32, 16)  # warm-up: first-use imports are not part of a placement
         for solve in (20000, 5000, 2000, 0):  # 0: full mesh, what the extension does without open3d
             rows += bench_lay_patch(256, 100, solve) if not quick else bench_lay_patch(64, 32, solve)
-        frames = 100 if quick else 1000
         rows += bench_playback(60, frames, True)
         rows += bench_playback(4000, frames, False)
         rows += bench_playback(4000, frames, True)
+        for display_on in (False, True):
+            rows += bench_replay(4000, frames, display_on, out)
         write(out, rows)
         return rows
     finally:
@@ -206,8 +291,9 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--out", default=str(ROOT / "benchmarks" / "out" / "blender"))
     ap.add_argument("--quick", action="store_true")
+    ap.add_argument("--only", choices=("replay",), default="", help="run only these rows")
     args = ap.parse_args()
-    rows = run(Path(args.out), args.quick)
+    rows = run(Path(args.out), args.quick, args.only)
     for r in rows:
         print(f"{r['seconds']:9.3g} s  {r['case']}  [{r['goal']}]  {r['accuracy']}")
     sys.stdout.flush()

@@ -7,6 +7,9 @@ a hexagonal patch laid at its middle, a 30 mm sphere pressed at 3 N through 3 mm
 Ecoflex 00-20, the edge filter), then renders
 - ``skin_response.png``: taxel discs coloured by response, skin-mesh edges as tubes;
 - ``skin_edges.png``: the same skin coloured by the edge filter's output;
+- ``replay_response.png`` / ``replay_edges.png``: a recorded CAN log replayed on its skin
+  (``scenes/replay_cyskin16_slide.toml`` run with *Run Scene*, which loads the log onto the
+  timeline), at the frame with the most edge taxels: baseline-compensated response, and edges;
 - ``panels.png``: the sidebar panels. A panel cannot be screenshotted without a
   window (the bpy wheel has none), so this is a mock-up drawn with matplotlib
   from the rows, properties and buttons each panel's ``draw()`` really emits.
@@ -43,9 +46,10 @@ def build(context):
     from bl_helpers import build_scene
 
     ee, ind, centre = build_scene(indenter_radius=0.02)
+    from addon import display
+
     grey = bpy.data.materials.new("end effector")
-    grey.use_nodes = True
-    bsdf = grey.node_tree.nodes["Principled BSDF"]
+    bsdf = display.shader_nodes(grey).nodes["Principled BSDF"]  # use_nodes is deprecated in 5.x
     bsdf.inputs["Base Color"].default_value = (0.42, 0.45, 0.5, 1)
     bsdf.inputs["Roughness"].default_value = 0.55
     ee.data.materials.append(grey)
@@ -116,10 +120,12 @@ def camera_and_light(context, target, m):
     sun = bpy.data.objects.new("sun", sun_data)
     sun.rotation_euler = (-(n * 1.0 - x * 0.4 - y * 0.5)).to_track_quat("-Z", "Y").to_euler()
     context.scene.collection.objects.link(sun)
+    from addon import display
+
     world = bpy.data.worlds.new("world")
-    world.use_nodes = True
-    world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.78, 0.8, 0.83, 1)
-    world.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.45
+    background = display.shader_nodes(world).nodes["Background"]  # use_nodes is deprecated in 5.x
+    background.inputs["Color"].default_value = (0.78, 0.8, 0.83, 1)
+    background.inputs["Strength"].default_value = 0.45
     context.scene.world = world
 
 
@@ -274,6 +280,7 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--out", default=str(ROOT / "docs" / "img"))
     ap.add_argument("--samples", type=int, default=32)
+    ap.add_argument("--only", choices=("replay",), default="", help="render only these pictures")
     args = ap.parse_args()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -287,7 +294,9 @@ def main():
     addon = register_addon()
     code = 0
     try:
-        _render_all(bpy.context, out, args.samples)
+        if args.only != "replay":
+            _render_all(bpy.context, out, args.samples)
+        _render_replay(bpy.context, out, args.samples)
     except BaseException:  # noqa: BLE001 - report any failure, then exit non-zero without hanging
         traceback.print_exc()
         code = 1
@@ -317,6 +326,32 @@ def _render_all(context, out, samples):
     context.view_layer.objects.active = skin
     draw_panels(context, out / "panels.png")
     print("wrote", *(str(out / n) for n in ("skin_response.png", "skin_edges.png", "panels.png")))
+
+
+def _render_replay(context, out, samples):
+    """The replay pictures: the example cyskin16 log replayed on its 60-taxel hexagon."""
+    import tempfile
+
+    import bpy
+    import numpy as np
+
+    from addon import bake, render as vt_render
+
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    context = bpy.context
+    context.scene.vtskin.out_dir = tempfile.mkdtemp(prefix="vtskin_docs_")
+    assert bpy.ops.vtskin.run_scene(filepath=str(ROOT / "scenes" / "replay_cyskin16_slide.toml")) == {"FINISHED"}
+    ob = context.view_layer.objects.active
+    s = ob.vtskin
+    counts = [int(bake.frame_values(ob, f)["edge"].sum()) for f in range(s.bake_start, s.bake_end + 1)]
+    frame = s.bake_start + int(np.argmax(counts))
+    context.scene.frame_set(frame)
+    vt_render.frame_camera(context, ob, lens=60.0)
+    render(context, out / "replay_response.png", samples, size=(720, 540))
+    s.color_by = "edge"
+    render(context, out / "replay_edges.png", samples, size=(720, 540))
+    print(f"wrote replay pictures of frame {frame} ({max(counts)} edge taxels)",
+          *(str(out / n) for n in ("replay_response.png", "replay_edges.png")))
 
 
 if __name__ == "__main__":

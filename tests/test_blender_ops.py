@@ -89,8 +89,10 @@ def test_lay_patch_matches_vtcore(skinned):
     # The skin sits on the end-effector: its frame is the end-effector's (rigid part).
     np.testing.assert_allclose(M(ob), M(ee), atol=1e-6)
     # Discs: the evaluated object carries instances and the display colour.
-    ev = ob.evaluated_get(bpy.context.evaluated_depsgraph_get())
-    assert "vtskin_display" in ev.data.attributes
+    from bl_helpers import display_colours
+
+    colours = display_colours(ob)  # one disc instance per taxel, plus one tube per skin-mesh edge
+    assert colours is not None and len(colours) == len(ob.data.vertices) + len(ob.data.edges)
 
 
 def test_second_patch_remove_and_move(skinned):

@@ -127,3 +127,20 @@ def build_scene(indenter_radius=0.015, gap=0.002):
     ee.select_set(True)
     bpy.context.view_layer.update()
     return ee, ind, world_centre
+
+
+def display_colours(ob):
+    """(n, 4) display colours of the evaluated disc instances of taxel object ``ob`` (the
+    ``vtskin_display`` instance attribute the disc material reads), or None without one."""
+    import bpy
+    import numpy as np
+
+    ev = ob.evaluated_get(bpy.context.evaluated_depsgraph_get())
+    geometry = ev.evaluated_geometry()  # keep it alive: the point cloud below belongs to it
+    cloud = geometry.instances_pointcloud()
+    if cloud is None or "vtskin_display" not in cloud.attributes:
+        return None
+    attr = cloud.attributes["vtskin_display"]
+    out = np.empty(4 * len(attr.data), np.float32)
+    attr.data.foreach_get("color", out)
+    return out.reshape(-1, 4)
