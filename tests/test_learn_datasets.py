@@ -180,3 +180,23 @@ def test_bench_without_torch_says_it_did_not_run(tmp_path, root):
     assert "not run" in r.stdout and "vtcore[learn]" in r.stdout
     assert "not run" in (tmp_path / "table.md").read_text()
     assert (tmp_path / "accuracy_vs_time.png").stat().st_size > 1000
+
+
+def test_coverage_picks_representative_touches_and_needs_the_surface():
+    from vtcore.learn.active import greedy_median
+
+    line = np.c_[np.arange(10.0), np.zeros(10), np.zeros(10)]
+    dense = np.c_[np.linspace(0, 9, 901), np.zeros(901), np.zeros(901)]
+    assert greedy_median(line, dense, 2, 0).tolist() == [0, 6]     # the k-median's second point, not the far end
+    s = scan("a", n_touch=24)
+
+    def mean_dist(idx):
+        return np.linalg.norm(s.points[:, None] - s.touch_points[idx][None], axis=2).min(axis=1).mean()
+
+    for g in (3, 7):
+        cov = np.mean([mean_dist(select_touches("coverage", s.touch_points, g, k, surface=s.points[::4]))
+                       for k in range(10)])
+        far = np.mean([mean_dist(select_touches("farthest", s.touch_points, g, k)) for k in range(10)])
+        assert cov < far
+    with pytest.raises(InputError, match="coverage policy needs the visual cloud"):
+        select_touches("coverage", s.touch_points, 3, 0)

@@ -93,12 +93,13 @@ def policy_clouds(policy: str, scans: list[ObjectScan], subsamples, g: int, per_
     """
     rng = np.random.default_rng(rng)
     size = subsamples[0].shape[1]
+    surfaces = [surface_sample(s) for s in scans]
     x = np.empty((len(scans) * per_object, size, 4), dtype=np.float32)
     y = np.repeat(np.arange(len(scans)), per_object)
     for o, scan in enumerate(scans):
         for k in range(per_object):
             s = int(rng.integers(len(subsamples[o])))
-            t = select_touches(policy, scan.touch_points, g, rng)
+            t = select_touches(policy, scan.touch_points, g, rng, surface=surfaces[o])
             pts = scan.points[subsamples[o][s]]
             j = o * per_object + k
             x[j, :, :3] = normalise_xyz(pts)
@@ -106,7 +107,14 @@ def policy_clouds(policy: str, scans: list[ObjectScan], subsamples, g: int, per_
     return x, y
 
 
-def active_vs_random(models: dict, scans: list[ObjectScan], subsamples, *, policies=("random", "farthest"),
+def surface_sample(scan: ObjectScan, n: int = 2000) -> np.ndarray:
+    """At most ``n`` points of the visual cloud (a fixed, evenly strided choice) for the coverage policy."""
+    step = max(1, len(scan.points) // n)
+    return scan.points[::step][:n]
+
+
+def active_vs_random(models: dict, scans: list[ObjectScan], subsamples, *,
+                     policies=("random", "farthest", "coverage"),
                      seeds: int = 5, per_object: int = 20, seed: int = 0, scale: float, beta: float = -300.0,
                      error_touches=None) -> dict:
     """Accuracy and compliance-map error against G for each policy, per seed.
@@ -138,7 +146,8 @@ def active_vs_random(models: dict, scans: list[ObjectScan], subsamples, *, polic
             for si in range(seeds):
                 for gi, g in enumerate(eg):
                     vals = [map_error(s.touch_points, s.touch_values,
-                                      select_touches(policy, s.touch_points, g, [seed, si, g, o, 11]), prop, beta)
+                                      select_touches(policy, s.touch_points, g, [seed, si, g, o, 11],
+                                                     surface=surface_sample(s)), prop, beta)
                             for o, s in enumerate(scans)]
                     e[si, gi] = float(np.nanmean(vals))
             err[(prop, policy)] = (eg, e)

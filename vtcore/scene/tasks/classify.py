@@ -3,7 +3,7 @@
 Scan each object (two virtual D415s) and probe it (17 or 24 touches, the contact probe
 of the augment scenes or the closed-form series probe), build the data sets of Sect. 4.1
 (:mod:`vtcore.learn.datasets`), train and test PointNet for G = 0 and every G and
-propagation listed, then compare active (farthest-point) and random touch selection
+propagation listed, then compare active (farthest-point and coverage) and random touch selection
 with the trained networks. Needs the optional extra ``vtcore[learn]`` (torch).
 """
 
@@ -58,7 +58,7 @@ PARAMS = Section({
                                 "(needed with few steps: the quick mode turns it on)"),
     "threads": Field("int", default=1, ge=0, doc="torch threads, capped at the cores this process may use "
                                                   "(0: all of them)"),
-    "active": Field("bool", default=True, doc="compare active (farthest-point) and random touch selection"),
+    "active": Field("bool", default=True, doc="compare active (farthest-point, coverage) and random touch selection"),
     "active_touches": Field("list", default=[1, 2, 3, 5, 7, 10, 13], item=Field("int", ge=1),
                             doc="G values of that comparison (one network trained on random touches at all of them)"),
     "active_propagations": Field("list", default=["cluster"], item=Field("str", choices=D.COLOURINGS),
@@ -211,7 +211,7 @@ def run(scene, ctx) -> TaskResult:
         acc = {f"{prop} {pol}": v for (prop, pol), v in av["accuracy"].items()}
         err = {f"{prop} {pol}": v for (prop, pol), v in av["map_error"].items()}
         figures["active_vs_random"] = png_writer(active_figure, acc, err,
-                                                 f"farthest-point vs random touches, {p['active_seeds']} seeds")
+                                                 f"active (farthest, coverage) vs random touches, {p['active_seeds']} seeds")
         sections.append(_active_table(av, p))
     log.close()
     manifest = D.manifest(versions, scans, scale=scale)
@@ -238,7 +238,7 @@ def _table(results, versions, p) -> str:
 
 
 def _active_table(av, p) -> str:
-    lines = ["## Active (farthest-point) vs random touches", "",
+    lines = ["## Active (farthest-point, coverage) vs random touches", "",
              f"One network per colouring trained on random touches at every G listed; {p['active_clouds']} "
              f"test clouds per object, seed and G whose touches each policy chose; mean ± std over "
              f"{p['active_seeds']} seeds.", "",
