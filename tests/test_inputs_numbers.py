@@ -181,9 +181,14 @@ def test_the_addon_path_checks_its_meshes():
         interactive.lay_patch(np.full((8, 3), np.nan), box.faces, (0, 0, 0))
 
 
-def test_argparse_errors_are_one_line():
+def test_argparse_errors_are_one_line(files):
+    rc, _, err = cli(*_place(files, patch="strip:100000"))  # was a MemoryError in the overlap check
+    one_error_line(rc, err, "argument --patch: a strip of 100000 modules is longer than the 1000 accepted")
     rc, _, err = cli("can", "decode", "x.log", "--codec", "icub", "--out", "y.npz", "--window", "nan")
     one_error_line(rc, err, "vtcore can decode: argument --window: invalid int value: 'nan'")
+    rc, _, err = cli("can", "decode", files / "x.log", "--codec", "icub", "--out", files / "d.npz",
+                     "--layout", LAYOUT.parent / "icub_two_triangles.txt", "--boards", str(2 ** 70))
+    one_error_line(rc, err, "argument --boards: board addresses are 4 bits (0..15)")  # was an OverflowError
     rc, out, _ = cli("--version")
     assert rc == 0 and out.startswith("vtcore ")
     rc, _, err = cli("run", "--set")

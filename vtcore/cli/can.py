@@ -37,6 +37,8 @@ def _boards(text: str) -> list[int]:
         raise argparse.ArgumentTypeError(f"expected board addresses like 3 or 14,13, got {text!r}") from None
     if not out:
         raise argparse.ArgumentTypeError("no board address given")
+    if not all(0 <= b <= 15 for b in out):  # checked here: 2**70 overflowed the decoder's int64 arrays
+        raise argparse.ArgumentTypeError(f"board addresses are 4 bits (0..15), got {text!r}")
     return out
 
 

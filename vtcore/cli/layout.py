@@ -32,10 +32,14 @@ MJCF_SIZE_M = (1e-6, 1.0)
 
 
 def _patch_arg(value: str) -> str:
+    from ..scene.budget import MAX_STRIP_MODULES
 
     if value in ("triangle", "hexagon", "fill"):
         return value
     if value.startswith("strip:") and value[6:].isdigit() and int(value[6:]) >= 1:
+        if int(value[6:]) > MAX_STRIP_MODULES:  # a strip of 1e5 modules ran out of memory in the overlap check
+            raise argparse.ArgumentTypeError(f"a strip of {int(value[6:])} modules is longer than the "
+                                             f"{MAX_STRIP_MODULES} accepted; use fill for large areas")
         return value
     raise argparse.ArgumentTypeError(f"must be triangle, hexagon, fill or strip:N, got {value!r}")
 
