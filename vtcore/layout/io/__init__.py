@@ -104,9 +104,11 @@ def load(path, format: str | None = None, *, units: str | None = None) -> Layout
     except (ValueError, TypeError, KeyError, IndexError, AttributeError, OverflowError, RecursionError) as exc:
         # the boundary's last line: a value of a type or size a reader did not expect
         raise FormatError(f"not a readable {fmt} layout: {type(exc).__name__}: {clean(exc)}", file=path) from None
-    for key in ("positions", "normals"):
-        a = np.asarray(getattr(layout, key), dtype=np.float64)
-        if not np.isfinite(a).all():
+    # the backstop of every reader: a Layout with NaN or infinity must not get to a writer (or to the
+    # caller's physics); the readers refuse them earlier, naming the line or key
+    for key in ("positions", "normals", "transform", "flat"):
+        a = getattr(layout, key)
+        if a is not None and not np.isfinite(np.asarray(a, dtype=np.float64)).all():
             raise FormatError(f"{key} hold non-finite values", file=path, key=key)
     if len(layout) and np.abs(layout.positions).max() > MAX_COORDINATE_M:
         raise FormatError(f"positions must be within +-{MAX_COORDINATE_M:g} m, got "

@@ -59,14 +59,23 @@ def clean_normals(normals: np.ndarray, positions: np.ndarray, report: ImportRepo
     bit, so a layout read back from our own files has the same digests (:func:`row_digests`).
     """
     normals = np.array(normals, dtype=np.float64)
-    norm = np.linalg.norm(normals, axis=1)
+    if not np.isfinite(normals).all():  # a reader checks first, naming the line; this is the backstop
+        raise FormatError(f"{what} of taxel {int(np.flatnonzero(~np.isfinite(normals).all(1))[0])} is not finite",
+                          file=report.path)
+    # |n| through the largest component: a normal of 1e308s is a direction, but its plain norm
+    # overflows to inf and n / inf would be a zero (or NaN) normal
+    big = np.abs(normals).max(axis=1) if len(normals) else np.zeros(0)
+    scaled = normals / np.where(big > 0, big, 1.0)[:, None]
+    snorm = np.linalg.norm(scaled, axis=1)
+    with np.errstate(over="ignore"):
+        norm = big * snorm  # inf past 1.8e308: only shown, never divided by
     zero = norm < ZERO_NORMAL
     off = ~zero & (np.abs(norm - 1) > 1e-3)
     if off.any():
-        report.warn(f"{int(off.sum())} {what}s are not unit length (norm {norm[off].min():.3g}-"
-                    f"{norm[off].max():.3g}); normalised")
+        report.warn(f"{int(off.sum())} {what}s are not unit length (norm {_length(norm[off].min())}-"
+                    f"{_length(norm[off].max())}); normalised")
     rescale = ~zero & (np.abs(norm - 1) > 1e-12)
-    normals[rescale] /= norm[rescale, None]
+    normals[rescale] = scaled[rescale] / snorm[rescale, None]
     if zero.any():
         if len(positions) >= 3:
             est = estimate_normals(positions, reference=np.where(zero[:, None], 0.0, normals)
@@ -82,6 +91,35 @@ def clean_normals(normals: np.ndarray, positions: np.ndarray, report: ImportRepo
             report.warn(f"every {what} is {normals[0].round(6).tolist()} on a non-planar layout: "
                         "placeholder normals? kept as given")
     return normals, zero
+
+
+def _length(v: float) -> str:
+    return f"{v:.3g}" if math.isfinite(v) else "above 1.8e308"
+
+
+def finite_rows(a: np.ndarray, path, key: str) -> np.ndarray:
+    """``a`` (N, k) float, refused (naming the file, ``key`` and the first bad row) when it holds
+    NaN or infinity; checked before any warning about its values is given."""
+    bad = ~np.isfinite(a).reshape(len(a), -1).all(axis=1)
+    if bad.any():
+        raise FormatError(f"row {int(np.flatnonzero(bad)[0])} is not finite (NaN or infinity)", file=path, key=key)
+    return a
+
+
+def transform_of(values, path, key: str, *, line: int | None = None, column_major: bool = False) -> np.ndarray:
+    """A file's 4x4 transform (16 numbers, row-major unless ``column_major``) as a finite (4, 4) float
+    array; anything else is a FormatError naming the file and ``key`` (or ``line``)."""
+    try:
+        a = np.asarray(values, dtype=np.float64)
+    except (TypeError, ValueError, OverflowError):
+        raise FormatError("must be 16 numbers (a 4x4 matrix)", file=path, key=key, line=line) from None
+    if a.size != 16 or a.ndim not in (1, 2) or (a.ndim == 2 and a.shape != (4, 4)):
+        raise FormatError(f"must be 16 numbers (a 4x4 matrix), got shape {a.shape}", file=path, key=key, line=line)
+    if not np.isfinite(a).all():
+        k = int(np.flatnonzero(~np.isfinite(a.ravel()))[0])
+        raise FormatError(f"number {k} is {a.ravel()[k]}, not finite", file=path, key=key, line=line)
+    a = a.reshape(4, 4)
+    return a.T.copy() if column_major else a
 
 
 def check_repeats(positions: np.ndarray, report: ImportReport):

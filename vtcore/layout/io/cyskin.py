@@ -24,7 +24,7 @@ from ...inputs import finite_json
 from ..model import Layout
 from ..uids import cyskin_modules
 from .common import (ImportReport, array_digest, check_repeats, clean_normals, default_faces, finish, parse_number,
-                     read_json_doc, row_digests, unchanged_rows, units_scale)
+                     read_json_doc, row_digests, transform_of, unchanged_rows, units_scale)
 
 NAME = "cyskin"
 SUFFIXES = (".json",)
@@ -124,10 +124,7 @@ def read(path, units: str | None = None) -> Layout:
         pf = parents[0]
         tf = pf.get("tf_matrix")
         if tf is not None:
-            if len(tf) != 16:
-                raise FormatError(f"tf_matrix needs 16 numbers, got {len(tf)}", file=path,
-                                  key="skin.parent_frames[0].tf_matrix")
-            transform = np.asarray(tf, dtype=np.float64).reshape(4, 4).T  # column-major
+            transform = transform_of(tf, path, "skin.parent_frames[0].tf_matrix", column_major=True)
             transform[:3, 3] *= scale
             if not np.allclose(transform[3], [0, 0, 0, 1], atol=1e-6):
                 report.warn("tf_matrix bottom row is not [0, 0, 0, 1]: was it written row-major?")

@@ -11,7 +11,8 @@ from ..._io import atomic_write
 from ...errors import FormatError
 from ...inputs import finite_json
 from ..model import Layout
-from .common import ImportReport, as_list, clean_normals, finish, read_json_doc, units_scale
+from .common import (ImportReport, as_list, clean_normals, finish, finite_rows, read_json_doc, transform_of,
+                     units_scale)
 
 NAME = "json"
 SUFFIXES = (".json",)
@@ -80,18 +81,24 @@ def read(path, units: str | None = None) -> Layout:
         if bad.any():
             raise FormatError(f"row {int(np.flatnonzero(bad)[0])} is not finite", file=path, key=f"taxels.{key}")
     n = len(pos)
+    transform = transform_of(doc["transform"], path, "transform") if doc.get("transform") is not None else np.eye(4)
+    flat = t.get("flat")
+    if flat is not None:
+        try:
+            flat = np.asarray(flat, dtype=np.float64).reshape(n, 2)
+        except (TypeError, ValueError, OverflowError):
+            raise FormatError(f"must be a list of {n} [u, v]", file=path, key="taxels.flat") from None
+        finite_rows(flat, path, "taxels.flat")
     if doc.get("n_taxels") is not None and doc["n_taxels"] != n:
         report.warn(f"n_taxels says {doc['n_taxels']} but there are {n} positions; using the list")
     scale = units_scale(pos, units, report, doc.get("units"))
-    flat = t.get("flat")
     nrm, estimated = clean_normals(nrm, pos, report)
     if t.get("normals_estimated") is not None:  # estimated when first read, kept through our JSON
         estimated = estimated | np.asarray(t["normals_estimated"], dtype=bool).reshape(-1)[:n]
     layout = Layout(pos * scale, nrm, t.get("taxel_ids", np.arange(n)),
                     t.get("module_ids", np.zeros(n, int)),
-                    None if flat is None else np.asarray(flat, dtype=np.float64) * scale,
-                    t.get("roles"), doc.get("frame", "end_effector"),
-                    np.asarray(doc.get("transform", np.eye(4)), dtype=np.float64), dict(doc.get("meta") or {}),
+                    None if flat is None else flat * scale,
+                    t.get("roles"), doc.get("frame", "end_effector"), transform, dict(doc.get("meta") or {}),
                     t.get("can_ids"), estimated)
     return finish(layout, report, path, "json")
 

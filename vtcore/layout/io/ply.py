@@ -22,7 +22,8 @@ from ..._io import atomic_write
 from ...errors import FormatError
 from ...inputs import read_bytes
 from ..model import Layout
-from .common import ImportReport, clean_normals, default_faces, finish, number, parse_number, units_scale
+from .common import (ImportReport, clean_normals, default_faces, finish, number, parse_number, transform_of,
+                     units_scale)
 
 NAME = "ply"
 SUFFIXES = (".ply",)
@@ -83,7 +84,7 @@ def read(path, units: str | None = None) -> Layout:
     fmt = None
     elements = []  # (name, count, [(type, name) or ('list', ct, it, name)])
     frame, transform = "end_effector", np.eye(4)
-    for line in head:
+    for hno, line in enumerate(head, start=1):
         tok = line.split()
         if not tok:
             continue
@@ -92,7 +93,8 @@ def read(path, units: str | None = None) -> Layout:
         elif tok[0] == "comment" and len(tok) > 2 and tok[1] == "frame":
             frame = tok[2]
         elif tok[0] == "comment" and len(tok) == 18 and tok[1] == "transform":
-            transform = np.asarray([float(t) for t in tok[2:]]).reshape(4, 4)
+            transform = transform_of([parse_number(t, path, hno, "transform") for t in tok[2:]], path,
+                                     "comment transform", line=hno)
         elif tok[0] == "element":
             elements.append((tok[1], int(tok[2]), []))
         elif tok[0] == "property" and elements:
@@ -159,9 +161,11 @@ def read(path, units: str | None = None) -> Layout:
     for c in ("x", "y", "z"):
         if c not in vert:
             raise FormatError(f"vertex has no '{c}' property", file=path)
+    for nm, col in vert.items():  # binary files: NaN and infinity are valid bit patterns
+        if not np.isfinite(col).all():
+            raise FormatError(f"vertex {int(np.flatnonzero(~np.isfinite(col))[0])} is not finite", file=path,
+                              key=f"vertex.{nm}")
     pos = np.column_stack([vert["x"], vert["y"], vert["z"]])
-    if not np.isfinite(pos).all():
-        raise FormatError(f"vertex {int(np.flatnonzero(~np.isfinite(pos).all(1))[0])} is not finite", file=path)
     n = len(pos)
     nrm = np.column_stack([vert[c] for c in ("nx", "ny", "nz")]) if all(c in vert for c in ("nx", "ny", "nz")) \
         else np.zeros((n, 3))
