@@ -217,3 +217,33 @@ def test_replay_scene_renders_headless(tmp_path, engine, video):
         pngs = sorted(out.glob("replay_*.png"))
         assert len(pngs) == len(ref.rows)
         assert all(p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" for p in pngs)
+
+
+@pytest.mark.slow
+def test_icub_replay_scene_then_reload_log_with_boards(tmp_path):
+    """The iCub example scene (triangle 5 reports an error in rows 30..32) loads onto its skin;
+    the same log loaded again with the operator, as board 0 explicitly, gives the same frames."""
+    from vtcore.can.timeline import load_recording
+    from vtcore.scene.interactive import run_scene_file
+
+    from addon import skin
+
+    scene_file = ROOT / "scenes" / "replay_icub_press.toml"
+    bpy.context.scene.vtskin.out_dir = str(tmp_path / "out")
+    assert bpy.ops.vtskin.run_scene(filepath=str(scene_file)) == {"FINISHED"}
+    ob = bpy.context.view_layer.objects.active
+    ref = run_scene_file(scene_file, tmp_path / "ref").replay
+    assert ob.vtskin.lost_samples == ref.lost_samples == 36 and ob.vtskin.lost_rows == 3
+    log = ROOT / "scenes" / "data" / "replay_icub_press.asc"
+    s = bpy.context.scene.vtskin
+    s.replay_rate, s.baseline_rows = "RECORDING", 3
+    assert bpy.ops.vtskin.load_recording(filepath=str(log), codec="icub", boards="0") == {"FINISHED"}
+    direct = load_recording(log, skin.read_layout(ob), skin.triangles(ob), kind="icub", boards=[0], fps=None,
+                            baseline_rows=3, edge_fraction=s.edge_fraction)
+    for f in (1, 31, len(direct.rows)):
+        bpy.context.scene.frame_set(f)
+        np.testing.assert_array_equal(attr(ob, "response"), direct.counts[f - 1])
+        np.testing.assert_array_equal(attr(ob, "held"), direct.held[f - 1])
+    assert attr(ob, "held").sum() == 0 and direct.held[31].sum() == 12  # row 31: triangle 5's 12 slots held
+    with pytest.raises(RuntimeError, match="right codec, skin or board address"):
+        bpy.ops.vtskin.load_recording(filepath=str(log), codec="icub", boards="3")  # the wrong board
