@@ -49,6 +49,53 @@ class PreparedSurface:
             self.info.append(note)
         self.mesh = sub
         self._solver = None
+        self._graph = None
+
+    def path_graph(self):
+        """(V, V) scipy.sparse CSR graph of ``mesh`` for shortest paths that stay close to geodesic
+        distances: the mesh edges plus, across each interior edge, the straight line between the
+        two opposite vertices in the unfolded face pair (where it crosses the shared edge).
+
+        Edges alone overestimate the geodesic distance by up to sqrt(2) on the grid-like
+        triangulations of CAD and primitive meshes (a path along a diagonal the mesh lacks); the
+        extra lines bring that under ~8 %, so the 1.15 and 1.25 factors of
+        :meth:`LogMap.trusted_radius` and :meth:`LogMap.consistent` hold. Built once per surface.
+        """
+        if getattr(self, "_graph", None) is None:
+            import scipy.sparse as sp
+
+            m = self.mesh
+            V = np.asarray(m.vertices)
+            F = np.asarray(m.faces)
+            e = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
+            w = np.linalg.norm(V[e[:, 0]] - V[e[:, 1]], axis=1)
+            adj = np.asarray(m.face_adjacency_edges).reshape(-1, 2)
+            opp = np.asarray(m.face_adjacency_unshared).reshape(-1, 2)
+            if len(adj):
+                a, b = V[adj[:, 0]], V[adj[:, 1]]
+                ab = b - a
+                L = np.maximum(np.linalg.norm(ab, axis=1), 1e-300)
+                ex = ab / L[:, None]
+                # each opposite vertex in the frame (along ab, distance from the line ab)
+                rel = [V[opp[:, k]] - a for k in (0, 1)]
+                x = [np.einsum("ij,ij->i", r, ex) for r in rel]
+                y = [np.linalg.norm(r - x_[:, None] * ex, axis=1) for r, x_ in zip(rel, x)]
+                ysum = np.maximum(y[0] + y[1], 1e-300)
+                cross = x[0] + (x[1] - x[0]) * y[0] / ysum  # where the unfolded line meets ab
+                ok = (cross > 0) & (cross < L) & (y[0] > 0) & (y[1] > 0)
+                d = np.hypot(x[1] - x[0], ysum)
+                e = np.concatenate([e, opp[ok]])
+                w = np.concatenate([w, d[ok]])
+            # one entry per vertex pair, the shortest (a coo matrix would sum duplicates: edges of
+            # duplicated or inconsistently oriented faces)
+            e = np.sort(e, axis=1)
+            order = np.lexsort((w, e[:, 1], e[:, 0]))
+            e, w = e[order], w[order]
+            first = np.ones(len(e), bool)
+            first[1:] = np.any(e[1:] != e[:-1], axis=1)
+            n = len(V)
+            self._graph = sp.csr_matrix((w[first], (e[first, 0], e[first, 1])), shape=(n, n))
+        return self._graph
 
     def solver(self):
         """The vector heat solver of ``mesh`` (factored once; geometry-central caches its
@@ -192,20 +239,15 @@ class LogMap:
         return self._cons
 
     def edge_distance(self) -> np.ndarray:
-        """(V,) metres along mesh edges from the source point (inf where unreachable); scipy's
-        Dijkstra on the edge graph, computed once."""
+        """(V,) metres from the source point along the surface's path graph (inf where
+        unreachable): scipy's Dijkstra on :meth:`PreparedSurface.path_graph`, computed once."""
         if getattr(self, "_path", None) is None:
-            import scipy.sparse as sp
             from scipy.sparse.csgraph import dijkstra
 
-            F = np.asarray(self.mesh.faces)
             V = np.asarray(self.mesh.vertices)
-            e = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
-            w = np.linalg.norm(V[e[:, 0]] - V[e[:, 1]], axis=1)
-            g = sp.coo_matrix((w, (e[:, 0], e[:, 1])), shape=(len(V), len(V))).tocsr()
             src = np.asarray(self.mesh.faces)[self.face]
             d0 = np.linalg.norm(V[src] - self.at, axis=1)
-            dist = dijkstra(g, directed=False, indices=src)
+            dist = dijkstra(self.prepared.path_graph(), directed=False, indices=src)
             self._path = (dist + d0[:, None]).min(axis=0)
         return self._path
 

@@ -6,22 +6,50 @@ barycentric coordinates, tangent bases) is in :mod:`vtcore.geometry`.
 
 from __future__ import annotations
 
+import weakref
+from collections import OrderedDict
+
 import numpy as np
 
 from ..errors import InputError
 from ..geometry import closest_point_on_triangles, tangent_basis
 
+#: open3d raycasting scenes of the last few meshes queried: building one (its BVH) costs ~0.1 s
+#: per 50k faces, and a fill queries the same surface dozens of times
+_SCENES: OrderedDict = OrderedDict()
+_SCENES_KEPT = 4
+
+
+def _raycasting_scene(mesh):
+    """The open3d RaycastingScene of ``mesh``, from a small cache keyed by the object and the
+    hash of its data (trimesh re-hashes when vertices or faces change, so a mutated mesh gets a
+    new scene)."""
+    import open3d as o3d  # C++ BVH: far faster than trimesh's for many points
+
+    key = id(mesh)
+    stamp = hash(mesh)
+    hit = _SCENES.get(key)
+    if hit is not None and hit[0]() is mesh and hit[1] == stamp:
+        _SCENES.move_to_end(key)
+        return hit[2]
+    scene = o3d.t.geometry.RaycastingScene()
+    tm = o3d.t.geometry.TriangleMesh()
+    tm.vertex.positions = o3d.core.Tensor(np.asarray(mesh.vertices, np.float32))
+    tm.triangle.indices = o3d.core.Tensor(np.asarray(mesh.faces, np.int32))
+    scene.add_triangles(tm)
+    _SCENES[key] = (weakref.ref(mesh), stamp, scene)
+    while len(_SCENES) > _SCENES_KEPT:
+        _SCENES.popitem(last=False)
+    return scene
+
+
 def closest_points(mesh, points: np.ndarray):
     """Closest points on ``mesh``: ``(points (n,3), face (n,), distance (n,))``."""
     points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     try:
-        import open3d as o3d  # C++ BVH: far faster than trimesh's for many points
+        scene = _raycasting_scene(mesh)
+        import open3d as o3d
 
-        scene = o3d.t.geometry.RaycastingScene()
-        tm = o3d.t.geometry.TriangleMesh()
-        tm.vertex.positions = o3d.core.Tensor(np.asarray(mesh.vertices, np.float32))
-        tm.triangle.indices = o3d.core.Tensor(np.asarray(mesh.faces, np.int32))
-        scene.add_triangles(tm)
         ans = scene.compute_closest_points(o3d.core.Tensor(points.astype(np.float32)))
         face = ans["primitive_ids"].numpy().astype(np.int64)
         # refine in float64 on the found face (open3d works in float32)
