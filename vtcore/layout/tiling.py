@@ -20,7 +20,7 @@ from .logmap import LogMap, PreparedSurface
 from .model import Layout
 from .patches import Patch, fill_patch, patch_from_poses, tile_poses
 from .placement import finish, place
-from .repair import clean_mesh
+from .repair import clean_mesh, edge_keys
 from .surface import snap
 from .report import OVERLAP_FRACTION, PlacementReport, find_overlaps, find_overlaps_between, layout_strain, \
     points_in_outlines
@@ -348,9 +348,9 @@ def feature_samples(mesh, crease_angle: float, region: np.ndarray | None = None)
     vertex indices, w (K,) position along the edge, n_open, n_sharp)``; five points per edge (the
     edges are at most about a pitch long after the log map's subdivision)."""
     f = np.asarray(mesh.faces)
-    e = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
-    key, cnt = np.unique(e, axis=0, return_counts=True)
-    open_e = key[cnt == 1]
+    nv = len(mesh.vertices)
+    key, cnt = np.unique(edge_keys(f, n=nv), return_counts=True)
+    open_e = np.column_stack([key[cnt == 1] // nv, key[cnt == 1] % nv])
     ang = np.asarray(mesh.face_adjacency_angles)
     adj = np.asarray(mesh.face_adjacency)
     ae = np.asarray(mesh.face_adjacency_edges, np.int64).reshape(-1, 2)
