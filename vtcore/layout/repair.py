@@ -181,6 +181,11 @@ def refine(mesh, resolution: float, max_faces: int = 300_000):
         res *= 1.25
     if longest.max() <= res:
         return mesh
+    # only faces with an edge longer than res take part (splits and flips): an edge they share
+    # with any other face is at most res long, so it is never split or flipped and the two parts
+    # still fit; a big CAD mesh with a few long cap faces costs what the cap costs
+    done = f[longest <= res]
+    f = f[longest > res]
     for _ in range(200):
         f = delaunay_flips(v, f)
         nv = len(v)
@@ -228,7 +233,7 @@ def refine(mesh, resolution: float, max_faces: int = 300_000):
         out += [np.column_stack([a, m01, m20]), np.column_stack([m01, b, m12]),
                 np.column_stack([m20, m12, c]), np.column_stack([m01, m12, m20])]
         f = np.concatenate(out)
-    return trimesh.Trimesh(v, f, process=False, validate=False)
+    return trimesh.Trimesh(v, np.concatenate([done, f]), process=False, validate=False)
 
 
 def delaunay_flips(v: np.ndarray, f: np.ndarray, max_dihedral: float = 1.0, rounds: int = 100) -> np.ndarray:

@@ -406,11 +406,21 @@ def coverage_by_frames(centres: np.ndarray, areas: np.ndarray, frames: np.ndarra
         return 0.0
     o, x, n = frames[:, 0], frames[:, 1], frames[:, 2]
     y = np.cross(n, x)
-    hits = cKDTree(o).query_ball_point(centres, mod.radius)
-    rows = np.repeat(np.arange(len(centres)), [len(h) for h in hits])
+    # the k nearest module origins within a module radius, as arrays (query_ball_point's lists of
+    # lists cost seconds on 100k face centres); modules do not overlap, so a handful are near a
+    # point: k doubles until the farthest answer is past the radius
+    tree, k = cKDTree(o), min(8, len(o))
+    while True:
+        d, ms = tree.query(centres, k=k, distance_upper_bound=mod.radius)
+        d, ms = d.reshape(len(centres), -1), ms.reshape(len(centres), -1)
+        if k >= len(o) or not np.isfinite(d[:, -1]).any():
+            break
+        k = min(2 * k, len(o))
+    hit = np.isfinite(d)
+    rows = np.nonzero(hit)[0]
     if not len(rows):
         return 0.0
-    ms = np.concatenate([np.asarray(h, np.int64) for h in hits if len(h)])
+    ms = ms[hit]
     rel = centres[rows] - o[ms]
     # within a module radius along the normal too: not the other side of a thin part
     near = np.abs(np.einsum("ij,ij->i", rel, n[ms])) < 0.5 * mod.radius
