@@ -108,7 +108,7 @@ def module_strain(patch: Patch, pos: np.ndarray, nrm: np.ndarray, modules: np.nd
 def grow(prepared: PreparedSurface, at, direction, patch: Patch, *, check=None, max_strain: float | None = None,
          max_charts: int = 400, chart_radius: float | None = None, progress=None,
          first: LogMap | None = None, avoid: np.ndarray | None = None,
-         faces: np.ndarray | None = None) -> Growth:
+         faces: np.ndarray | None = None, min_gain: int = 1) -> Growth:
     """Map the modules of ``patch`` (a flat lattice, origin at ``at``) chart by chart.
 
     prepared : the surface. at : (3,) metres. direction : (3,) or None, the lattice x axis at ``at``.
@@ -251,7 +251,7 @@ def grow(prepared: PreparedSurface, at, direction, patch: Patch, *, check=None, 
         test = np.unique(np.concatenate([np.asarray(nb, np.int64) for nb in near_km]))
         test = test[pending[test] & (status[test] < 0)]
         if len(test):
-            status[test] = lm.exp(centre[test] - o, fallback=False)[3].astype(np.int8)
+            status[test] = lm.exp(centre[test] - o, fallback=False, on_surface=False)[3].astype(np.int8)
         want = pending & (status == 1)
         if not want.any():
             continue
@@ -274,6 +274,13 @@ def grow(prepared: PreparedSurface, at, direction, patch: Patch, *, check=None, 
         x -= fn[:k] * np.einsum("ij,ij->i", x, fn[:k])[:, None]
         src = np.concatenate([np.zeros(len(inner), bool), np.ones(len(front), bool)])
         origins = [(ch.origin, ch.at) for ch in charts] + [(q[0], q[1]) for q in queue]
+        if min_gain > 1:
+            # a chart costs a solve: seed one only where it can add min_gain wanted modules (the
+            # few strained modules left along a region's rim would each cost a chart for one module)
+            wt = cKDTree(centre[want])
+            gain = wt.query_ball_point(centre[cand], hood, return_length=True)
+            ok = gain >= min(min_gain, int(want.sum()))
+            cand, src, fp, x = cand[ok], src[ok], fp[:k][ok], x[ok]
         for t, m in enumerate(cand):
             p3, x3 = (frames[m, 0], frames[m, 1]) if src[t] else (fp[t], x[t])
             if all(np.linalg.norm(centre[m] - q2) >= spacing and np.linalg.norm(p3 - q3) >= 0.5 * spacing

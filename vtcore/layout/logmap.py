@@ -283,7 +283,7 @@ class LogMap:
             self._grid = TriangleGrid(tri2, self._usable, self._geo)
         return self._grid
 
-    def exp(self, flat: np.ndarray, fallback: bool = True):
+    def exp(self, flat: np.ndarray, fallback: bool = True, on_surface: bool = True):
         """Map flat coordinates (n, 2) to the surface.
 
         Returns ``(positions (n, 3), normals (n, 3), face (n,), found (n,) bool)``;
@@ -291,7 +291,9 @@ class LogMap:
         boundary) and the position is the closest surface point of its
         tangent-plane extrapolation (``fallback=False``: left at a vertex of the
         face 0, for callers that drop such points anyway). Memory: O(n) plus the index (bounded, see
-        :mod:`vtcore.layout.locate`); no (points x faces) array.
+        :mod:`vtcore.layout.locate`); no (points x faces) array. ``on_surface=False`` leaves the
+        points on the mesh the map is solved on when that is a simplified copy (cheaper: for
+        callers that only compare candidates, such as the fill's tiling tries).
         """
         flat = np.asarray(flat, dtype=np.float64).reshape(-1, 2)
         F = np.asarray(self.mesh.faces)
@@ -307,7 +309,7 @@ class LogMap:
             bb = barycentric(tri, cp)
             pos[lost], face[lost] = cp, fc
             nrm[lost] = surface_normals(self.mesh, fc, bb)
-        if self.surface is not self.mesh:
+        if on_surface and self.surface is not self.mesh:
             # solved on a decimated copy: move to the full-resolution surface
             pos, fc, _ = closest_points(self.surface, pos)
             tri = np.asarray(self.surface.vertices)[np.asarray(self.surface.faces)[fc]]

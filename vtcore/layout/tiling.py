@@ -507,7 +507,7 @@ def _fill_island(prepared, preg, samples, start, direction, mod, radius, max_str
         cand = cand.select_modules(d + reach <= r_try)
         if not cand.n_modules:
             return 0
-        p_, n_, f_, ok_ = lm0.exp(cand.flat, fallback=False)
+        p_, n_, f_, ok_ = lm0.exp(cand.flat, fallback=False, on_surface=False)
         tm, M = cand.module_ids, cand.n_modules
         keep = np.bincount(tm, weights=ok_, minlength=M) == np.bincount(tm, minlength=M)
         keep &= module_strain(cand, p_, n_, np.arange(M)) <= max_strain
@@ -528,7 +528,7 @@ def _fill_island(prepared, preg, samples, start, direction, mod, radius, max_str
     _, ang, sh = best
     latt = lattice_patch(mod, ang, sh, np.zeros(2), extent, radius)
     g = grow(prepared, lm0.at, direction, latt, check=check, max_strain=max_strain, first=lm0, avoid=avoid,
-             progress=progress, faces=preg)
+             progress=progress, faces=preg, min_gain=2)
     kept = np.flatnonzero(g.kept)
     poses, chart_of = latt.poses[kept], g.chart[kept]
     n_seam = 0
