@@ -163,7 +163,7 @@ SEAM_SHIFTS = ((0.5, 0.0), (0.0, 0.5), (0.5, 0.5), (0.25, 0.0), (0.75, 0.0), (0.
 
 
 def fill(mesh, at, direction=None, *, module: str = "cyskin10", region=None, radius: float | None = None,
-         offset: float = 0.0, max_strain: float = 0.05, max_faces: int | None = 20_000,
+         offset: float = 0.0, max_strain: float = 0.05, max_faces: int | str | None = "auto",
          existing: Layout | None = None, angles=tuple(np.radians(np.arange(0, 180, 30))), offsets: int = 2,
          refine_offsets: int = 4, crease_angle: float = 40.0, seam: bool = True,
          progress=None) -> tuple[Layout, PlacementReport]:
@@ -174,6 +174,10 @@ def fill(mesh, at, direction=None, *, module: str = "cyskin10", region=None, rad
     region : (F,) bool face mask of ``mesh`` (default: every face). Every island (connected part)
         of the region is filled: the one holding ``at`` from ``at``, the others from their most
         central point. radius : metres, limit to this geodesic radius around ``at``.
+    max_faces : solve the log maps on a copy of the (cropped) mesh simplified to about this many
+        faces when it has more (taxels still land on the full mesh); ``"auto"``: the faces of
+        triangles with edges of about 0.75 module pitch over the region, 4,000 to 20,000
+        (:func:`solve_faces`); None: never simplify.
     max_strain : modules straining more are left out. crease_angle : degrees; no module covers an
         edge sharper than this, nor an open edge of the mesh or of the region.
     angles, offsets, refine_offsets : the lattice is tried at each angle and ``offsets x offsets``
@@ -224,6 +228,10 @@ def fill(mesh, at, direction=None, *, module: str = "cyskin10", region=None, rad
     cen = np.asarray(clean.triangles_center)
     dist, _ = cKDTree(cen[creg]).query(cen, distance_upper_bound=2 * mod.pitch)
     sub = clean.submesh([np.flatnonzero(np.isfinite(dist))], append=True, repair=False)
+    if isinstance(max_faces, str):
+        if max_faces != "auto":
+            raise InputError(f"max_faces must be a number, None or 'auto', got {max_faces!r}", key="max_faces")
+        max_faces = solve_faces(float(sub.area), mod.pitch)
     prepared = PreparedSurface(sub, resolution=mod.pitch, max_faces=max_faces)
     _, near = cKDTree(cen).query(np.asarray(prepared.mesh.triangles_center))
     preg = creg[near]  # the region on the faces the log maps are solved on
@@ -306,6 +314,19 @@ class IslandFill:
     @property
     def n_modules(self) -> int:
         return self.patch.n_modules
+
+
+def solve_faces(area: float, pitch: float) -> int:
+    """Faces for the mesh a fill's log maps are solved on: triangles with edges of about 0.75
+    ``pitch`` (metres) over ``area`` (square metres), between 4,000 and 20,000.
+
+    The log map's cost is its first factorization, which grows faster than the face count (0.7 s
+    at 10k faces, 1.7 s at 20k, 16 s at 100k on this machine's 2 cores), while its accuracy for
+    placing modules needs only a few triangles per module: on the 72 x 200 mm link, 4k, 8k and
+    20k faces place the same modules (benchmarked in docs/layout.md).
+    """
+    equilateral = np.sqrt(3) / 4 * (0.75 * pitch) ** 2
+    return int(np.clip(area / max(equilateral, 1e-300), 4_000, 20_000))
 
 
 def crop_mask(mesh, point: np.ndarray, face: int, radius: float) -> np.ndarray:
