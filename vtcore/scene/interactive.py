@@ -204,7 +204,8 @@ def lay_patch(vertices, triangles, at, *, existing: Layout | None = None, patch:
     direction : (3,) in-plane x axis or None. offset : metres along the normal.
     fill_region : (F,) bool face mask: tile that region with whole modules instead.
     max_faces : the log map is solved on a copy simplified to about this many faces
-        (vtcore.layout.place's speed/accuracy knob; None: the full mesh).
+        (vtcore.layout.place's speed/accuracy knob; None: the full mesh). A fill sizes its copy
+        by the module pitch instead (``fill(max_faces="auto")``) unless this is None.
     progress : None or ``progress(fraction) -> bool`` (0..1); returning False stops a fill,
         which raises :class:`vtcore.errors.Cancelled` (nothing is returned or changed).
         It is told 0 when the fill starts, the fill's own fractions as its growth proceeds
@@ -226,8 +227,8 @@ def lay_patch(vertices, triangles, at, *, existing: Layout | None = None, patch:
         if len(region) != len(mesh.faces) or not region.any():
             raise InputError("select at least one face of the end-effector to fill", key="region")
         keep_going(progress, 0.0, "the fill")
-        new, rep = fill(mesh, at, direction, module=module, region=region, offset=offset, max_faces=max_faces,
-                        existing=existing, progress=progress)
+        new, rep = fill(mesh, at, direction, module=module, region=region, offset=offset,
+                        max_faces=None if max_faces is None else "auto", existing=existing, progress=progress)
         keep_going(progress, 1.0, "the fill")
     else:
         new, rep = place(mesh, patch, at, direction, module=module, offset=offset, method=method,
