@@ -151,3 +151,94 @@ def test_cyskin_nan_tf_matrix_is_one_error(tmp_path):
     one_error(rc, err, str(src), "skin.parent_frames[0].tf_matrix", "number 7")
     assert "row-major" not in err
     assert re.search(r"\bnan\b", err)
+
+
+# --------------------------------------------------------------------- 3. BLF: gigabytes from a few kB
+@pytest.fixture(scope="module")
+def blf_seed(tmp_path_factory):
+    """The fuzz seed of tests/fuzz/test_fuzz_can.py: 40 frames of the CySkin slide log, as BLF."""
+    from vtcore.can import decode_log, encode, get_codec, write_log
+
+    d = tmp_path_factory.mktemp("blf")
+    log = ROOT / "scenes" / "data" / "replay_cyskin16_slide.log"
+    (d / "slide.log").write_bytes(b"".join(log.read_bytes().splitlines(keepends=True)[:40]))
+    res = decode_log(d / "slide.log", "cyskin16")
+    write_log(d / "s.blf", encode(res.timestamps, res.frames, res.taxel_ids, get_codec("cyskin16"), mask=res.mask))
+    return d / "s.blf"
+
+
+def gap_blf(seed: Path, out: Path, gap_s: float, modules: int) -> Path:
+    """The seed's frames, then five periods of ``modules`` modules never seen before ``gap_s`` later:
+    what a corrupt deflate container or flipped timestamp and id bytes make of a BLF log (the
+    decoder needs a grid of gap / period rows x taxel columns, both from the file's bytes)."""
+    import can
+
+    msgs = list(can.io.BLFReader(str(seed)))
+    w = can.io.BLFWriter(str(out))
+    for m in msgs:
+        w.on_message_received(m)
+    t0, k = msgs[-1].timestamp + gap_s, 0
+    for rep in range(5):          # more than the 3 frames the clock-jump vote looks at
+        for mod in range(7, 7 + modules):
+            for g in (0, 4, 8):  # the slide log's three frames per module (ids 0x18000000 | module << 4 | g)
+                m = can.Message(timestamp=t0 + 0.05 * rep + 1e-5 * k, arbitration_id=0x18000000 | mod << 4 | g,
+                                is_extended_id=True, data=msgs[g // 4].data)
+                w.on_message_received(m)
+                k += 1
+    w.stop()
+    return out
+
+
+@pytest.mark.slow
+def test_blf_gap_times_ids_refused_by_the_default_budget(blf_seed, tmp_path, monkeypatch):
+    """Found: the long fuzz run's BLF process grew to 10 GB and was killed by the OOM killer.
+    This 10 kB log (a frame 45,000 s after the others, 100 new modules) made the decoder build a
+    849,064 x 1,060 grid: 7.8 GB resident and 138 s before the fix. Now refused before allocating."""
+    monkeypatch.delenv("VTCORE_MEMORY_BUDGET", raising=False)
+    src = gap_blf(blf_seed, tmp_path / "gap.blf", 45000.0, 100)
+    assert src.stat().st_size < 20_000
+    rc, _, err = run("can", "decode", src, "--codec", "cyskin16", "--out", tmp_path / "o.npz")
+    one_error(rc, err, str(src), "x 1060 taxel columns", "more than the memory budget of 4 GiB",
+              "VTCORE_MEMORY_BUDGET")
+    assert not (tmp_path / "o.npz").exists()
+
+
+def test_blf_grid_follows_the_budget(blf_seed, tmp_path, monkeypatch):
+    """The same log with a 2,000 s gap (37,743 rows x 1,060 columns, ~480 MB with its copies):
+    decoded under the default budget, refused under VTCORE_MEMORY_BUDGET=64M."""
+    src = gap_blf(blf_seed, tmp_path / "gap.blf", 2000.0, 100)
+    monkeypatch.setenv("VTCORE_MEMORY_BUDGET", "64M")
+    rc, _, err = run("can", "decode", src, "--codec", "cyskin16", "--out", tmp_path / "o.npz")
+    one_error(rc, err, str(src), "rows (", "taxel columns", "memory budget of 64 MiB")
+    monkeypatch.setenv("VTCORE_MEMORY_BUDGET", "2G")
+    rc, out, err = run("can", "decode", src, "--codec", "cyskin16", "--out", tmp_path / "o.npz")
+    assert rc == 0, err
+    assert "frames (37743, 1060)" in out
+
+
+@pytest.mark.parametrize("field", ["file header", "object"])
+def test_blf_size_field_is_not_an_allocation(blf_seed, tmp_path, field):
+    """A BLF size field (file header size, object size: uint32 from the file) was passed to a buffered
+    read, which allocates that many bytes first: 4 GiB for an 838-byte file (a MemoryError under a
+    memory limit). Reads are bounded by the bytes left in the file now."""
+    import struct
+    import tracemalloc
+
+    data = bytearray(blf_seed.read_bytes())
+    if field == "file header":
+        struct.pack_into("<I", data, 4, 0xFFFFFFF0)            # "LOGG", header size
+    else:
+        k = data.index(b"LOBJ")
+        struct.pack_into("<I", data, k + 8, 0xFFFFFFF0)        # "LOBJ", header size, version, object size
+    src = tmp_path / "big.blf"
+    src.write_bytes(bytes(data))
+    tracemalloc.start()
+    try:
+        rc, _, err = run("can", "decode", src, "--codec", "cyskin16", "--out", tmp_path / "o.npz")
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert rc in (0, 2), err
+    if rc == 2:
+        one_error(rc, err, str(src))
+    assert peak < 200 << 20, f"{peak / 2**30:.2f} GiB allocated for a {len(data)}-byte file"

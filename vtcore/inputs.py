@@ -463,16 +463,19 @@ def memory_budget() -> int:
     return int(float(m.group(1)) * _UNITS[m.group(2)])
 
 
-def need_memory(nbytes: float, *, key: str, what: str, file=None) -> None:
+def need_memory(nbytes: float, *, key: str | None, what: str, file=None, line: int | None = None,
+                remedy: str | None = None) -> None:
     """Refuse, before allocating, work whose arrays would take more than :func:`memory_budget`.
 
     ``key``: the setting that makes it so large (``task.readings``); ``what``: what it sizes.
+    ``remedy``: what to do instead of "lower KEY" when no setting is to blame (a file's content);
+    ``line``: the file's line (or record) that asks for it.
     """
     budget = memory_budget()
     if not math.isfinite(nbytes) or nbytes > budget:
         raise InputError(f"{what} would need {_fmt_bytes(nbytes) if math.isfinite(nbytes) else 'unbounded memory'}, "
-                         f"more than the memory budget of {_fmt_bytes(budget)}; lower {key}, or raise the budget "
-                         "with VTCORE_MEMORY_BUDGET (e.g. 16G)", file=file, key=key)
+                         f"more than the memory budget of {_fmt_bytes(budget)}; {remedy or f'lower {key}'}, or raise "
+                         "the budget with VTCORE_MEMORY_BUDGET (e.g. 16G)", file=file, key=key, line=line)
 
 
 # ----------------------------------------------------------------------------- outputs

@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import FormatError, InputError
-from ..inputs import TextLines, check_input, check_output_file, clean, os_error
+from ..inputs import TextLines, check_input, check_output_file, clean, open_binary, os_error
 from .frames import MAX_TIMESTAMP_S, FrameBatch, Summary
 
 FORMATS = (".log", ".asc", ".blf", ".trc", ".csv")
@@ -199,12 +199,40 @@ def iter_batches(path, chunk: int = 65536, summary: Summary | None = None):
             yield _messages_to_batch(pend_msgs, pend_lines, summary)
 
 
+class _Bounded(io.RawIOBase):
+    """A binary file whose ``read(n)`` asks for at most the bytes left in it.
+
+    python-can's BLFReader reads ``size - header`` bytes for the file header and each object,
+    sizes taken from the file (up to 4 GiB); a buffered ``read(n)`` allocates ``n`` bytes
+    before it reads, so one corrupt size field was a 4 GiB allocation (MemoryError under a
+    memory limit) for a file of a few kB.
+    """
+
+    def __init__(self, fh):
+        super().__init__()
+        self._fh = fh
+        self._size = os.fstat(fh.fileno()).st_size
+
+    def readable(self):
+        return True
+
+    def read(self, n=-1):
+        left = max(self._size - self._fh.tell(), 0)
+        return self._fh.read(left if n is None or n < 0 else min(n, left))
+
+    def close(self):
+        self._fh.close()
+        super().close()
+
+
 def _iter_blf(path, chunk, summary):
     import can
 
+    fh = _Bounded(open_binary(path, "log file"))
     try:
-        reader = can.io.BLFReader(str(path))
+        reader = can.io.BLFReader(fh)
     except Exception as exc:
+        fh.close()
         raise FormatError(f"not a BLF file: {clean(exc)}", file=path) from None
     announced = int(reader.object_count)
     got = 0
