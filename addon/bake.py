@@ -23,14 +23,28 @@ def _key(name: str, frame: int) -> str:
     return f"{name}_{frame:05d}"
 
 
-def store(ob, frames, **series):
+#: ID property of a cache whose frames share stored values: the frame whose attributes each
+#: frame shows (one int per frame from ``bake_start``)
+SHOWS = "vtskin_shows"
+
+
+def store(ob, frames, rows=None, **series):
     """Store a bake on taxel object ``ob``.
 
-    frames : (T,) int scene frames. series : name -> (T, N) array for the names
-    in QUANTITIES (``edge``, ``held`` bool). Replaces any previous cache of ``ob``.
+    frames : (T,) int consecutive scene frames. series : name -> (T, N) array for the names
+    in QUANTITIES (``edge``, ``held`` bool). rows : optional (T,) int, the recorded row each
+    frame shows: frames that show the same row as an earlier frame store nothing and point
+    at it (a recording slower than the scene's frame rate is kept once, not once per frame).
+    Replaces any previous cache of ``ob``.
     """
     n = len(ob.data.vertices)
     frames = np.asarray(frames, dtype=np.int64)
+    keep = np.arange(len(frames))
+    shows = None
+    if rows is not None:
+        rows = np.asarray(rows, dtype=np.int64)
+        _, keep, inverse = np.unique(rows, return_index=True, return_inverse=True)
+        shows = frames[keep][inverse.reshape(-1)]
     old = ob.vtskin.cache
     cache = bpy.data.meshes.new(f"{ob.name} bake")
     cache.vertices.add(n)
@@ -40,8 +54,10 @@ def store(ob, frames, **series):
         if values.shape != (len(frames), n):
             raise ValueError(f"bake {name}: shape {values.shape}, expected {(len(frames), n)}")
         kind = "BOOLEAN" if values.dtype == bool else "FLOAT"
-        for f, row in zip(frames, values):
-            bridge.set_attribute(cache, _key(name, int(f)), row, kind)
+        for i in keep:
+            bridge.set_attribute(cache, _key(name, int(frames[i])), values[i], kind)
+    if shows is not None and len(keep) < len(frames):
+        cache[SHOWS] = [int(f) for f in shows]
     ob.vtskin.cache = cache
     ob.vtskin.bake_start = int(frames.min()) if len(frames) else 0
     ob.vtskin.bake_end = int(frames.max()) if len(frames) else -1
@@ -65,6 +81,9 @@ def frame_values(ob, frame: int) -> dict:
     """The cached arrays of ``frame`` (clamped to the baked range): name -> (N,)."""
     s = ob.vtskin
     f = min(max(int(frame), s.bake_start), s.bake_end)
+    shows = s.cache.get(SHOWS)
+    if shows is not None:
+        f = int(shows[f - s.bake_start])
     out = {}
     for name in QUANTITIES:
         key = _key(name, f)

@@ -533,7 +533,8 @@ def _store_replay(scene, ob, rep, path):
             flag = name in ("edge", "held")
             bridge.set_attribute(me, name, np.zeros(n, bool if flag else np.float32), "BOOLEAN" if flag else "FLOAT")
     frames = scene.frame_start + np.arange(len(rep.rows))
-    bake.store(ob, frames, response=rep.counts, response_compensated=rep.response, edge=rep.edge, held=rep.held)
+    bake.store(ob, frames, rows=rep.rows, response=rep.counts, response_compensated=rep.response, edge=rep.edge,
+               held=rep.held)
     scene.frame_end = int(frames[-1])
     v = ob.vtskin
     v.replay_source = str(path)

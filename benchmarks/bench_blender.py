@@ -184,6 +184,13 @@ def bench_replay(n, frames, with_display, folder: Path):
     load_s = time.perf_counter() - t
     rss = (resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - rss0) / 1024
     assert res == {"FINISHED"}
+    sizes = []
+    if not with_display:  # what the cache costs on disk, plain and compressed
+        for compress in (False, True):
+            blend = folder / f"replay_{compress}.blend"
+            bpy.ops.wm.save_as_mainfile(filepath=str(blend), copy=True, compress=compress)
+            sizes.append(blend.stat().st_size / 2**20)
+            blend.unlink()
     if not with_display:  # the operator adds the disc display; measure the attribute copy alone
         ob.modifiers.remove(ob.modifiers[display.MODIFIER])
     scene.frame_set(1)
@@ -198,7 +205,8 @@ def bench_replay(n, frames, with_display, folder: Path):
     label = "with disc display" if with_display else "attributes only"
     rows = [{"case": f"load a {frames}-row recording of {n} taxels (operator, end to end: read, baseline, "
                      f"edge filter, cache)", "seconds": load_s, "goal": "(context)", "met": None,
-             "accuracy": f"peak RSS grew {rss:.0f} MB", "short": f"load recording {n}x{frames}"}] if not with_display else []
+             "accuracy": f"peak RSS grew {rss:.0f} MB; .blend {sizes[0]:.0f} MB, saved compressed "
+                         f"{sizes[1]:.0f} MB", "short": f"load recording {n}x{frames}"}] if not with_display else []
     rows.append({"case": f"play back a {frames}-frame recording of {n} taxels ({label}; response, compensated, "
                          "edge, held)", "seconds": seconds, "goal": ">= 60 frames/s", "met": fps >= 60,
                  "accuracy": f"{fps:.0f} frames/s ({cpu_fps:.0f} per CPU second of this process); last frame "

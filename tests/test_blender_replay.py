@@ -247,3 +247,38 @@ def test_icub_replay_scene_then_reload_log_with_boards(tmp_path):
     assert attr(ob, "held").sum() == 0 and direct.held[31].sum() == 12  # row 31: triangle 5's 12 slots held
     with pytest.raises(RuntimeError, match="right codec, skin or board address"):
         bpy.ops.vtskin.load_recording(filepath=str(log), codec="icub", boards="3")  # the wrong board
+
+
+def test_slow_recording_stored_once_per_row(skin_ob, tmp_path):
+    """A 10 Hz recording on a 30 fps timeline: three frames show each row, the cache keeps each
+    row once, and playback (also after a compressed save and reload) shows the right row."""
+    from addon import bake
+
+    ob = skin_ob
+    ids = attr(ob, "taxel_id").astype(np.int64)
+    vals = np.random.default_rng(9).integers(0, 900, (6, len(ids)))
+    lines = [" ".join(map(str, ids))] + [f"{r} {r * 0.1:.1f} " + " ".join(map(str, vals[r])) for r in range(6)]
+    rec = tmp_path / "slow.txt"
+    rec.write_text("\n".join(lines) + "\n")
+    scene = bpy.context.scene
+    scene.render.fps, scene.render.fps_base, scene.frame_start = 30, 1.0, 1
+    scene.vtskin.replay_rate = "SCENE"
+    assert bpy.ops.vtskin.load_recording(filepath=str(rec), codec="cyskin-txt") == {"FINISHED"}
+    assert (ob.vtskin.bake_start, ob.vtskin.bake_end) == (1, 16)          # 0.5 s at 30 fps
+    stored = [a.name for a in ob.vtskin.cache.attributes if a.name.startswith("response_0")]
+    assert len(stored) == 6                                              # one per row, not per frame
+
+    def shows(frame, row):
+        scene.frame_set(frame)
+        np.testing.assert_array_equal(attr(ob, "response"), vals[row].astype(np.float32))
+
+    for f in (1, 3, 4, 10, 16):
+        shows(f, int(np.floor((f - 1) / 30 / 0.1 + 1e-9)))
+    blend = str(tmp_path / "slow.blend")
+    name = ob.name
+    bpy.ops.wm.save_as_mainfile(filepath=blend, compress=True)
+    bpy.ops.wm.open_mainfile(filepath=blend)
+    ob = bpy.data.objects[name]
+    scene = bpy.context.scene
+    assert bake.SHOWS in ob.vtskin.cache
+    shows(12, 3)
