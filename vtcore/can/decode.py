@@ -504,8 +504,13 @@ class StreamDecoder:
         now = now[np.lexsort((now[:, 1], now[:, 0]))]
         if len(now):
             # mask every sample of an erroring unit (triangle) in that row
-            hit = (now[:, 1][:, None] == self._kunit[None, :])          # (E, K)
-            e_i, k_i = np.nonzero(hit)
+            # the streams of each error's unit by a search in the units' sort order: an (errors x
+            # streams) comparison table is a product of two sizes a log sets (64k x 64k in a chunk)
+            by_unit = np.argsort(self._kunit, kind="stable")
+            lo = np.searchsorted(self._kunit[by_unit], now[:, 1], "left")
+            cnt = np.searchsorted(self._kunit[by_unit], now[:, 1], "right") - lo
+            e_i = np.repeat(np.arange(len(now)), cnt)                     # pairs (error, stream)
+            k_i = by_unit[np.repeat(lo - (np.cumsum(cnt) - cnt), cnt) + np.arange(int(cnt.sum()))]
             cols = self._kcols[k_i]                                       # (pairs, C)
             rws = np.broadcast_to((now[e_i, 0] - self._row0)[:, None], cols.shape)
             good = (cols >= 0) & (cols < n)
