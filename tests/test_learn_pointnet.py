@@ -103,5 +103,13 @@ def test_quick_scene_writes_the_contract(tmp_path, root):
     assert g17["unique_possible"] == {"tennis_ball": 15, "sponge_ball": 15, "cube_low_shore": 15}
     arrays = np.load(out / "arrays.npz")
     assert arrays["confusion_g0"].shape == (3, 3) and arrays["subsamples_tennis_ball"].shape == (15, 128)
+    # the data set is rebuilt exactly from what the run wrote (visual clouds, probes, indices)
+    names = ("tennis_ball", "sponge_ball", "cube_low_shore")
+    scans = [D.ObjectScan(n, arrays[f"visual_points_{n}"], arrays[f"probe_points_{n}"], arrays[f"probe_values_{n}"])
+             for n in names]
+    subs = [arrays[f"subsamples_{n}"] for n in names]
+    ds = D.make_dataset(scans, 3, "smooth", per_object=16, seed=0, subsamples=subs)
+    for k in ("labels", "subsample", "touches", "split"):
+        assert np.array_equal(getattr(ds, k), arrays[f"dataset_smooth_g3_{k}"])
     report = (out / "report.md").read_text()
     assert "beside seed 000's Table 1" in report and "| cluster_g3 |" in report

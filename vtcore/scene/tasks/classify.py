@@ -171,6 +171,7 @@ def run(scene, ctx) -> TaskResult:
     arrays = {f"confusion_{k}": r.confusion for k, r in results.items()}
     arrays.update({f"curve_val_accuracy_{k}": np.asarray(r.curves["val_accuracy"]) for k, r in results.items()})
     for o, s in enumerate(scans):
+        arrays[f"visual_points_{s.name}"] = s.points          # V_o: with the indices below, every cloud
         arrays[f"probe_points_{s.name}"] = s.touch_points
         arrays[f"probe_values_{s.name}"] = s.touch_values
         arrays[f"subsamples_{s.name}"] = subs[o]
