@@ -480,9 +480,15 @@ def lattice_patch(mod, angle: float, shift, centre, rad: float, limit: float | N
     poses[:, 1:] = (poses[:, 1:] + d) @ rot.T
     poses[:, 0] += angle
     keep = np.linalg.norm(poses[:, 1:] - centre, axis=1) <= rad
-    if limit is not None:
-        keep &= np.linalg.norm(poses[:, 1:], axis=1) + np.linalg.norm(mod.taxels, axis=1).max() <= limit
-    return patch_from_poses(mod, poses[keep], "fill")
+    if limit is not None:  # a superset first (any orientation), then taxel by taxel
+        keep &= np.linalg.norm(poses[:, 1:], axis=1) - np.linalg.norm(mod.taxels, axis=1).max() <= limit
+    p = patch_from_poses(mod, poses[keep], "fill")
+    if limit is not None and p.n_modules:
+        # every taxel within the limit: a module at the rim whose far taxels point along it fits
+        far = np.zeros(p.n_modules)
+        np.maximum.at(far, p.module_ids, np.linalg.norm(p.flat, axis=1))
+        p = p.select_modules(far <= limit)
+    return p
 
 
 def _fill_island(prepared, preg, samples, start, direction, mod, radius, max_strain, avoid, angles,
