@@ -284,3 +284,17 @@ def test_solve_faces_follow_the_module_pitch():
     assert solve_faces(1e-4, PITCH) == 4_000 and solve_faces(10.0, PITCH) == 20_000
     with pytest.raises(InputError, match="max_faces"):
         quiet(fill, cadmeshes.full_cylinder(0.02, 0.05, 0.004), (0.02, 0, 0), max_faces="many")
+
+
+def test_a_patch_on_a_long_coarse_face_solves_only_round_the_patch():
+    """A 12-triangle box 1 m long (a collision primitive): the faces under a patch run the whole
+    metre, and were subdivided to half a pitch along all of it (98k faces, 16 s for one module)."""
+    from vtcore.layout.logmap import LogMap
+
+    box = trimesh.creation.box((1.0, 0.06, 0.06))
+    lm = LogMap(box, (0, 0, 0.03), (1, 0, 0), radius=0.08, resolution=PITCH / 2)
+    assert len(lm.mesh.faces) < 20_000
+    assert np.ptp(np.asarray(lm.mesh.vertices)[:, 0]) < 0.25  # the ball and its last split, not 1 m
+    lay, rep = quiet(place, box, "hexagon", (0, 0, 0.03), (1, 0, 0))
+    assert len(lay) == 60 and rep.strain_max < 1e-6
+    assert np.allclose(lay.positions[:, 2], 0.03)  # all on the top face
