@@ -407,3 +407,21 @@ def test_bad_cluster_options_exit_2(tmp_path, capsys, args, key):
     code = main(["sweep", str(DEMO), "--out", str(tmp_path / "out"), *args])
     err = capsys.readouterr().err
     assert code == 2 and key in err and not (tmp_path / "out").exists()
+
+
+def test_report_of_a_grid_with_list_values(tmp_path):
+    """``--grid 'task.propagations=["cluster"],["smooth"]'``: the points ran, then the report died
+    grouping by the (unhashable) list values."""
+    from vtcore.sweep import report
+    from vtcore.sweep.spec import Plan, Point
+
+    vals = [["cluster"], ["smooth"], ["cluster", "smooth"]]
+    plan = Plan(DEMO.resolve(), ["task.propagations"], None, [],
+                [Point(f"p{i}", {"task.propagations": v}, None, ()) for i, v in enumerate(vals)])
+    rows = [{"name": p.name, "grid": p.grid, "seed": None, "status": "ok", "seconds": 1.0,
+             "metrics": {"accuracy_g0": 0.5 + 0.1 * i}, "error": None, "worker": None}
+            for i, p in enumerate(plan.points)]
+    report.write(plan, rows, tmp_path)
+    text = (tmp_path / "report.md").read_text()
+    assert '["cluster", "smooth"]' in text and "0.7" in text
+    assert (tmp_path / "sweep.csv").read_text().count("\n") == 4

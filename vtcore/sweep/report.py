@@ -65,6 +65,12 @@ def write_csv(plan: Plan, rows: list[dict], out: Path) -> None:
         fh.write(buf.getvalue())
 
 
+def _key(value):
+    """A grid value as a dict key: lists (``--grid 'task.propagations=["cluster"],["smooth"]'``) by
+    their TOML text, everything else as it is (numbers stay numbers for the plots' x axis)."""
+    return shown(value) if isinstance(value, (list, dict)) else value
+
+
 def _number(v) -> float:
     """A metric as a float (bools as 0/1; None, text and non-finite values as NaN)."""
     if isinstance(v, bool):
@@ -84,7 +90,7 @@ def aggregate(plan: Plan, rows: list[dict], metric: str) -> dict:
         if r["status"] != "ok":
             continue
         v = _number((r.get("metrics") or {}).get(metric))
-        combo = tuple(r["grid"][k] for k in plan.keys)
+        combo = tuple(_key(r["grid"][k]) for k in plan.keys)
         out[combo].append(v)
     return {k: np.asarray(v, dtype=np.float64) for k, v in out.items()}
 
@@ -121,7 +127,7 @@ def plot_metric(plan: Plan, rows: list[dict], metric: str, path: Path) -> None:
     if plan.keys:
         first, rest = plan.keys[0], plan.keys[1:]
         agg = aggregate(plan, rows, metric)
-        firsts = list(dict.fromkeys(p.grid[first] for p in plan.points))
+        firsts = list(dict.fromkeys(_key(p.grid[first]) for p in plan.points))
         xs, labels = _x_positions(firsts)
         groups = list(dict.fromkeys(combo[1:] for combo in agg))
         for g in groups:
@@ -164,7 +170,7 @@ def _summary_table(plan: Plan, rows: list[dict], metrics: list[str]) -> list[str
             lines.append(f"| `{m}` | {_fmt(mean)} | {_fmt(std)} | {_fmt(lo)} | {_fmt(hi)} | {n} |")
         return lines
     first, rest = plan.keys[0], plan.keys[1:]
-    firsts = list(dict.fromkeys(p.grid[first] for p in plan.points))
+    firsts = list(dict.fromkeys(_key(p.grid[first]) for p in plan.points))
     head = "| metric | " + (" | ".join(rest) + " | " if rest else "") + " | ".join(
         f"{first}={shown(v)}" for v in firsts) + " |"
     lines = [head, "|---" * (1 + len(rest) + len(firsts)) + "|"]
@@ -196,7 +202,7 @@ def write(plan: Plan, rows: list[dict], out: Path, *, command: str = "", seconds
     if scene["scene"]["description"]:
         lines += [scene["scene"]["description"], ""]
     lines += [f"Scene `{plan.scene}`, task `{scene.task}`; grid: "
-              + (", ".join(f"`{k}` = {', '.join(shown(v) for v in dict.fromkeys(p.grid[k] for p in plan.points))}"
+              + (", ".join(f"`{k}` = {', '.join(shown(v) for v in dict.fromkeys(_key(p.grid[k]) for p in plan.points))}"
                            for k in plan.keys) or "none")
               + f"; seeds: {', '.join(map(str, plan.seeds)) if plan.seeds else f'the scene’s own ({scene.seed})'}"
               + (f"; `--set` {' '.join(plan.sets)}" if plan.sets else "") + ".", ""]
