@@ -90,6 +90,15 @@ def write_mesh(mesh, positions, triangles=None, edges=None):
     return mesh
 
 
+def vertex_positions(me, m=None) -> np.ndarray:
+    """(n, 3) float64 vertex coordinates of mesh data ``me`` (local frame), or transformed by the
+    4x4 matrix ``m`` (e.g. ``matrix(ob)`` for world space)."""
+    co = np.empty(3 * len(me.vertices), np.float32)
+    me.vertices.foreach_get("co", co)
+    co = co.reshape(-1, 3).astype(np.float64)
+    return co if m is None else co @ np.asarray(m)[:3, :3].T + np.asarray(m)[:3, 3]
+
+
 def read_mesh(ob, depsgraph=None, world=True):
     """Evaluated geometry of object ``ob``: vertices (n, 3) and triangles (f, 3) int.
 
@@ -102,10 +111,7 @@ def read_mesh(ob, depsgraph=None, world=True):
     ev = ob.evaluated_get(depsgraph)
     me = ev.to_mesh()
     try:
-        n = len(me.vertices)
-        co = np.empty(3 * n, np.float32)
-        me.vertices.foreach_get("co", co)
-        co = co.reshape(-1, 3).astype(np.float64)
+        co = vertex_positions(me)
         me.calc_loop_triangles()
         tri = np.empty(3 * len(me.loop_triangles), np.int32)
         me.loop_triangles.foreach_get("vertices", tri)

@@ -637,11 +637,8 @@ class VTSKIN_OT_augment(_Op, bpy.types.Operator):
         if cloud.mode == "EDIT":
             cloud.update_from_editmode()
         me = cloud.data
-        n = len(me.vertices)
-        co = np.empty(3 * n, np.float32)
-        me.vertices.foreach_get("co", co)
-        m = bridge.matrix(cloud)
-        pts = co.reshape(-1, 3).astype(np.float64) @ m[:3, :3].T + m[:3, 3]
+        pts = bridge.vertex_positions(me, bridge.matrix(cloud))
+        n = len(pts)
         with _failing("Augmentation failed"):
             if s.probe_source == "FILE":
                 probes, values = interactive.probes_from_file(bpy.path.abspath(s.probe_file))

@@ -34,11 +34,8 @@ def frame_camera(context, ob, lens: float = 50.0):
     from mathutils import Vector
 
     me = ob.data
-    n = len(me.vertices)
-    co = np.empty(3 * n, np.float32)
-    me.vertices.foreach_get("co", co)
     m = bridge.matrix(ob)
-    world = co.reshape(-1, 3).astype(np.float64) @ m[:3, :3].T + m[:3, 3]
+    world = bridge.vertex_positions(me, m)
     centre = world.mean(axis=0)
     radius = max(float(np.linalg.norm(world - centre, axis=1).max()), 5e-3)
     nrm = bridge.get_attribute(me, "normal").astype(np.float64) if "normal" in me.attributes else None

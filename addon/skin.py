@@ -58,8 +58,7 @@ def read_layout(ob):
 
     me = ob.data
     n = len(me.vertices)
-    co = np.empty(3 * n, np.float32)
-    me.vertices.foreach_get("co", co)
+    co = bridge.vertex_positions(me)
     names = me.attributes.keys()
     normals = bridge.get_attribute(me, "normal") if "normal" in names else np.tile([0.0, 0.0, 1.0], (n, 1))
     ids = bridge.get_attribute(me, "taxel_id") if "taxel_id" in names else np.arange(n)
