@@ -63,6 +63,22 @@ def closest_points(mesh, points: np.ndarray):
     return cp, face, np.linalg.norm(cp - points, axis=1)
 
 
+def face_longest_edges(mesh) -> np.ndarray:
+    """(F,) metres, the longest edge of each face; cached on the mesh object with the hash of its
+    data (a fill snaps each chart's origin: recomputing this was most of the snap's cost)."""
+    stamp = hash(mesh)
+    cached = getattr(mesh, "_vtcore_longest", None)
+    if cached is not None and cached[0] == stamp:
+        return cached[1]
+    t = np.asarray(mesh.triangles)
+    out = np.linalg.norm(t - np.roll(t, 1, axis=1), axis=2).max(axis=1)
+    try:
+        mesh._vtcore_longest = (stamp, out)
+    except AttributeError:  # pragma: no cover - objects without a __dict__
+        pass
+    return out
+
+
 def snap(mesh, point) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
     """The surface point of ``mesh`` nearest one ``point`` (3,), exactly and reproducibly.
 
@@ -81,10 +97,8 @@ def snap(mesh, point) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
     # (one pass over V and F instead of the exact closest-point test on all F faces, which took
     # seconds per fill at 100k faces when every chart snapped its origin)
     dv = np.linalg.norm(V - p, axis=1)
-    t = V[F]
-    longest = np.linalg.norm(t - np.roll(t, 1, axis=1), axis=2).max(axis=1)
-    cand = np.flatnonzero(dv[F].min(axis=1) <= dv.min() + longest + 1e-9 * scale)
-    near = closest_point_on_triangles(t[cand], np.broadcast_to(p, (len(cand), 3)).copy())
+    cand = np.flatnonzero(dv[F].min(axis=1) <= dv.min() + face_longest_edges(mesh) + 1e-9 * scale)
+    near = closest_point_on_triangles(V[F[cand]], np.broadcast_to(p, (len(cand), 3)).copy())
     d = np.linalg.norm(near - p, axis=1)
     dmin = float(d.min())
     tie = np.flatnonzero(d <= dmin + 1e-9 * scale)  # cand is sorted: ties go to the lowest face index
