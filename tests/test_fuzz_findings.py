@@ -242,3 +242,61 @@ def test_blf_size_field_is_not_an_allocation(blf_seed, tmp_path, field):
     if rc == 2:
         one_error(rc, err, str(src))
     assert peak < 200 << 20, f"{peak / 2**30:.2f} GiB allocated for a {len(data)}-byte file"
+
+
+# -- the mesh reader's long run (layout place MESH): two tracebacks in vtcore.layout ------------------
+
+SVD_BOX_OBJ = """f 2 4 1
+v -30 -30 10
+v -30 30 -10
+f 5 2 1
+v 30 -30 -10
+v 30 -30 10
+v 30 30 -10
+v 30 30 10
+v -30 -30 -10
+v -30 30 10
+f 1 4 3
+f 3 5 1
+f 2 8 4
+f 6 2 5
+f 6 8 2
+f 4 8 3
+f 7 5 3
+f 3 8 7
+f 7 6 5
+f 8 6 7
+"""
+
+
+def test_a_box_with_faces_before_its_vertices_is_refused_in_one_line(tmp_path):
+    """The 12-triangle box with its faces listed before its vertices (a mutant of the mesh fuzz):
+    geometry-central had no tangent frame at the source vertex and numpy's SVD raised."""
+    src = tmp_path / "box.obj"
+    src.write_text(SVD_BOX_OBJ)
+    rc, out, err = run("layout", "place", src, "--scale", "0.001", "--at", "0", "0", "0.01", "--patch", "triangle",
+                       "--out", tmp_path / "x.json")
+    one_error(rc, err, "at")
+
+
+def test_a_mesh_of_only_degenerate_faces_is_refused_by_name():
+    """obj/ply mutants whose faces all collapse (repeated vertex indices) left clean_mesh with no
+    faces and snap took np.ptp of nothing (ValueError: zero-size array)."""
+    import trimesh
+
+    from vtcore.errors import InputError
+    from vtcore.layout.repair import clean_mesh
+
+    mesh = trimesh.Trimesh(np.eye(3), [[0, 0, 1], [1, 2, 2]], process=False)
+    with pytest.raises(InputError, match="no faces left"):
+        clean_mesh(mesh)
+
+
+def test_snap_ignores_an_unreferenced_vertex_nearer_than_every_face():
+    import trimesh
+
+    from vtcore.layout.surface import snap
+
+    v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0.2, 0.2, 5.0]], float)  # vertex 3 is in no face
+    cp, face, dist, _ = snap(trimesh.Trimesh(v, [[0, 1, 2]], process=False), (0.2, 0.2, 4.0))
+    assert face[0] == 0 and np.allclose(cp[0], [0.2, 0.2, 0.0]) and np.isclose(dist[0], 4.0)

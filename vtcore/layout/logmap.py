@@ -203,6 +203,11 @@ class LogMap:
         # express them in (t1, t2): a rotation, or a reflection if its basis is left-handed
         ex, ey = bx[src], by[src]
         m = np.array([[t1 @ ex, t1 @ ey], [t2 @ ex, t2 @ ey]])
+        if not (np.isfinite(m).all() and np.isfinite(normal).all()):
+            # geometry-central gives no tangent frame at a vertex of degenerate or inconsistently
+            # wound faces (a mangled OBJ): say so rather than fail in the SVD
+            raise InputError("the surface has no tangent plane at 'at' (degenerate or inconsistently "
+                             "wound faces there); repair the mesh or choose another point", key="at")
         u, _, vt = np.linalg.svd(m)
         m = u @ vt
         uv = raw @ m.T

@@ -49,6 +49,9 @@ def clean_mesh(mesh):
     if (dup & good).any():
         notes.append(f"removed {int((dup & good).sum())} duplicate faces")
     good &= ~dup
+    if not good.any():
+        raise InputError(f"the mesh has no faces left after removing {int((~good).sum())} degenerate or "
+                         "duplicate ones", key="mesh")
     m = trimesh.Trimesh(m.vertices, m.faces[good], process=False, validate=False)
     m.remove_unreferenced_vertices()
     return m, notes

@@ -91,13 +91,16 @@ def snap(mesh, point) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
     p = np.asarray(point, dtype=np.float64).reshape(3)
     V = np.asarray(mesh.vertices)
     F = np.asarray(mesh.faces)
+    if not len(F):
+        raise InputError("the mesh has no faces", key="mesh")
     scale = max(float(np.ptp(V, axis=0).max()), 1e-300)
     # only faces that can be the nearest are tested exactly: a face within distance D of p has
     # every vertex within D + its longest edge, and D <= the distance to the nearest vertex
     # (one pass over V and F instead of the exact closest-point test on all F faces, which took
     # seconds per fill at 100k faces when every chart snapped its origin)
     dv = np.linalg.norm(V - p, axis=1)
-    cand = np.flatnonzero(dv[F].min(axis=1) <= dv.min() + face_longest_edges(mesh) + 1e-9 * scale)
+    dfv = dv[F].min(axis=1)  # only vertices of faces count (an unreferenced one may be nearer)
+    cand = np.flatnonzero(dfv <= dfv.min() + face_longest_edges(mesh) + 1e-9 * scale)
     near = closest_point_on_triangles(V[F[cand]], np.broadcast_to(p, (len(cand), 3)).copy())
     d = np.linalg.norm(near - p, axis=1)
     dmin = float(d.min())
