@@ -298,3 +298,7 @@ def test_a_patch_on_a_long_coarse_face_solves_only_round_the_patch():
     lay, rep = quiet(place, box, "hexagon", (0, 0, 0.03), (1, 0, 0))
     assert len(lay) == 60 and rep.strain_max < 1e-6
     assert np.allclose(lay.positions[:, 2], 0.03)  # all on the top face
+    # a 100 m face (the largest surface the mesh check accepts) splits in a few passes, not 43 s
+    huge = trimesh.creation.box((100.0, 0.06, 0.06))
+    lm = LogMap(huge, (0, 0, 0.03), (1, 0, 0), radius=0.08, resolution=PITCH / 2)
+    assert len(lm.mesh.faces) < 20_000 and np.ptp(np.asarray(lm.mesh.vertices)[:, 0]) < 0.25

@@ -129,16 +129,25 @@ def crop(mesh, point: np.ndarray, face: int, radius: float):
     if keep_f.all():
         return mesh
     part = mesh.submesh([np.flatnonzero(keep_f)], append=True, repair=False)
-    t = np.asarray(part.triangles)
-    if np.linalg.norm(t - np.roll(t, 1, axis=1), axis=2).max() > radius:
+
+    def longest_edge(m):
+        t = np.asarray(m.triangles)
+        return float(np.linalg.norm(t - np.roll(t, 1, axis=1), axis=2).max())
+
+    longest = longest_edge(part)
+    while longest > radius:
         # faces far longer than the ball (a 1 m box side under a 40 mm patch) would be subdivided
-        # to the module pitch along their whole length: split them to a quarter of the radius
-        # (cheap) and keep only the pieces that reach into the ball
-        part = refine(part, radius / 4)
+        # to the module pitch along their whole length: split them (at most 8x finer per pass, so a
+        # 100 m face costs a few passes of a few hundred faces) and keep only the pieces that
+        # reach into the ball
+        part = refine(part, max(radius / 4, longest / 8))
         tri = np.asarray(part.triangles)
         near = closest_point_on_triangles(tri, np.broadcast_to(point, (len(tri), 3)).copy())
         part = part.submesh([np.flatnonzero(np.linalg.norm(near - point, axis=1) <= radius)], append=True,
                             repair=False)
+        before, longest = longest, longest_edge(part)
+        if longest > 0.9 * before:  # refine's face budget stopped it: go on with what there is
+            break
     comp = trimesh.graph.connected_components(part.face_adjacency, nodes=np.arange(len(part.faces)))
     _, fpp, _, _ = snap(part, point)
     for c in comp:
