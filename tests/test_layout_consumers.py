@@ -93,7 +93,12 @@ def test_model_sites_exact_and_frame_applied(tmp_path, forearm_skin):
     assert all(m.site_bodyid[i] == m.body("forearm").id for i in ids)  # in the link itself: it senses
     np.testing.assert_allclose(d.site_xpos[ids], on_link.positions + [0, 0, 0.5], atol=1e-8)
     z = d.site_xmat[ids].reshape(-1, 3, 3)[:, :, 2]
-    np.testing.assert_allclose(z, on_link.normals, atol=1e-7)
+    # MuJoCo's compiler gives a site whose quaternion is within 1e-6 of its body's the body's own frame
+    # (site_sameframe): a taxel on the facet crease at the top of the cylinder, tilted < 2e-6 rad from
+    # the link's z, senses along z itself. That, and no more, is the tolerance on the frames.
+    tilted = np.linalg.norm(on_link.normals[:, :2], axis=1) > 2.1e-6
+    np.testing.assert_allclose(z[tilted], on_link.normals[tilted], atol=1e-9)
+    np.testing.assert_allclose(z, on_link.normals, atol=2.1e-6)
     # taxel order: sensor k is taxel row k
     assert [m.sensor(k).name for k in range(3)] == [f"forearm_skin_{i}_touch" for i in patch.taxel_ids[:3]]
     np.testing.assert_allclose(m.site_size[ids[0]][0], 2e-3)  # the CySkin 4 mm disc
