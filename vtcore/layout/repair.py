@@ -37,14 +37,15 @@ def clean_mesh(mesh):
     area = m.area_faces
     scale = max(float(np.ptp(m.vertices, axis=0).max()), 1e-12)
     good = area > 1e-14 * scale ** 2
-    fs = np.sort(m.faces, axis=1)
-    good &= (fs[:, 0] != fs[:, 1]) & (fs[:, 1] != fs[:, 2])
+    mf = np.asarray(m.faces, dtype=np.int64)
+    # each face's corners sorted (min, middle, max) without a row sort of (F, 3)
+    lo, hi = mf.min(axis=1), mf.max(axis=1)
+    mid = mf.sum(axis=1) - lo - hi
+    good &= (lo != mid) & (mid != hi)
     if (~good).any():
         notes.append(f"removed {int((~good).sum())} degenerate faces")
-    # rows as one opaque 24-byte value: unique(axis=0) on (F, 3) sorts far slower
-    _, first = np.unique(np.ascontiguousarray(fs, dtype=np.int64).view(np.dtype((np.void, 24))).ravel(),
-                         return_index=True)
-    dup = np.ones(len(fs), bool)
+    first = np.unique(face_keys(lo, mid, hi, len(m.vertices)), return_index=True)[1]
+    dup = np.ones(len(mf), bool)
     dup[first] = False
     if (dup & good).any():
         notes.append(f"removed {int((dup & good).sum())} duplicate faces")
@@ -52,9 +53,51 @@ def clean_mesh(mesh):
     if not good.any():
         raise InputError(f"the mesh has no faces left after removing {int((~good).sum())} degenerate or "
                          "duplicate ones", key="mesh")
-    m = trimesh.Trimesh(m.vertices, m.faces[good], process=False, validate=False)
+    m = trimesh.Trimesh(m.vertices, mf[good], process=False, validate=False)
     m.remove_unreferenced_vertices()
+    if len(good) == len(f):
+        # trimesh's vertex merge keeps the faces in order, so clean face i is input face kept[i]:
+        # callers map per-face data (a fill's region) through it, not by a nearest-centre search
+        remember(m, "source_faces", np.flatnonzero(good))
     return m, notes
+
+
+def face_keys(lo: np.ndarray, mid: np.ndarray, hi: np.ndarray, n: int) -> np.ndarray:
+    """(F,) keys equal for faces with the same sorted corners ``lo < mid < hi`` (F,) each, over
+    ``n`` vertices, ordered like the rows (lo, mid, hi): one int64 when n**3 fits (a sort of
+    24-byte void rows, as ``unique(axis=0)`` does, is ~5x slower), else the rows as void."""
+    if n ** 3 < 2 ** 63:
+        return (lo * n + mid) * n + hi
+    rows = np.ascontiguousarray(np.column_stack([lo, mid, hi]).astype(">i8"))  # big-endian: bytes sort as numbers
+    return rows.view(np.dtype((np.void, 24))).ravel()
+
+
+def remember(mesh, name: str, value):
+    """Keep ``value`` on ``mesh`` under ``name`` with the hash of the mesh's data, so that a
+    changed mesh does not answer from it (see :func:`recall`)."""
+    try:
+        mesh.__dict__.setdefault("_vtcore_cache", {})[name] = (hash(mesh), value)
+    except AttributeError:  # pragma: no cover - objects without a __dict__
+        pass
+    return value
+
+
+def recall(mesh, name: str):
+    """What :func:`remember` kept on ``mesh`` under ``name``, or None if the mesh changed since."""
+    hit = getattr(mesh, "__dict__", {}).get("_vtcore_cache", {}).get(name)
+    return hit[1] if hit is not None and hit[0] == hash(mesh) else None
+
+
+def source_faces(clean, mesh) -> np.ndarray:
+    """(F_clean,) int: the face of ``mesh`` each face of ``clean`` (made from ``mesh`` by
+    :func:`clean_mesh`) came from; for a ``clean`` made otherwise, the face with the nearest
+    centre (a k-d tree search)."""
+    kept = recall(clean, "source_faces")
+    if kept is not None and (len(kept) == 0 or kept[-1] < len(mesh.faces)):
+        return kept
+    from scipy.spatial import cKDTree
+
+    return cKDTree(np.asarray(mesh.triangles_center)).query(np.asarray(clean.triangles_center))[1]
 
 
 def edge_keys(faces: np.ndarray, directed: bool = False, n: int | None = None) -> np.ndarray:
@@ -76,16 +119,59 @@ def nonmanifold_edge_count(faces: np.ndarray) -> int:
     return int((c > 2).sum())
 
 
+class EdgeTable:
+    """The undirected edges of a mesh's faces (F, 3), sorted once.
+
+    Half-edge h is edge h // F of face h % F (the order of :func:`edge_keys`). ``he`` (3F, 2)
+    its vertices in face order, ``key`` (3F,) int64 its undirected key, ``order`` (3F,) the
+    stable argsort of ``key``, ``inv`` (3F,) its edge id, ``counts`` (E,) faces per edge.
+    Split, bowtie, Euler and boundary checks of one mesh all read the same table (each sorted
+    the 3F keys itself: a quarter of a 200k-face fill's preparation).
+    """
+
+    def __init__(self, faces: np.ndarray, n_vertices: int):
+        f = np.asarray(faces, dtype=np.int64)
+        self.n_faces = nf = len(f)
+        self.he = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
+        n = max(int(n_vertices), int(f.max()) + 1 if nf else 1)
+        self.key = np.minimum(self.he[:, 0], self.he[:, 1]) * n + np.maximum(self.he[:, 0], self.he[:, 1])
+        self.order = np.argsort(self.key, kind="stable")
+        ks = self.key[self.order]
+        start = np.ones(len(ks), bool)
+        start[1:] = ks[1:] != ks[:-1]
+        idx = np.cumsum(start) - 1
+        self.inv = np.empty(len(ks), np.int64)
+        self.inv[self.order] = idx
+        self.counts = np.bincount(idx, minlength=int(idx[-1]) + 1 if len(idx) else 0)
+        self.n_edges = len(self.counts)
+
+
+def edge_table(mesh) -> EdgeTable:
+    """The :class:`EdgeTable` of ``mesh``, built once per mesh data (cached on the object)."""
+    t = recall(mesh, "edge_table")
+    if t is None:
+        t = remember(mesh, "edge_table", EdgeTable(mesh.faces, len(mesh.vertices)))
+    return t
+
+
 def split_nonmanifold(mesh):
     """Faces sharing an edge with more than one other face are separated along that edge
     (each face fan gets its own copy of the edge's vertices), so the result is edge-manifold."""
     import trimesh
 
     f = np.asarray(mesh.faces)
-    _, inv, cnt = np.unique(edge_keys(f), return_inverse=True, return_counts=True)
-    _, dinv, dcnt = np.unique(edge_keys(f, directed=True), return_inverse=True, return_counts=True)
-    # an edge shared by more than two faces, or twice in the same direction (flipped neighbours)
-    bad_edge = (cnt[inv.ravel()] > 2) | (dcnt[dinv.ravel()] > 1)
+    t = edge_table(mesh)
+    cnt = t.counts[t.inv]
+    # an edge shared by more than two faces, or twice in the same direction (flipped neighbours):
+    # in an edge of two half-edges (adjacent in the sorted order) both start at the same vertex
+    ks = t.key[t.order]
+    pair = np.flatnonzero(ks[1:] == ks[:-1])
+    pair = pair[t.counts[t.inv[t.order[pair]]] == 2]
+    a, b = t.order[pair], t.order[pair + 1]
+    bad_edge = cnt > 2
+    same_dir = t.he[a, 0] == t.he[b, 0]
+    bad_edge[a[same_dir]] = True
+    bad_edge[b[same_dir]] = True
     if not bad_edge.any():
         return mesh, 0
     nf = len(f)
@@ -117,15 +203,14 @@ def split_bowties(mesh):
 
     f = np.asarray(mesh.faces, dtype=np.int64)
     nf = len(f)
+    t = edge_table(mesh)
+    he = t.he  # half-edge h = k * nf + face
     # corner id = 3 * face + k; faces sharing an edge link their corners at both ends of it
-    he = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])  # half-edge h of face h % nf
-    corner_a = 3 * (np.arange(3 * nf) % nf) + np.arange(3 * nf) // nf
-    corner_b = 3 * (np.arange(3 * nf) % nf) + (np.arange(3 * nf) // nf + 1) % 3
-    key = np.sort(he, axis=1)
+    corner_a = (3 * np.arange(nf)[None, :] + np.arange(3)[:, None]).ravel()
+    corner_b = (3 * np.arange(nf)[None, :] + (np.arange(3)[:, None] + 1) % 3).ravel()
     nv = len(mesh.vertices)
-    k1 = key[:, 0] * nv + key[:, 1]
-    order = np.argsort(k1, kind="stable")
-    ks = k1[order]
+    order = t.order
+    ks = t.key[order]
     same = np.flatnonzero(ks[1:] == ks[:-1])
     a, b = order[same], order[same + 1]
     # the corners of a and b at each vertex of the shared edge
@@ -135,13 +220,16 @@ def split_bowties(mesh):
     g = sp.coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(3 * nf, 3 * nf))
     _, lab = connected_components(g, directed=False)
     vert = f.ravel()  # vertex of corner c = 3 * face + k
-    # fans per vertex: distinct labels among its corners
+    # fans per vertex: every corner of a fan is at the fan's vertex, so a vertex's fans are the
+    # labels that name it (no sort of the 3F (vertex, fan) pairs unless some vertex has two)
     nl = int(lab.max()) + 1
-    pk = np.unique(vert.astype(np.int64) * nl + lab)  # (vertex, fan) pairs, sorted
-    pair = np.column_stack([pk // nl, pk % nl])
-    fans = np.bincount(pair[:, 0], minlength=nv)
+    fan_vertex = np.empty(nl, np.int64)
+    fan_vertex[lab] = vert
+    fans = np.bincount(fan_vertex, minlength=nv)
     if not (fans > 1).any():
         return mesh, 0
+    pk = np.unique(vert.astype(np.int64) * nl + lab)  # (vertex, fan) pairs, sorted
+    pair = np.column_stack([pk // nl, pk % nl])
     # the first fan of each vertex keeps it; every other fan gets a new vertex
     first = np.ones(len(pair), bool)
     first[1:] = pair[1:, 0] != pair[:-1, 0]
@@ -174,9 +262,10 @@ def refine(mesh, resolution: float, max_faces: int = 300_000):
     f = np.asarray(mesh.faces, dtype=np.int64)
     if not len(f):
         return mesh
-    t = v[f]
-    longest = np.linalg.norm(t - np.roll(t, 1, axis=1), axis=2).max(axis=1)
+    longest = longest_edges(v, f)
     res = float(resolution)
+    if longest.max() <= res:  # nothing to split (the budget below only ever coarsens res)
+        return mesh
     # a budget check before any allocation: the result has about area / (res^2 / 4) faces, plus
     # a row of faces along each long edge
     area = np.asarray(mesh.area_faces)
@@ -237,6 +326,22 @@ def refine(mesh, resolution: float, max_faces: int = 300_000):
                 np.column_stack([m20, m12, c]), np.column_stack([m01, m12, m20])]
         f = np.concatenate(out)
     return trimesh.Trimesh(v, np.concatenate([done, f]), process=False, validate=False)
+
+
+def longest_edges(v: np.ndarray, f: np.ndarray) -> np.ndarray:
+    """(F,) metres: the longest edge of each face ``f`` (F, 3) over vertices ``v`` (V, 3).
+    Squared lengths summed per axis (the same sums, bit for bit, as ``np.linalg.norm`` of the
+    (F, 3, 3) edge vectors, without building them)."""
+    v = np.asarray(v, dtype=np.float64)
+    f = np.asarray(f)
+    p0, p1, p2 = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
+    best = None
+    for a, b in ((p0, p2), (p1, p0), (p2, p1)):
+        d = a - b
+        d *= d
+        l2 = d[:, 0] + d[:, 1] + d[:, 2]
+        best = l2 if best is None else np.maximum(best, l2)
+    return np.sqrt(best)
 
 
 def delaunay_flips(v: np.ndarray, f: np.ndarray, max_dihedral: float = 1.0, rounds: int = 100) -> np.ndarray:
@@ -375,14 +480,17 @@ def aspect(mesh) -> np.ndarray:
 
 
 def euler_characteristic(mesh) -> int:
+    """V - E + F of ``mesh``, counting only the vertices its faces use."""
     f = np.asarray(mesh.faces)
-    return int(len(np.unique(f)) - len(np.unique(edge_keys(f))) + len(f))
+    used = int(np.count_nonzero(np.bincount(f.ravel(), minlength=1))) if len(f) else 0
+    return int(used - edge_table(mesh).n_edges + len(f))
 
 
 def boundary_faces(mesh) -> np.ndarray:
+    """(F,) bool: faces with an edge no other face shares."""
     f = np.asarray(mesh.faces)
-    _, inv, cnt = np.unique(edge_keys(f), return_inverse=True, return_counts=True)
-    on = cnt[inv.ravel()] == 1
+    t = edge_table(mesh)
+    on = t.counts[t.inv] == 1
     out = np.zeros(len(f), bool)
     out[np.arange(3 * len(f))[on] % len(f)] = True
     return out

@@ -13,6 +13,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..geometry import closest_point_on_triangles, tangent_basis
+from .repair import longest_edges
 
 #: open3d raycasting scenes of the last few meshes queried: building one (its BVH) costs ~0.1 s
 #: per 50k faces, and a fill queries the same surface dozens of times
@@ -70,8 +71,7 @@ def face_longest_edges(mesh) -> np.ndarray:
     cached = getattr(mesh, "_vtcore_longest", None)
     if cached is not None and cached[0] == stamp:
         return cached[1]
-    t = np.asarray(mesh.triangles)
-    out = np.linalg.norm(t - np.roll(t, 1, axis=1), axis=2).max(axis=1)
+    out = longest_edges(mesh.vertices, mesh.faces)
     try:
         mesh._vtcore_longest = (stamp, out)
     except AttributeError:  # pragma: no cover - objects without a __dict__
