@@ -154,6 +154,19 @@ def edge_table(mesh) -> EdgeTable:
     return t
 
 
+def face_pairs(mesh) -> np.ndarray:
+    """(P, 2) int64: the faces of ``mesh`` that share an edge no third face has, as trimesh's
+    ``face_adjacency`` gives them (the same pairs, from the cached :class:`EdgeTable`: trimesh
+    sorts the edges again, 0.1-0.3 s at 200k faces)."""
+    t = edge_table(mesh)
+    ks = t.key[t.order]
+    pair = np.flatnonzero(ks[1:] == ks[:-1])
+    pair = pair[t.counts[t.inv[t.order[pair]]] == 2]
+    fa, fb = t.order[pair] % t.n_faces, t.order[pair + 1] % t.n_faces
+    keep = fa != fb
+    return np.sort(np.column_stack([fa[keep], fb[keep]]), axis=1)
+
+
 def split_nonmanifold(mesh):
     """Faces sharing an edge with more than one other face are separated along that edge
     (each face fan gets its own copy of the edge's vertices), so the result is edge-manifold."""

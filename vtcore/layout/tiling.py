@@ -20,7 +20,7 @@ from .logmap import LogMap, PreparedSurface
 from .model import Layout
 from .patches import Patch, fill_patch, patch_from_poses, tile_poses
 from .placement import finish, place
-from .repair import clean_mesh, edge_keys
+from .repair import clean_mesh, edge_keys, face_pairs, source_faces
 from .surface import snap
 from .report import OVERLAP_FRACTION, PlacementReport, find_overlaps, find_overlaps_between, layout_strain, \
     points_in_outlines
@@ -51,8 +51,7 @@ def fill_one_chart(mesh, at, direction=None, *, module: str = "cyskin10", region
         region = np.asarray(region, dtype=bool)
         if len(region) != len(mesh.faces):
             raise InputError(f"region has {len(region)} entries, the mesh {len(mesh.faces)} faces", key="region")
-        _, near = cKDTree(np.asarray(mesh.triangles_center)).query(np.asarray(clean.triangles_center))
-        creg = region[near]
+        creg = region[source_faces(clean, mesh)]
     else:
         creg = np.ones(len(clean.faces), bool)
     lm = LogMap(clean, at, direction, radius=None if radius is None else radius + 2 * mod.radius,
@@ -208,8 +207,7 @@ def fill(mesh, at, direction=None, *, module: str = "cyskin10", region=None, rad
             raise InputError(f"region has {len(region)} entries, the mesh {len(mesh.faces)} faces", key="region")
         if not region.any():
             raise InputError("the region selects no face", key="region")
-        _, near = cKDTree(np.asarray(mesh.triangles_center)).query(np.asarray(clean.triangles_center))
-        creg = region[near]
+        creg = region[source_faces(clean, mesh)]
     else:
         creg = np.ones(len(clean.faces), bool)
     if radius is not None:
@@ -343,7 +341,7 @@ def face_islands(mesh, mask: np.ndarray) -> list:
     import trimesh
 
     idx = np.flatnonzero(mask)
-    adj = np.asarray(mesh.face_adjacency)
+    adj = face_pairs(mesh)
     both = mask[adj].all(axis=1) if len(adj) else np.zeros(0, bool)
     comps = trimesh.graph.connected_components(adj[both], nodes=idx, min_len=1)
     return sorted((np.sort(np.asarray(c, np.int64)) for c in comps), key=lambda c: -len(c))
