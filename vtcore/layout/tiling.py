@@ -224,14 +224,16 @@ def fill(mesh, at, direction=None, *, module: str = "cyskin10", region=None, rad
     # margin gives geodesics shortcuts off the region (across the cap of a cylinder whose side is
     # filled), which shrink the charts
     cen = np.asarray(clean.triangles_center)
-    dist, _ = cKDTree(cen[creg]).query(cen, distance_upper_bound=2 * mod.pitch)
+    dist = np.zeros(len(cen))  # the region's own faces are at 0: only the others are searched
+    dist[~creg] = cKDTree(cen[creg]).query(cen[~creg], distance_upper_bound=2 * mod.pitch)[0]
     sub = clean.submesh([np.flatnonzero(np.isfinite(dist))], append=True, repair=False)
     if isinstance(max_faces, str):
         if max_faces != "auto":
             raise InputError(f"max_faces must be a number, None or 'auto', got {max_faces!r}", key="max_faces")
         max_faces = solve_faces(float(sub.area), mod.pitch)
     prepared = PreparedSurface(sub, resolution=mod.pitch, max_faces=max_faces)
-    _, near = cKDTree(cen).query(np.asarray(prepared.mesh.triangles_center))
+    cen_tree = cKDTree(cen)  # also maps the surface's faces for the coverage below
+    _, near = cen_tree.query(np.asarray(prepared.mesh.triangles_center))
     preg = creg[near]  # the region on the faces the log maps are solved on
     samples = feature_samples(prepared.mesh, crease_angle, preg)
     reports = []
@@ -260,7 +262,7 @@ def fill(mesh, at, direction=None, *, module: str = "cyskin10", region=None, rad
     surf = prepared.surface
     # coverage: the region's area (on the subdivided surface) under some module's outline
     sc = np.asarray(surf.triangles_center)
-    _, near = cKDTree(cen).query(sc)
+    _, near = cen_tree.query(sc)
     sel = creg[near]
     if radius is not None:  # the disc of the radius (geodesic; measured in 3-D, a little wider)
         sel &= np.linalg.norm(sc - reports[0].start, axis=1) <= radius
