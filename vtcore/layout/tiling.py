@@ -262,7 +262,7 @@ def fill(mesh, at, direction=None, *, module: str = "cyskin10", region=None, rad
     surf = prepared.surface
     # coverage: the region's area (on the subdivided surface) under some module's outline
     sc = np.asarray(surf.triangles_center)
-    _, near = cen_tree.query(sc)
+    _, near = cen_tree.query(sc, workers=-1)
     sel = creg[near]
     if radius is not None:  # the disc of the radius (geodesic; measured in 3-D, a little wider)
         sel &= np.linalg.norm(sc - reports[0].start, axis=1) <= radius
@@ -432,7 +432,7 @@ def coverage_by_frames(centres: np.ndarray, areas: np.ndarray, frames: np.ndarra
     # point: k doubles until the farthest answer is past the radius
     tree, k = cKDTree(o), min(8, len(o))
     while True:
-        d, ms = tree.query(centres, k=k, distance_upper_bound=mod.radius)
+        d, ms = tree.query(centres, k=k, distance_upper_bound=mod.radius, workers=-1)  # same answer, both cores
         d, ms = d.reshape(len(centres), -1), ms.reshape(len(centres), -1)
         if k >= len(o) or not np.isfinite(d[:, -1]).any():
             break

@@ -1,0 +1,78 @@
+"""Issue 12's ~100-module goal in a fresh process: fill the side of the 72 mm x 200 mm link
+(``cadmeshes.full_cylinder``, region = side faces, the ``fill_faces`` row of ``vtcore bench
+layout``) or place one hexagon on it, timed after the libraries are imported.
+
+    .venv/bin/python benchmarks/bench_fill_read.py [--faces 200000] [--what fill|hexagon] [--profile]
+
+Prints one JSON line: the mesh's build time and the call's time (wall: ``perf_counter``; CPU:
+``process_time`` of this process, all its threads), both excluding Python and library imports;
+the call includes everything it does to the mesh (cleaning, repairs, the log maps' preparation).
+CPU time is what the shared machine's load inflates least; say the load (``uptime``) with wall
+times. ``--profile`` adds cProfile's 40 costliest calls (cumulative). Measured, not asserted.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+
+def main(argv=None) -> dict:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--faces", type=int, default=200_000, help="about this many faces (default 200,000)")
+    ap.add_argument("--what", choices=("fill", "hexagon"), default="fill")
+    ap.add_argument("--profile", action="store_true")
+    a = ap.parse_args(argv)
+    # every library the call uses, imported before the clock starts
+    import open3d  # noqa: F401
+    import potpourri3d  # noqa: F401
+    import scipy.sparse.csgraph  # noqa: F401
+    import scipy.spatial  # noqa: F401
+    import trimesh  # noqa: F401
+
+    from vtcore.layout import cadmeshes
+    from vtcore.layout.placement import place
+    from vtcore.layout.tiling import fill
+
+    R, L = 0.072, 0.2
+    w0, c0 = time.perf_counter(), time.process_time()
+    mesh = cadmeshes.full_cylinder(R, L, float(np.sqrt(4 * np.pi * R * L / a.faces)))
+    side = np.abs(mesh.face_normals[:, 2]) < 0.5
+    w1, c1 = time.perf_counter(), time.process_time()
+    prof = None
+    if a.profile:
+        import cProfile
+
+        prof = cProfile.Profile()
+        prof.enable()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        if a.what == "fill":
+            lay, rep = fill(mesh, (R, 0, 0), (0, 1, 0), region=side)
+        else:
+            lay, rep = place(mesh, "hexagon", (R, 0, 0), (0, 1, 0))
+    w2, c2 = time.perf_counter(), time.process_time()
+    if prof is not None:
+        prof.disable()
+    out = {"what": a.what, "faces": len(mesh.faces), "mesh_wall_s": round(w1 - w0, 3),
+           "mesh_cpu_s": round(c1 - c0, 3), "wall_s": round(w2 - w1, 3), "cpu_s": round(c2 - c1, 3),
+           "modules": lay.n_modules, "coverage": round(float(rep.coverage), 4),
+           "charts": getattr(rep, "charts", None), "overlaps": len(rep.overlaps)}
+    print(json.dumps(out))
+    if prof is not None:
+        import pstats
+
+        pstats.Stats(prof).sort_stats("cumulative").print_stats(40)
+    return out
+
+
+if __name__ == "__main__":
+    main()
