@@ -2,7 +2,7 @@
 
 Each usable triangle is entered in every grid cell its bounding box touches; a query point
 only tests the triangles of its own cell, so a query costs O(triangles per cell), not O(F).
-The cell size starts at the median triangle size and doubles until the number of entries is
+The cell size starts at half the median triangle size and doubles until the number of entries is
 below ``max_entries``, so the index's memory is bounded whatever the triangles look like
 (CAD needles, a few huge faces); queries are processed in chunks of at most ``max_pairs``
 (point, triangle) tests. scipy's cKDTree on centroids cannot answer "which triangle holds this
@@ -41,7 +41,9 @@ class TriangleGrid:
             return
         self.origin = lo.min(axis=0)
         span = float(np.max(hi.max(axis=0) - self.origin))
-        h = max(float(np.median(np.max(hi - lo, axis=1))), span * 1e-7, 1e-300)
+        # cells of half the median triangle's extent: each point tests ~5 triangles instead of ~9
+        # at the full extent (2x faster queries for 2.2x the entries; 1/4 gained only 10 % more)
+        h = max(0.5 * float(np.median(np.max(hi - lo, axis=1))), span * 1e-7, 1e-300)
         while True:
             c0 = np.floor((lo - self.origin) / h).astype(np.int64)
             c1 = np.floor((hi - self.origin) / h).astype(np.int64)
@@ -92,11 +94,14 @@ class TriangleGrid:
             off = np.arange(int(cnt.sum())) - np.repeat(np.cumsum(cnt) - cnt, cnt)
             fcs = self.faces[np.repeat(start[a:b], cnt) + off]
             bb = barycentric(self.tri2[fcs], pts[rows])
-            s = np.where(bb.min(axis=1) >= -tol, self.score[fcs], np.inf)
-            order = np.lexsort((s, rows))
+            # only the tests whose triangle holds the point are ranked (one or two per point, not
+            # the whole cell's list): sorting those is most of a query's cost otherwise
+            ins = np.flatnonzero((bb.min(axis=1) >= -tol) & np.isfinite(self.score[fcs]))
+            rows, fcs, bb = rows[ins], fcs[ins], bb[ins]
+            order = np.lexsort((self.score[fcs], rows))
             first = np.ones(len(order), bool)
             first[1:] = rows[order][1:] != rows[order][:-1]
-            pick = order[first & np.isfinite(s[order])]
+            pick = order[first]
             q = rows[pick]
             face[q], bary[q], found[q] = fcs[pick], bb[pick], True
         return face, bary, found

@@ -15,7 +15,7 @@ from scipy.spatial import cKDTree
 
 from ..errors import InputError
 from ..geometry import closest_point_on_triangles
-from .grow import Chart, close_seam, grow, map_modules, module_frames, module_strain
+from .grow import Chart, close_seam, grow, map_modules, module_frames, module_strain, taxel_index
 from .logmap import LogMap, PreparedSurface
 from .model import Layout
 from .patches import Patch, fill_patch, patch_from_poses, tile_poses
@@ -527,29 +527,49 @@ def _fill_island(prepared, preg, samples, start, direction, mod, radius, max_str
                 for fu, fv in np.ndindex(refine_offsets, refine_offsets)
                 if (fu / refine_offsets, fv / refine_offsets) not in done] if refine_offsets > offsets else []
 
-    def first_chart(ang, sh) -> int:
-        """Modules of the lattice (angle, shift) the first chart keeps."""
+    def first_chart(ang, sh, beat) -> tuple[int, bool]:
+        """Modules of the lattice (angle, shift) the first chart keeps, and whether that count is
+        exact. The modules are tried from the rim inwards, in chunks: the rim is where the map
+        strains and the region ends, so the rejections come first, and a try stops as soon as it
+        cannot keep more than ``beat`` modules (the best so far; ties go to the earlier try, so a
+        stopped try could not have won) and returns that upper bound."""
         cand = lattice_patch(mod, ang, sh, np.zeros(2), r_try, radius)
         d = np.linalg.norm(cand.poses[:, 1:], axis=1)
         cand = cand.select_modules(d + reach <= r_try)
-        if not cand.n_modules:
-            return 0
-        p_, n_, f_, ok_ = lm0.exp(cand.flat, fallback=False, on_surface=False)
-        tm, M = cand.module_ids, cand.n_modules
-        keep = np.bincount(tm, weights=ok_, minlength=M) == np.bincount(tm, minlength=M)
-        keep &= module_strain(cand, p_, n_, np.arange(M)) <= max_strain
-        keep &= check(Chart(np.zeros(2), lm0.at, lm0.t1, lm0, r_try), cand, np.arange(M), f_, tm)
-        if avoid is not None and keep.any():
-            hit = cKDTree(avoid).query_ball_point(p_, OVERLAP_FRACTION * mod.pitch, return_length=True) > 0
-            keep &= np.bincount(tm, weights=hit, minlength=M) == 0
-        return int(keep.sum())
+        M = cand.n_modules
+        if not M:
+            return 0, True
+        d = np.linalg.norm(cand.poses[:, 1:], axis=1)
+        counts = np.bincount(cand.module_ids, minlength=M)
+        starts = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64)
+        pos, nrm = np.full((len(cand), 3), np.nan), np.full((len(cand), 3), np.nan)
+        chart = Chart(np.zeros(2), lm0.at, lm0.t1, lm0, r_try)
+        order = np.argsort(-d, kind="stable")
+        kept, done = 0, 0
+        for mods in np.split(order, [M // 4, M // 2]):  # the outer quarter, the next, the inner half
+            if not len(mods):
+                continue
+            ti = taxel_index(counts, starts, mods)
+            p_, n_, f_, ok_ = lm0.exp(cand.flat[ti], fallback=False, on_surface=False)
+            pos[ti], nrm[ti] = p_, n_
+            tm = np.repeat(np.arange(len(mods)), counts[mods])
+            keep = np.bincount(tm, weights=ok_, minlength=len(mods)) == counts[mods]
+            keep &= module_strain(cand, pos, nrm, mods) <= max_strain
+            keep &= check(chart, cand, mods, f_, tm)
+            if avoid is not None and keep.any():
+                hit = cKDTree(avoid).query_ball_point(p_, OVERLAP_FRACTION * mod.pitch, return_length=True) > 0
+                keep &= np.bincount(tm, weights=hit, minlength=len(mods)) == 0
+            kept, done = kept + int(keep.sum()), done + len(mods)
+            if beat is not None and kept + (M - done) <= beat and done < M:
+                return kept + (M - done), False
+        return kept, True
 
     reach = float(np.linalg.norm(mod.taxels, axis=1).max()) + 0.5 * mod.pitch
     for stage in (lambda: coarse, fine):
         for ang, sh in stage():
-            n = first_chart(ang, sh)
+            n, exact = first_chart(ang, sh, None if best is None else best[0])
             tilings.append({"angle_deg": float(np.degrees(ang)), "shift_cells": [float(sh[0]), float(sh[1])],
-                            "modules": n, "island": island})
+                            "modules": n, "exact": exact, "island": island})
             if best is None or n > best[0]:
                 best = (n, ang, sh)
     _, ang, sh = best
