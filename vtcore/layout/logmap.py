@@ -50,6 +50,7 @@ class PreparedSurface:
         self.mesh = sub
         self._solver = None
         self._graph = None
+        self._geom = None
 
     def path_graph(self):
         """(V, V) scipy.sparse CSR graph of ``mesh`` for shortest paths that stay close to geodesic
@@ -97,6 +98,23 @@ class PreparedSurface:
             self._graph = sp.csr_matrix((w[first], (e[first, 0], e[first, 1])), shape=(n, n))
         return self._graph
 
+    def face_geometry(self) -> dict:
+        """What the log maps' checks need of ``mesh``'s own faces, computed once for all charts:
+        ``l3`` (F, 3) edge lengths (edge k from corner k-1 to k), ``l3max`` (F,) the longest, ``h``
+        their median, ``alt`` (F,) altitude over the longest edge, ``edge01`` the median length of
+        the faces' first edges (metres)."""
+        if self._geom is None:
+            F = np.asarray(self.mesh.faces)
+            V = np.asarray(self.mesh.vertices)
+            t3 = V[F]
+            l3 = np.linalg.norm(t3 - np.roll(t3, 1, axis=1), axis=2)
+            l3max = np.maximum(np.maximum(l3[:, 0], l3[:, 1]), l3[:, 2])
+            alt = np.linalg.norm(np.cross(t3[:, 1] - t3[:, 0], t3[:, 2] - t3[:, 0]), axis=1) / \
+                np.maximum(l3max, 1e-300)
+            self._geom = {"l3": l3, "l3max": l3max, "h": float(np.median(l3)), "alt": alt,
+                          "edge01": float(np.median(np.linalg.norm(V[F[:, 0]] - V[F[:, 1]], axis=1)))}
+        return self._geom
+
     def solver(self):
         """The vector heat solver of ``mesh`` (factored once; geometry-central caches its
         factorizations, so each further log map costs back-substitutions only)."""
@@ -112,6 +130,7 @@ class PreparedSurface:
                 # the simplified copy was not good enough for geometry-central: solve on the full mesh
                 self.info.append("simplified mesh rejected by the solver; solved on the full mesh")
                 self.mesh = self.surface
+                self._graph = self._geom = None  # both were of the simplified copy
                 return self.solver()
         return self._solver
 
@@ -256,9 +275,7 @@ class LogMap:
         """(V,) bool: vertices whose log-map distance agrees with their distance along mesh edges
         (at least 1/1.25 of it, less two typical edges): false at the cut locus's garbage."""
         if getattr(self, "_cons", None) is None:
-            F = np.asarray(self.mesh.faces)
-            V = np.asarray(self.mesh.vertices)
-            h = float(np.median(np.linalg.norm(V[F[:, 0]] - V[F[:, 1]], axis=1)))
+            h = self.prepared.face_geometry()["edge01"]
             self._cons = np.linalg.norm(self.uv, axis=1) >= self.edge_distance() / 1.25 - 2 * h
         return self._cons
 
@@ -279,19 +296,18 @@ class LogMap:
         """The point-location index over the mapped faces (built once; ``exp`` uses it)."""
         if self._grid is None:
             F = np.asarray(self.mesh.faces)
-            V = np.asarray(self.mesh.vertices)
             tri2 = self.uv[F]  # (F, 3, 2)
             area = cross2(tri2[:, 1] - tri2[:, 0], tri2[:, 2] - tri2[:, 0])
             good = area > 1e-16 * max(np.abs(area).max(), 1e-300)  # orientation kept, not folded
             # near the cut locus the log map is garbage: a face's image must be close to isometric
-            t3 = V[F]
-            l3 = np.linalg.norm(t3 - np.roll(t3, 1, axis=1), axis=2)
+            geom = self.prepared.face_geometry()
+            l3, h = geom["l3"], geom["h"]
             l2 = np.linalg.norm(tri2 - np.roll(tri2, 1, axis=1), axis=2)
             # edge length error against the face's size (not the edge's: CAD needles have edges
             # a hundred times shorter than their longest, where the map's small absolute error
             # would look like a large ratio)
-            h = float(np.median(l3))
-            self._stretch = np.abs(l2 - l3).max(axis=1) / np.maximum(l3.max(axis=1), h)
+            err = np.abs(l2 - l3)
+            self._stretch = np.maximum(np.maximum(err[:, 0], err[:, 1]), err[:, 2]) / np.maximum(geom["l3max"], h)
             self._reach = self.reachable[F].all(axis=1)
             # near the cut locus the heat method averages opposite directions and a vertex can map
             # next to the source: a face whose map distance is far below its distance along mesh
@@ -299,9 +315,7 @@ class LogMap:
             self._consistent = self.consistent()[F].all(axis=1)
             self._usable = good & (self._stretch < 0.5) & self._reach & self._consistent
             # a folded sliver (altitude under a fifth of the typical edge) is rounding, not the cut locus
-            alt = np.linalg.norm(np.cross(t3[:, 1] - t3[:, 0], t3[:, 2] - t3[:, 0]), axis=1) / \
-                np.maximum(l3.max(axis=1), 1e-300)
-            self._folded = ~good & (alt > 0.2 * h)
+            self._folded = ~good & (geom["alt"] > 0.2 * h)
             self._geo = np.linalg.norm(tri2.mean(axis=1), axis=1)
             # among the faces that contain a point, the one nearest the source (before the cut locus)
             self._grid = TriangleGrid(tri2, self._usable, self._geo)
