@@ -182,7 +182,9 @@ def fill(mesh, at, direction=None, *, module: str = "cyskin10", region=None, rad
     angles, offsets, refine_offsets : the lattice is tried at each angle and ``offsets x offsets``
         shifts in the first chart, then at the best angle with ``refine_offsets x refine_offsets``
         shifts; the one keeping most modules there is grown (ties: the first);
-        ``layout.meta["fill_tilings"]`` lists every try.
+        ``layout.meta["fill_tilings"]`` lists every try (a try is evaluated from the rim inwards
+        and stopped once it cannot beat the best so far: its ``"exact"`` is then False and its
+        ``"modules"`` the upper bound it reached).
     existing : the skin already there (same frame); no module overlaps it.
     seam : run the seam pass (lattice shifts where growth fronts meet).
     progress : None or ``progress(fraction) -> bool`` (0..1) called as growth proceeds; False
