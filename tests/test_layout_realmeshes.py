@@ -302,3 +302,11 @@ def test_a_patch_on_a_long_coarse_face_solves_only_round_the_patch():
     huge = trimesh.creation.box((100.0, 0.06, 0.06))
     lm = LogMap(huge, (0, 0, 0.03), (1, 0, 0), radius=0.08, resolution=PITCH / 2)
     assert len(lm.mesh.faces) < 20_000 and np.ptp(np.asarray(lm.mesh.vertices)[:, 0]) < 0.25
+    # every face reaching into the ball, one of them a metre long (the mesh fuzz: a 60 mm box whose
+    # corner coordinate read "1_000", 1 m): split too, not refined to the pitch along the metre (11 s)
+    spike = trimesh.creation.box((0.06, 0.06, 0.02))
+    v = np.asarray(spike.vertices).copy()
+    v[np.argmax(v.sum(axis=1)), 2] = 1.0
+    spike = trimesh.Trimesh(v, spike.faces, process=False)
+    lm = LogMap(spike, (0, 0, 0.01), (1, 0, 0), radius=0.08, resolution=PITCH / 2)
+    assert len(lm.mesh.faces) < 20_000 and np.ptp(np.asarray(lm.mesh.vertices)[:, 2]) < 0.25

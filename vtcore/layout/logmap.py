@@ -145,14 +145,19 @@ def crop(mesh, point: np.ndarray, face: int, radius: float):
     near = closest_point_on_triangles(tri, np.broadcast_to(point, (len(tri), 3)).copy())
     keep_f = np.linalg.norm(near - point, axis=1) <= radius
     keep_f[face] = True
-    if keep_f.all():
-        return mesh
-    part = mesh.submesh([np.flatnonzero(keep_f)], append=True, repair=False)
 
     def longest_edge(m):
         t = np.asarray(m.triangles)
         return float(np.linalg.norm(t - np.roll(t, 1, axis=1), axis=2).max())
 
+    if keep_f.all():
+        # every face reaches into the ball, but one may still run far beyond it (a box with a vertex
+        # pulled out a metre: its long faces all pass near the patch)
+        if longest_edge(mesh) <= radius:
+            return mesh
+        part = mesh
+    else:
+        part = mesh.submesh([np.flatnonzero(keep_f)], append=True, repair=False)
     longest = longest_edge(part)
     while longest > radius:
         # faces far longer than the ball (a 1 m box side under a 40 mm patch) would be subdivided
