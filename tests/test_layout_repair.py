@@ -120,3 +120,24 @@ def test_source_faces_of_another_mesh_fall_back_to_nearest_centres():
     m = trimesh.creation.icosphere(2)
     other = trimesh.Trimesh(m.vertices, m.faces[::-1], process=False)  # no record of where it came from
     np.testing.assert_array_equal(repair.source_faces(other, m), np.arange(len(m.faces))[::-1])
+
+
+def test_face_submesh_is_trimesh_submesh():
+    """The same vertices and faces as trimesh's submesh(append=True), so a fill solves on the
+    same mesh."""
+    m = messy_mesh(4)
+    pick = np.flatnonzero(np.random.default_rng(5).random(len(m.faces)) < 0.4)
+    ours = repair.face_submesh(m, pick)
+    theirs = m.submesh([pick], append=True, repair=False)
+    np.testing.assert_array_equal(np.asarray(ours.vertices), np.asarray(theirs.vertices))
+    np.testing.assert_array_equal(np.asarray(ours.faces), np.asarray(theirs.faces))
+
+
+def test_clean_mesh_of_a_clean_mesh_drops_nothing():
+    m = trimesh.creation.icosphere(2)
+    clean, notes = repair.clean_mesh(m)
+    assert notes == []
+    np.testing.assert_array_equal(np.asarray(clean.faces), np.asarray(m.faces))
+    np.testing.assert_array_equal(repair.source_faces(clean, m), np.arange(len(m.faces)))
+    extra = trimesh.Trimesh(np.vstack([m.vertices, [[5.0, 5.0, 5.0]]]), m.faces, process=False)
+    assert len(repair.clean_mesh(extra)[0].vertices) == len(m.vertices)  # the unused vertex is dropped

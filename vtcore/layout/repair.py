@@ -53,13 +53,30 @@ def clean_mesh(mesh):
     if not good.any():
         raise InputError(f"the mesh has no faces left after removing {int((~good).sum())} degenerate or "
                          "duplicate ones", key="mesh")
-    m = trimesh.Trimesh(m.vertices, mf[good], process=False, validate=False)
-    m.remove_unreferenced_vertices()
+    if not good.all():
+        m = trimesh.Trimesh(m.vertices, mf[good], process=False, validate=False)
+    if np.count_nonzero(np.bincount(np.asarray(m.faces).ravel(), minlength=len(m.vertices))) < len(m.vertices):
+        m.remove_unreferenced_vertices()
+    # else the merged mesh is already clean: it keeps the triangles and areas trimesh cached on it
     if len(good) == len(f):
         # trimesh's vertex merge keeps the faces in order, so clean face i is input face kept[i]:
         # callers map per-face data (a fill's region) through it, not by a nearest-centre search
         remember(m, "source_faces", np.flatnonzero(good))
     return m, notes
+
+
+def face_submesh(mesh, faces: np.ndarray):
+    """The part of ``mesh`` made of ``faces`` (sorted face indices), its vertices the used ones
+    in their order: the arrays trimesh's ``submesh([faces], append=True)`` makes, without the
+    face normals, visuals and metadata it copies along (computing the whole mesh's normals for
+    it cost 0.1 s at 200k faces)."""
+    import trimesh
+
+    f = np.asarray(mesh.faces)[np.asarray(faces)]
+    used = np.flatnonzero(np.bincount(f.ravel(), minlength=len(mesh.vertices)))
+    remap = np.zeros(len(mesh.vertices), np.int64)
+    remap[used] = np.arange(len(used))
+    return trimesh.Trimesh(np.asarray(mesh.vertices)[used], remap[f], process=False, validate=False)
 
 
 def face_keys(lo: np.ndarray, mid: np.ndarray, hi: np.ndarray, n: int) -> np.ndarray:

@@ -20,7 +20,7 @@ from .logmap import LogMap, PreparedSurface
 from .model import Layout
 from .patches import Patch, fill_patch, patch_from_poses, tile_poses
 from .placement import finish, place
-from .repair import clean_mesh, edge_keys, face_pairs, source_faces
+from .repair import clean_mesh, edge_keys, face_pairs, face_submesh, source_faces
 from .surface import snap
 from .report import OVERLAP_FRACTION, PlacementReport, find_overlaps, find_overlaps_between, layout_strain, \
     points_in_outlines
@@ -228,7 +228,7 @@ def fill(mesh, at, direction=None, *, module: str = "cyskin10", region=None, rad
     cen = np.asarray(clean.triangles_center)
     dist = np.zeros(len(cen))  # the region's own faces are at 0: only the others are searched
     dist[~creg] = cKDTree(cen[creg]).query(cen[~creg], distance_upper_bound=2 * mod.pitch)[0]
-    sub = clean.submesh([np.flatnonzero(np.isfinite(dist))], append=True, repair=False)
+    sub = face_submesh(clean, np.flatnonzero(np.isfinite(dist)))
     if isinstance(max_faces, str):
         if max_faces != "auto":
             raise InputError(f"max_faces must be a number, None or 'auto', got {max_faces!r}", key="max_faces")
