@@ -141,23 +141,25 @@ def corner_normals(mesh, crease_deg: float = CREASE_DEG) -> np.ndarray:
     vert = F.ravel()  # corner c = 3 * face + k
     cface = np.repeat(np.arange(nf), 3)
     vn = np.asarray(mesh.vertex_normals)
-    nrm = vn[vert].copy()
+    nrm = vn[vert]  # a new array (fancy indexing), changed below at sharp corners only
     # only where some face round a vertex is more than half the crease angle off the vertex
     # normal can two faces there be more than the crease angle apart (triangle inequality on
     # angles): the per-corner test below runs on those few vertices, not on all 3F corners
-    off_vn = np.einsum("ij,ij->i", fn[cface], vn[vert]) < np.cos(np.radians(crease_deg / 2))
+    off_vn = np.einsum("ij,ij->i", np.repeat(fn, 3, axis=0), nrm) < np.cos(np.radians(crease_deg / 2))
     suspect = np.zeros(nv, bool)
     suspect[vert[off_vn]] = True
     corners = np.flatnonzero(suspect[vert])
     if len(corners):
         cv = vert[corners]
-        order = np.argsort(vert, kind="stable")
-        counts = np.bincount(vert, minlength=nv)
-        starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
-        cnt = counts[cv]
+        # ``corners`` holds every corner of each suspect vertex: grouping them by vertex (stable,
+        # so by corner index within a vertex) lists the faces round each, without sorting all 3F
+        order = np.argsort(cv, kind="stable")
+        verts, starts, counts = np.unique(cv[order], return_index=True, return_counts=True)
+        at = np.searchsorted(verts, cv)
+        cnt = counts[at]
         rows = np.repeat(np.arange(len(corners)), cnt)
         off = np.arange(int(cnt.sum())) - np.repeat(np.cumsum(cnt) - cnt, cnt)
-        g = cface[order][np.repeat(starts[cv], cnt) + off]  # faces round each corner's vertex
+        g = cface[corners[order]][np.repeat(starts[at], cnt) + off]  # faces round each corner's vertex
         cos = np.einsum("ij,ij->i", fn[cface[corners]][rows], fn[g])
         near = cos >= np.cos(np.radians(crease_deg))
         sharp = np.bincount(rows, weights=~near, minlength=len(corners)) > 0
