@@ -120,6 +120,12 @@ def test_source_faces_of_another_mesh_fall_back_to_nearest_centres():
     m = trimesh.creation.icosphere(2)
     other = trimesh.Trimesh(m.vertices, m.faces[::-1], process=False)  # no record of where it came from
     np.testing.assert_array_equal(repair.source_faces(other, m), np.arange(len(m.faces))[::-1])
+    # a clean mesh asked about a mesh it was not made from answers by centres, not by its record
+    big = trimesh.creation.icosphere(3)
+    clean = repair.clean_mesh(trimesh.Trimesh(m.vertices, np.vstack([m.faces[:1], m.faces]), process=False))[0]
+    shifted = trimesh.Trimesh(big.vertices, big.faces, process=False)
+    np.testing.assert_array_equal(repair.source_faces(clean, shifted),
+                                  repair.source_faces(trimesh.Trimesh(clean.vertices, clean.faces), shifted))
 
 
 def test_face_submesh_is_trimesh_submesh():

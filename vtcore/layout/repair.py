@@ -61,8 +61,16 @@ def clean_mesh(mesh):
     if len(good) == len(f):
         # trimesh's vertex merge keeps the faces in order, so clean face i is input face kept[i]:
         # callers map per-face data (a fill's region) through it, not by a nearest-centre search
-        remember(m, "source_faces", np.flatnonzero(good))
+        remember(m, "source_faces", (data_hash(mesh), np.flatnonzero(good)))
     return m, notes
+
+
+def data_hash(mesh):
+    """``hash(mesh)`` (trimesh: of its vertices and faces), or None for an unhashable object."""
+    try:
+        return hash(mesh)
+    except TypeError:
+        return None
 
 
 def face_submesh(mesh, faces: np.ndarray):
@@ -109,9 +117,9 @@ def source_faces(clean, mesh) -> np.ndarray:
     """(F_clean,) int: the face of ``mesh`` each face of ``clean`` (made from ``mesh`` by
     :func:`clean_mesh`) came from; for a ``clean`` made otherwise, the face with the nearest
     centre (a k-d tree search)."""
-    kept = recall(clean, "source_faces")
-    if kept is not None and (len(kept) == 0 or kept[-1] < len(mesh.faces)):
-        return kept
+    hit = recall(clean, "source_faces")
+    if hit is not None and hit[0] is not None and hit[0] == data_hash(mesh):  # made from this very mesh
+        return hit[1]
     from scipy.spatial import cKDTree
 
     return cKDTree(np.asarray(mesh.triangles_center)).query(np.asarray(clean.triangles_center))[1]
