@@ -147,3 +147,17 @@ def test_clean_mesh_of_a_clean_mesh_drops_nothing():
     np.testing.assert_array_equal(repair.source_faces(clean, m), np.arange(len(m.faces)))
     extra = trimesh.Trimesh(np.vstack([m.vertices, [[5.0, 5.0, 5.0]]]), m.faces, process=False)
     assert len(repair.clean_mesh(extra)[0].vertices) == len(m.vertices)  # the unused vertex is dropped
+
+
+def test_corner_normals_follow_a_mesh_changed_in_place():
+    """The crease-aware corner normals are cached with the mesh's data hash: moving the vertices
+    of a mesh after a query gives the moved mesh's normals, not the old ones."""
+    from vtcore.layout.surface import corner_normals
+
+    m = trimesh.creation.box()
+    before = corner_normals(m).copy()
+    m.vertices = m.vertices @ np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])  # 90 deg about z
+    after = corner_normals(m)
+    np.testing.assert_allclose(after, before @ np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]),
+                               atol=1e-12)
+    assert not np.allclose(after, before)

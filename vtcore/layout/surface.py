@@ -129,9 +129,10 @@ def corner_normals(mesh, crease_deg: float = CREASE_DEG) -> np.ndarray:
     A corner takes the mesh's vertex normal, except at a vertex where faces meet at more than
     ``crease_deg`` degrees: there it averages (area-weighted) only the faces round the vertex
     within ``crease_deg`` of its own face, so a normal is never interpolated across a sharp edge
-    (the issue saw a taxel 81 degrees off the face it lay on). Cached on the mesh object.
+    (the issue saw a taxel 81 degrees off the face it lay on). Cached on the mesh object with the
+    hash of its data (a mesh changed in place gets new normals).
     """
-    cached = getattr(mesh, "_vtcore_corner_normals", None)
+    cached = recall(mesh, "corner_normals")  # kept with the hash of the mesh's data
     if cached is not None and cached[0] == crease_deg:
         return cached[1]
     F = np.asarray(mesh.faces, dtype=np.int64)
@@ -170,10 +171,7 @@ def corner_normals(mesh, crease_deg: float = CREASE_DEG) -> np.ndarray:
         la = np.linalg.norm(a, axis=1, keepdims=True)
         nrm[sc] = np.where(la > 1e-300, a / np.maximum(la, 1e-300), fn[cface[sc]])
     out = nrm.reshape(nf, 3, 3)
-    try:
-        mesh._vtcore_corner_normals = (crease_deg, out)
-    except AttributeError:  # pragma: no cover - objects without a __dict__
-        pass
+    remember(mesh, "corner_normals", (crease_deg, out))
     return out
 
 
