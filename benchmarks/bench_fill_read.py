@@ -1,8 +1,11 @@
-"""Issue 12's ~100-module goal in a fresh process: fill the side of the 72 mm x 200 mm link
-(``cadmeshes.full_cylinder``, region = side faces, the ``fill_faces`` row of ``vtcore bench
-layout``) or place one hexagon on it, timed after the libraries are imported.
+"""Issue 12's speed goals in a fresh process, timed after the libraries are imported:
 
-    .venv/bin/python benchmarks/bench_fill_read.py [--faces 200000] [--what fill|hexagon] [--profile]
+- ``--what fill`` / ``hexagon``: fill the side of the 72 mm x 200 mm link (``cadmeshes.full_cylinder``,
+  region = side faces, the ``fill_faces`` row of ``vtcore bench layout``), or place one hexagon on it;
+- ``--what big``: 1,000 modules asked on a 180 mm-radius, 700 mm link (``--faces``, default there
+  100,000), filled within a radius of 395 mm (the ``fill_region`` row's largest case).
+
+    .venv/bin/python benchmarks/bench_fill_read.py [--faces N] [--what fill|hexagon|big] [--profile]
 
 Prints one JSON line: the mesh's build time and the call's time (wall: ``perf_counter``; CPU:
 ``process_time`` of this process, all its threads), both excluding Python and library imports;
@@ -27,8 +30,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 def main(argv=None) -> dict:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--faces", type=int, default=200_000, help="about this many faces (default 200,000)")
-    ap.add_argument("--what", choices=("fill", "hexagon"), default="fill")
+    ap.add_argument("--faces", type=int, default=None,
+                    help="about this many faces (default 200,000; 100,000 for --what big)")
+    ap.add_argument("--what", choices=("fill", "hexagon", "big"), default="fill")
     ap.add_argument("--profile", action="store_true")
     a = ap.parse_args(argv)
     # every library the call uses, imported before the clock starts
@@ -42,9 +46,10 @@ def main(argv=None) -> dict:
     from vtcore.layout.placement import place
     from vtcore.layout.tiling import fill
 
-    R, L = 0.072, 0.2
+    R, L = (0.18, 0.7) if a.what == "big" else (0.072, 0.2)
+    faces = a.faces or (100_000 if a.what == "big" else 200_000)
     w0, c0 = time.perf_counter(), time.process_time()
-    mesh = cadmeshes.full_cylinder(R, L, float(np.sqrt(4 * np.pi * R * L / a.faces)))
+    mesh = cadmeshes.full_cylinder(R, L, float(np.sqrt(4 * np.pi * R * L / faces)))
     side = np.abs(mesh.face_normals[:, 2]) < 0.5
     w1, c1 = time.perf_counter(), time.process_time()
     prof = None
@@ -57,6 +62,8 @@ def main(argv=None) -> dict:
         warnings.simplefilter("ignore")
         if a.what == "fill":
             lay, rep = fill(mesh, (R, 0, 0), (0, 1, 0), region=side)
+        elif a.what == "big":  # a disc of about 1,000 module areas (490 mm2 each)
+            lay, rep = fill(mesh, (R, 0, 0), (0, 1, 0), radius=float(np.sqrt(1000 * 490e-6 / np.pi)))
         else:
             lay, rep = place(mesh, "hexagon", (R, 0, 0), (0, 1, 0))
     w2, c2 = time.perf_counter(), time.process_time()
