@@ -67,15 +67,9 @@ def closest_points(mesh, points: np.ndarray):
 def face_longest_edges(mesh) -> np.ndarray:
     """(F,) metres, the longest edge of each face; cached on the mesh object with the hash of its
     data (a fill snaps each chart's origin: recomputing this was most of the snap's cost)."""
-    stamp = hash(mesh)
-    cached = getattr(mesh, "_vtcore_longest", None)
-    if cached is not None and cached[0] == stamp:
-        return cached[1]
-    out = longest_edges(mesh.vertices, mesh.faces)
-    try:
-        mesh._vtcore_longest = (stamp, out)
-    except AttributeError:  # pragma: no cover - objects without a __dict__
-        pass
+    out = recall(mesh, "longest_edges")
+    if out is None:
+        out = remember(mesh, "longest_edges", longest_edges(mesh.vertices, mesh.faces))
     return out
 
 
