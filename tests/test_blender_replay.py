@@ -30,6 +30,14 @@ def attr(ob, name):
     return bridge.get_attribute(ob.data, name)
 
 
+def saved_and_reopened(ob, path):
+    """Save the open file to ``path`` (compressed) and open it again: (the same object, the scene)."""
+    name = ob.name
+    bpy.ops.wm.save_as_mainfile(filepath=str(path), compress=True)
+    bpy.ops.wm.open_mainfile(filepath=str(path))
+    return bpy.data.objects[name], bpy.context.scene
+
+
 @pytest.fixture
 def skin_ob():
     ee, _, centre = build_scene()
@@ -120,12 +128,7 @@ def test_can_log_replay_play_save_reload(skin_ob, tmp_path):
     np.testing.assert_array_equal(attr(ob, "response")[first], wire[11, first].astype(np.float32))
     assert ref.edge.any() and ref.response.max() > 3000
 
-    blend = str(tmp_path / "replay.blend")
-    name = ob.name
-    bpy.ops.wm.save_as_mainfile(filepath=blend, compress=True)
-    bpy.ops.wm.open_mainfile(filepath=blend)
-    ob = bpy.data.objects[name]
-    scene = bpy.context.scene
+    ob, scene = saved_and_reopened(ob, tmp_path / "replay.blend")
     assert ob.vtskin.cache is not None and ob.vtskin.lost_rows == 2
     for f in (lost_frame, 10):
         check(f)
@@ -274,11 +277,6 @@ def test_slow_recording_stored_once_per_row(skin_ob, tmp_path):
 
     for f in (1, 3, 4, 10, 16):
         shows(f, int(np.floor((f - 1) / 30 / 0.1 + 1e-9)))
-    blend = str(tmp_path / "slow.blend")
-    name = ob.name
-    bpy.ops.wm.save_as_mainfile(filepath=blend, compress=True)
-    bpy.ops.wm.open_mainfile(filepath=blend)
-    ob = bpy.data.objects[name]
-    scene = bpy.context.scene
+    ob, scene = saved_and_reopened(ob, tmp_path / "slow.blend")
     assert bake.SHOWS in ob.vtskin.cache
     shows(12, 3)
