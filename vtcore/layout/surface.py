@@ -55,13 +55,72 @@ def closest_points(mesh, points: np.ndarray):
         face = ans["primitive_ids"].numpy().astype(np.int64)
         # refine in float64 on the found face (open3d works in float32)
         cp = closest_on_faces(mesh, points, face)
-    except ImportError:  # pragma: no cover - open3d is in the pinned stack
-        import trimesh
-
-        _, _, face = trimesh.proximity.closest_point(mesh, points)
-        face = np.asarray(face, np.int64)
+    except ImportError:  # inside Blender: the extension does not bundle open3d
+        face = nearest_faces(mesh, points)
         cp = closest_on_faces(mesh, points, face)
     return cp, face, np.linalg.norm(cp - points, axis=1)
+
+
+def nearest_faces(mesh, points: np.ndarray, max_pairs: int = 2_000_000) -> np.ndarray:
+    """(n,) the face of ``mesh`` nearest each of ``points`` (n, 3), exactly (float64; ties: the
+    lowest face index), without open3d.
+
+    Not trimesh.proximity.closest_point: among faces within its merge tolerance of each other it
+    prefers one whose normal faces the point, and on a 1 mm cylinder mesh it answered faces up
+    to 0.1 mm farther than the nearest; its r-tree search also took 60 us a point. Here the face
+    under the nearest centre bounds the distance ``D``, and every face whose bounding ball (at
+    its centre, radius to its farthest corner) comes within ``D`` is tested: k-d trees of face
+    centres, one per size class of the balls so that a few long CAD slivers do not widen every
+    query. Candidates are taken ``max_pairs`` (point, face) pairs at a time: a point far from
+    the surface can have every face as a candidate."""
+    points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    V, F = np.asarray(mesh.vertices), np.asarray(mesh.faces)
+    index = recall(mesh, "face_balls")
+    if index is None:
+        index = remember(mesh, "face_balls", _face_balls(V, F))
+    centres, everyone, classes = index
+    _, near = everyone.query(points)
+    bound = np.linalg.norm(closest_point_on_triangles(V[F[near]], points) - points, axis=1)
+    out = np.asarray(near, np.int64).copy()
+    best = bound.copy()
+    step = max(1, min(len(points), max_pairs // 64))
+    for s in range(0, len(points), step):
+        p, r = points[s:s + step], bound[s:s + step] * (1 + 1e-12) + 1e-300
+        for members, tree, radius in classes:
+            counts = tree.query_ball_point(p, r + radius, return_length=True)
+            ends = np.cumsum(counts)
+            i = 0
+            while i < len(p):  # points i..j-1 share at most max_pairs pairs (or one point has more)
+                j = max(i + 1, int(np.searchsorted(ends, ends[i] - counts[i] + max_pairs, side="right")))
+                hits = tree.query_ball_point(p[i:j], r[i:j] + radius)
+                if ends[j - 1] - ends[i] + counts[i]:
+                    ids = members[np.concatenate([np.asarray(h, np.int64) for h in hits])]
+                    owner = np.repeat(np.arange(s + i, s + j), counts[i:j])
+                    d = np.linalg.norm(closest_point_on_triangles(V[F[ids]], points[owner]) - points[owner], axis=1)
+                    order = np.lexsort((ids, d, owner))
+                    first = order[np.r_[True, owner[order][1:] != owner[order][:-1]]]
+                    o, f, dd = owner[first], ids[first], d[first]
+                    better = (dd < best[o]) | ((dd == best[o]) & (f < out[o]))
+                    out[o[better]], best[o[better]] = f[better], dd[better]
+                i = j
+    return out
+
+
+def _face_balls(V: np.ndarray, F: np.ndarray):
+    """The search structure of :func:`nearest_faces`: face centres (F, 3), their k-d tree, and per
+    size class (radius within a factor 4) the member faces, their centres' tree, the largest radius."""
+    from scipy.spatial import cKDTree
+
+    T = V[F]
+    c = T.mean(axis=1)
+    rad = np.linalg.norm(T - c[:, None], axis=2).max(axis=1)
+    top = max(float(rad.max()), 1e-300)
+    cls = np.minimum(np.floor(np.log(top / np.maximum(rad, 1e-300)) / np.log(4.0)), 6).astype(np.int64)
+    classes = []
+    for k in np.unique(cls):
+        members = np.flatnonzero(cls == k)
+        classes.append((members, cKDTree(c[members]), float(rad[members].max())))
+    return c, cKDTree(c), classes
 
 
 def face_longest_edges(mesh) -> np.ndarray:
