@@ -5,7 +5,10 @@
 - ``--what big``: 1,000 modules asked on a 180 mm-radius, 700 mm link (``--faces``, default there
   100,000), filled within a radius of 395 mm (the ``fill_region`` row's largest case).
 
-    .venv/bin/python benchmarks/bench_fill_read.py [--faces N] [--what fill|hexagon|big] [--profile]
+    .venv/bin/python benchmarks/bench_fill_read.py [--faces N] [--what fill|hexagon|big] [--no-open3d] [--profile]
+
+``--no-open3d`` makes ``import open3d`` fail, as inside Blender (the extension does not bundle it):
+the path the add-on's *Fill* operator takes.
 
 Prints one JSON line: the mesh's build time and the call's time (wall: ``perf_counter``; CPU:
 ``process_time`` of this process, all its threads), both excluding Python and library imports;
@@ -33,10 +36,13 @@ def main(argv=None) -> dict:
     ap.add_argument("--faces", type=int, default=None,
                     help="about this many faces (default 200,000; 100,000 for --what big)")
     ap.add_argument("--what", choices=("fill", "hexagon", "big"), default="fill")
+    ap.add_argument("--no-open3d", action="store_true", help="as inside Blender: open3d cannot be imported")
     ap.add_argument("--profile", action="store_true")
     a = ap.parse_args(argv)
-    # every library the call uses, imported before the clock starts
-    import open3d  # noqa: F401
+    if a.no_open3d:
+        sys.modules["open3d"] = None  # import open3d -> ImportError
+    else:
+        import open3d  # noqa: F401  (every library the call uses, imported before the clock starts)
     import potpourri3d  # noqa: F401
     import scipy.sparse.csgraph  # noqa: F401
     import scipy.spatial  # noqa: F401
@@ -72,7 +78,7 @@ def main(argv=None) -> dict:
     out = {"what": a.what, "faces": len(mesh.faces), "mesh_wall_s": round(w1 - w0, 3),
            "mesh_cpu_s": round(c1 - c0, 3), "wall_s": round(w2 - w1, 3), "cpu_s": round(c2 - c1, 3),
            "modules": lay.n_modules, "coverage": round(float(rep.coverage), 4),
-           "charts": getattr(rep, "charts", None), "overlaps": len(rep.overlaps)}
+           "charts": getattr(rep, "charts", None), "overlaps": len(rep.overlaps), "open3d": not a.no_open3d}
     print(json.dumps(out))
     if prof is not None:
         import pstats

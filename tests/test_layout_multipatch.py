@@ -168,43 +168,88 @@ def test_at_off_the_surface_is_reported():
 
 @pytest.mark.parametrize("open3d", [True, False])
 def test_simplified_solve_with_and_without_open3d(monkeypatch, open3d):
-    """Inside Blender open3d is not bundled and decimate imported it unconditionally. Without it
-    (and without trimesh's fast-simplification) the full cropped mesh is solved and the report says so."""
+    """Inside Blender open3d is not bundled. The solve copy is made by vtcore's vertex clustering
+    either way (open3d's own, in numpy); quadric decimation, the fallback where clustering tears a
+    surface, needs open3d or trimesh's fast-simplification, else the full cropped mesh is solved."""
     import sys
 
-    from vtcore.layout import repair
+    from vtcore.layout import cadmeshes, simplify
 
-    sphere = trimesh.creation.icosphere(5, radius=0.04)  # 20k faces
     if not open3d:
         monkeypatch.setitem(sys.modules, "open3d", None)
         monkeypatch.setitem(sys.modules, "fast_simplification", None)
-    small, note = repair.decimate(sphere, 2000)
+    cylinder = cadmeshes.full_cylinder(0.02, 0.08, 0.001)  # 20k faces
+    small, note = simplify.decimate(cylinder, 2000)
+    assert small is not cylinder and 1500 < len(small.faces) < 2500 and "simplified by vertex clustering" in note
+    side = np.abs(small.vertices[:, 2]) < 0.035  # off the caps (the cylinder spans z = -0.04 .. 0.04)
+    assert np.abs(np.linalg.norm(small.vertices[side, :2], axis=1) - 0.02).max() < 1e-4
+    # on a sphere at this size clustering changes the topology (V - E + F = 8, not 2)
+    sphere = trimesh.creation.icosphere(5, radius=0.04)  # 20k faces
+    small, note = simplify.decimate(sphere, 2000)
     if open3d:
-        assert small is not sphere and 500 < len(small.faces) < 6000 and "simplified by open3d" in note
+        assert small is not sphere and 500 < len(small.faces) < 6000 and "open3d quadric decimation" in note
         assert np.abs(np.linalg.norm(small.vertices, axis=1) - 0.04).max() < 1e-3
     else:
-        assert small is sphere and "neither open3d nor fast-simplification" in note
+        assert small is sphere and "full cropped mesh" in note and "neither open3d nor fast-simplification" in note
     lay, rep = quiet(place, sphere, "hexagon", (0, 0, 0.04), max_faces=2000)
     assert any(("simplified by" if open3d else "full cropped mesh") in n for n in rep.notes)
     _, full = quiet(place, sphere, "hexagon", (0, 0, 0.04), max_faces=None)
     assert np.abs(np.linalg.norm(lay.positions, axis=1) - 0.04).max() < 1e-4
     assert abs(rep.strain_max - full.strain_max) < 0.02  # ~8 % either way (curvature); 2k faces cost ~1 %
-    if open3d:  # a copy that is not faithful is refused and the full cropped mesh is solved, with a note
-        monkeypatch.setattr(repair, "aspect", lambda m: np.full(len(m.faces), 10.0))
-        same, note = repair.decimate(sphere, 2000)
-        assert same is sphere and "full cropped mesh" in note
+    # a copy that is not faithful is refused and the full cropped mesh is solved, with a note
+    monkeypatch.setattr(simplify, "aspect", lambda m: np.full(len(m.faces), 10.0))
+    same, note = simplify.decimate(cylinder, 2000)
+    assert same is cylinder and "full cropped mesh" in note
 
 
-def test_lay_patch_without_open3d_says_so(monkeypatch):
+def test_vertex_clustering_is_open3ds():
+    """vtcore's vertex clustering gives open3d's simplify_vertex_clustering (Average) triangle for
+    triangle, on a full cylinder, a CAD-like link in millimetres (slivers, non-manifold edges) and a
+    sphere, at the voxel decimate uses; its order is its own and repeatable."""
+    import open3d as o3d
+
+    from vtcore.layout import cadmeshes
+    from vtcore.layout.simplify import vertex_clustering
+
+    def triangles(v, f):
+        t = np.round(np.asarray(v)[np.asarray(f)], 12) + 0.0  # + 0.0: -0.0 and 0.0 alike
+        # each triangle rotated to start at its lexicographically smallest corner (orientation kept)
+        first = np.array([min(range(3), key=lambda i: tuple(x[i])) for x in t])
+        return sorted(np.roll(x, -i, axis=0).tobytes() for x, i in zip(t, first))
+
+    meshes = [cadmeshes.full_cylinder(0.02, 0.08, 0.002), trimesh.creation.icosphere(4, radius=0.04),
+              cadmeshes.cad_link(mm=True)]
+    for mesh in meshes:
+        for target in (400, 2000):
+            h = float(np.sqrt(2.0 * mesh.area / target))
+            ours = vertex_clustering(mesh, h)
+            d = o3d.geometry.TriangleMesh(o3d.utility.Vector3dVector(np.asarray(mesh.vertices, np.float64)),
+                                          o3d.utility.Vector3iVector(np.asarray(mesh.faces, np.int32)))
+            d = d.simplify_vertex_clustering(voxel_size=h, contraction=o3d.geometry.SimplificationContraction.Average)
+            assert len(ours.faces) == len(d.triangles) > 50
+            assert triangles(ours.vertices, ours.faces) == triangles(d.vertices, d.triangles)
+            again = vertex_clustering(mesh, h)
+            assert np.array_equal(again.faces, ours.faces) and np.array_equal(again.vertices, ours.vertices)
+    # a voxel so small the grid would need more than 2**31 cells along an axis: no copy
+    assert vertex_clustering(meshes[0], 1e-12) is None
+
+
+def test_lay_patch_without_open3d_is_the_same(monkeypatch):
+    """The add-on's lay_patch (no open3d inside Blender) solves on the same simplified copy as with
+    open3d and lays the same taxels; it used to solve the full mesh there (16 s at 100k faces)."""
     import sys
 
+    from vtcore.layout import cadmeshes
     from vtcore.scene import interactive
 
+    cylinder = cadmeshes.full_cylinder(0.02, 0.08, 0.001)
+    args = (cylinder.vertices, cylinder.faces, (0.02, 0, 0.04))
+    with_o3d = quiet(interactive.lay_patch, *args, patch="hexagon", max_faces=2000)
     monkeypatch.setitem(sys.modules, "open3d", None)
-    monkeypatch.setattr(interactive, "_has_open3d", lambda: False)
-    sphere = trimesh.creation.icosphere(3, radius=0.04)
-    e = quiet(interactive.lay_patch, sphere.vertices, sphere.faces, (0, 0, 0.04), patch="triangle")
-    assert any("open3d not installed" in n for n in e.report["notes"])
+    without = quiet(interactive.lay_patch, *args, patch="hexagon", max_faces=2000)
+    for e in (with_o3d, without):
+        assert any("simplified by vertex clustering" in n for n in e.report["notes"])
+    assert np.abs(without.layout.positions - with_o3d.layout.positions).max() < 1e-6
 
 
 def _grid(n=50, size=0.1):

@@ -12,7 +12,8 @@ import numpy as np
 from ..errors import InputError
 from ..geometry import barycentric, closest_point_on_triangles, cross2
 from .locate import TriangleGrid
-from .repair import decimate, refine, split_bowties, split_nonmanifold
+from .repair import refine, split_bowties, split_nonmanifold
+from .simplify import decimate
 from .surface import at_notes, closest_points, frame_at, snap, surface_normals
 
 class PreparedSurface:

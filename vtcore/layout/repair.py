@@ -1,5 +1,6 @@
 """Mesh repair before the solvers: merge, drop degenerate and duplicate faces, split
-non-manifold edges and bowtie vertices, subdivide coarse CAD faces, simplify big meshes.
+non-manifold edges and bowtie vertices, subdivide coarse CAD faces (simplifying big meshes
+is :mod:`.simplify`).
 
 Every function returns what it did so that the placement report can say it (repairs are
 never silent). mesh : trimesh.Trimesh, metres.
@@ -451,77 +452,6 @@ def delaunay_flips(v: np.ndarray, f: np.ndarray, max_dihedral: float = 1.0, roun
         f[fa[win]] = np.column_stack([p[win], i[win], q[win]])
         f[fb[win]] = np.column_stack([q[win], j[win], p[win]])
     return f
-
-
-def decimate(mesh, max_faces: int):
-    """A coarser copy with about ``max_faces`` faces for the log-map solve, or ``mesh`` itself.
-
-    Returns ``(mesh, note)``; ``note`` says which simplifier made the copy, or why none did.
-
-    Two simplifiers are tried: vertex clustering on a voxel grid (roughly isotropic triangles,
-    but it can tear or flip a closed surface) and quadric decimation (faithful on curved
-    surfaces, but it leaves needle faces along the straight lines of ruled surfaces such as
-    cylinders, where the heat method's log map breaks down). With open3d both are open3d's.
-    Without it (inside Blender open3d is not bundled) only quadric decimation is tried, by trimesh
-    when its optional fast-simplification back-end is installed; a numpy vertex clustering was
-    tried here and dropped: it passes the checks below on a cylinder yet strains 2.6 % where the
-    full mesh gives 0.05 %. The first copy that keeps the Euler
-    characteristic, has consistent winding and well-shaped faces (95% with aspect ratio below 4)
-    is used; otherwise the full (cropped) mesh is solved.
-    """
-    import trimesh
-
-    h = float(np.sqrt(2.0 * mesh.area / max(max_faces, 1)))
-    try:
-        import open3d as o3d
-    except ImportError:
-        o3d = None
-    if o3d is not None:
-        def to_o3d(m):
-            return o3d.geometry.TriangleMesh(o3d.utility.Vector3dVector(np.asarray(m.vertices, np.float64)),
-                                             o3d.utility.Vector3iVector(np.asarray(m.faces, np.int32)))
-
-        def o3d_out(d):
-            d.remove_degenerate_triangles()
-            d.remove_duplicated_triangles()
-            d.remove_duplicated_vertices()
-            d.remove_unreferenced_vertices()
-            return trimesh.Trimesh(np.asarray(d.vertices), np.asarray(d.triangles), process=False, validate=False)
-
-        makers = [("open3d vertex clustering", lambda: o3d_out(to_o3d(mesh).simplify_vertex_clustering(
-                      voxel_size=h, contraction=o3d.geometry.SimplificationContraction.Average))),
-                  ("open3d quadric decimation", lambda: o3d_out(to_o3d(mesh).simplify_quadric_decimation(
-                      target_number_of_triangles=int(max_faces))))]
-        tried = "open3d"
-    else:
-        try:
-            import fast_simplification  # noqa: F401  (trimesh's quadric back-end)
-
-            makers = [("quadric decimation (trimesh + fast-simplification; open3d not installed)",
-                       lambda: mesh.simplify_quadric_decimation(face_count=int(max_faces)))]
-            tried = "open3d not installed; fast-simplification tried"
-        except ImportError:
-            makers = []
-            tried = "neither open3d nor fast-simplification is installed"
-    chi = euler_characteristic(mesh)
-    for name, make in makers:
-        out = make()
-        if len(out.faces) < 100:
-            continue
-        out, _ = clean_mesh(out)
-        out, _ = split_nonmanifold(out)
-        out, _ = split_bowties(out)
-        if euler_characteristic(out) == chi and out.is_winding_consistent and np.percentile(aspect(out), 95) < 4.0:
-            return out, f"log map solved on a copy simplified by {name} to {len(out.faces)} faces"
-    return mesh, (f"no faithful simplified copy with ~{max_faces} faces ({tried}); "
-                  f"log map solved on the full cropped mesh ({len(mesh.faces)} faces)")
-
-
-def aspect(mesh) -> np.ndarray:
-    """Longest edge squared over the area of an equilateral triangle's (1 for equilateral)."""
-    t = np.asarray(mesh.triangles)
-    longest = np.linalg.norm(t - np.roll(t, 1, axis=1), axis=2).max(axis=1)
-    return longest ** 2 * np.sqrt(3) / 4 / np.maximum(mesh.area_faces, 1e-300)
 
 
 def euler_characteristic(mesh) -> int:

@@ -216,12 +216,6 @@ def lay_patch(vertices, triangles, at, *, existing: Layout | None = None, patch:
 
     mesh = _trimesh(vertices, triangles)
     at = np.asarray(at, dtype=np.float64).reshape(3)
-    full_note = None
-    if max_faces is not None and not _has_open3d():
-        # vtcore.layout simplifies big meshes best with open3d, which the Blender extension does not
-        # bundle (hundreds of MB): solve on the full mesh instead (slower, as accurate or more).
-        max_faces = None
-        full_note = "open3d not installed: log map solved on the full mesh (solve faces ignored)"
     if fill_region is not None:
         region = np.asarray(fill_region, dtype=bool).reshape(-1)
         if len(region) != len(mesh.faces) or not region.any():
@@ -236,8 +230,6 @@ def lay_patch(vertices, triangles, at, *, existing: Layout | None = None, patch:
     if len(new) == 0:
         raise InputError("no module fits there", key="at")
     report = rep.as_dict()
-    if full_note:
-        report["notes"].append(full_note)
     if existing is not None and len(existing) and report["existing_overlap_pairs"]:
         # name the new modules by their ids in the merged skin (merge renumbers them)
         ids = np.unique(new.module_ids)
@@ -245,12 +237,6 @@ def lay_patch(vertices, triangles, at, *, existing: Layout | None = None, patch:
         report["existing_overlap_pairs"] = [[a, first + int(np.searchsorted(ids, b))]
                                             for a, b in report["existing_overlap_pairs"]]
     return _edit(merge(existing, new), report)
-
-
-def _has_open3d() -> bool:
-    import importlib.util
-
-    return importlib.util.find_spec("open3d") is not None
 
 
 def remove_modules(layout: Layout, modules) -> LayoutEdit:
