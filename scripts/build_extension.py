@@ -54,9 +54,9 @@ DIST = ROOT / "dist"
 BUNDLE = {
     "scipy": "vtcore.layout (sparse skin mesh, Delaunay), vtcore.contact (solvers), filters",
     "tqdm": "vtcore._progress (scene runs)",
+    "threadpoolctl": "vtcore.scene.runner: one BLAS thread per scene run (the same bytes on any machine)",
     "potpourri3d": "vtcore.layout log-map placement (heat-method log map): Lay Patch, Fill, Move",
     "trimesh": "vtcore.contact objects and proximity, vtcore.layout placement on meshes",
-    "rtree": "trimesh's closest-point queries (vtcore.layout placement without open3d)",
     # Only two operators need it: Run Scene ([output] plots = true) and Augment Point Cloud.
     "matplotlib": "Run Scene: PNG plots (vtcore.plots); Augment Point Cloud: vtcore.augment.colour_map's colormap",
     "contourpy": "dependency of matplotlib",
