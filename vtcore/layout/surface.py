@@ -78,7 +78,7 @@ def nearest_faces(mesh, points: np.ndarray, max_pairs: int = 2_000_000) -> np.nd
     index = recall(mesh, "face_balls")
     if index is None:
         index = remember(mesh, "face_balls", _face_balls(V, F))
-    centres, everyone, classes = index
+    everyone, classes = index
     _, near = everyone.query(points)
     bound = np.linalg.norm(closest_point_on_triangles(V[F[near]], points) - points, axis=1)
     out = np.asarray(near, np.int64).copy()
@@ -107,7 +107,7 @@ def nearest_faces(mesh, points: np.ndarray, max_pairs: int = 2_000_000) -> np.nd
 
 
 def _face_balls(V: np.ndarray, F: np.ndarray):
-    """The search structure of :func:`nearest_faces`: face centres (F, 3), their k-d tree, and per
+    """The search structure of :func:`nearest_faces`: the k-d tree of the face centres, and per
     size class (radius within a factor 4) the member faces, their centres' tree, the largest radius."""
     from scipy.spatial import cKDTree
 
@@ -120,7 +120,7 @@ def _face_balls(V: np.ndarray, F: np.ndarray):
     for k in np.unique(cls):
         members = np.flatnonzero(cls == k)
         classes.append((members, cKDTree(c[members]), float(rad[members].max())))
-    return c, cKDTree(c), classes
+    return cKDTree(c), classes
 
 
 def face_longest_edges(mesh) -> np.ndarray:
