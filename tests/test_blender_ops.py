@@ -60,15 +60,15 @@ def skinned():
 def test_lay_patch_matches_vtcore(skinned):
     from vtcore.scene import interactive
 
-    from addon import ops
+    from addon import opbase
 
     ee, _, centre, ob = skinned
     verts, tri = skin_frame_input(ee, ob)
     # The same data the operator passed (identical float round-off): a taxel next to a
     # crease of the mesh may otherwise take the normal of the other face.
-    frame = ops._frame(ee)
+    frame = opbase.skin_frame(ee)
     np.testing.assert_allclose(frame, M(ob), atol=1e-6)
-    v2, t2 = ops._ee_input(ee, frame)
+    v2, t2 = opbase.mesh_in_frame(ee, frame)
     np.testing.assert_allclose(v2, verts, atol=1e-9)
     np.testing.assert_array_equal(t2, tri)
     verts = v2

@@ -22,7 +22,7 @@ def _skin():
 
 
 def test_flat_survives_save_and_reload_and_the_unrolled_solve_runs(tmp_path):
-    from addon import bridge, ops, skin
+    from addon import bridge, opbase, skin
     from vtcore.scene import interactive
 
     ee, ind, centre = build_scene()
@@ -31,8 +31,8 @@ def test_flat_survives_save_and_reload_and_the_unrolled_solve_runs(tmp_path):
     assert bpy.ops.vtskin.lay_patch() == {"FINISHED"}
     ob = _skin()
     # what vtcore lays on the same input (see test_blender_ops.test_lay_patch_matches_vtcore)
-    frame = ops._frame(ee)
-    verts, tri = ops._ee_input(ee, frame)
+    frame = opbase.skin_frame(ee)
+    verts, tri = opbase.mesh_in_frame(ee, frame)
     inv = np.linalg.inv(frame)
     cursor = np.array(bpy.context.scene.cursor.location, dtype=np.float64)
     ref = interactive.lay_patch(verts, tri, inv[:3, :3] @ cursor + inv[:3, 3], direction=[1.0, 0, 0])

@@ -1,0 +1,139 @@
+"""Contact for a front end: press an indenter on the skin for one frame or a trajectory."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ...contact.objects import SIZE_RANGE_M
+from ...errors import InputError
+from ...layout import Layout
+from .common import as_trimesh
+
+
+@dataclass
+class Contact:
+    """One simulated contact as the add-on shows it.
+
+    pressure : (N,) Pa at the taxels. response : (N,) counts (gain, then 16-bit clip).
+    edge_response : (N,) Eq. 6 of seed 002 on the response. edge : (N,) bool.
+    force : N. indentation : m. contact_area : m^2.
+    """
+
+    pressure: np.ndarray
+    response: np.ndarray
+    edge_response: np.ndarray
+    edge: np.ndarray
+    force: float
+    indentation: float
+    contact_area: float
+
+
+def soft_layer(thickness: float, material: str = "ecoflex_00_20"):
+    """A :class:`vtcore.contact.SoftLayer`; a zero thickness is refused here (the
+    designer forgot to set the layer), although vtcore models a bare skin."""
+    from ...contact import SoftLayer
+
+    if not np.isfinite(thickness) or thickness <= 0:
+        raise InputError(f"must be > 0 m, got {thickness}", key="thickness")
+    return SoftLayer(thickness=float(thickness), material=material)
+
+
+def _response(pressure, counts_per_pa):
+    from ...contact import sensor
+
+    return sensor.saturate(sensor.gain(pressure, counts_per_pa))
+
+
+def _edges(layout, triangles, response, edge_fraction):
+    from ...filters import edge_filter, relative_threshold, threshold
+    from ...layout import mesh_from_triangles
+
+    tri = np.asarray(triangles, np.int64).reshape(-1, 3)
+    if len(tri) == 0:
+        z = np.zeros_like(response, dtype=np.float64)
+        return z, np.zeros(response.shape, bool)
+    mesh = mesh_from_triangles(layout.positions, layout.normals, tri)
+    er = edge_filter(mesh, response)
+    # A frame without contact has no edge: the floor keeps rounding residue out.
+    eps = relative_threshold(er, edge_fraction, floor=1e-9)
+    return er, threshold(er, eps)
+
+
+def simulate(layout: Layout, triangles, indenter_vertices, indenter_triangles, pose, *, thickness: float,
+             material: str = "ecoflex_00_20", force: float | None = 5.0, counts_per_pa: float = 0.1,
+             edge_fraction: float = 0.3, geometry: str = "plane") -> Contact:
+    """Press an indenter onto the skin at a target force and read taxels and edges.
+
+    layout : the skin (skin frame, metres); triangles : (F, 3) its skin mesh.
+    indenter_vertices (V, 3) metres and indenter_triangles (G, 3): the indenter
+    in its own frame; pose : (4, 4) its pose in the skin frame before pressing
+    (it moves towards the skin until ``force`` newtons; ``force=None`` uses the
+    pose as it is). thickness : m; material : a vtcore.contact.MATERIALS key.
+    counts_per_pa : sensor gain. edge_fraction : edge threshold as a fraction of
+    the frame's largest edge response (Eq. 7 with a relative epsilon). geometry : "plane"
+    or "unrolled" (solved on the layout's flat coordinates: curved patches; see
+    :func:`vtcore.contact.press`).
+    """
+    from ...contact import press
+
+    if len(layout) == 0:
+        raise InputError("the skin has no taxels", key="layout")
+    layer = soft_layer(thickness, material)
+    mesh = as_trimesh(indenter_vertices, indenter_triangles, SIZE_RANGE_M)
+    res = press(layout, mesh, np.asarray(pose, float), layer, force=force if force else None, geometry=geometry)
+    response = _response(res.pressure, counts_per_pa)
+    er, edge = _edges(layout, triangles, response, edge_fraction)
+    return Contact(res.pressure, response, er, edge, float(res.force), float(res.indentation),
+                   float(res.contact_area))
+
+
+def bake(layout: Layout, triangles, indenter_vertices, indenter_triangles, poses, *, thickness: float,
+         material: str = "ecoflex_00_20", forces=None, counts_per_pa: float = 0.1,
+         edge_fraction: float = 0.3, callback=None, geometry: str = "plane") -> dict:
+    """Simulate a trajectory: one press per pose, warm-started from the previous frame.
+
+    poses : (T, 4, 4) indenter poses in the skin frame. forces : None (each pose
+    as it is: the animation decides the indentation) or (T,) newtons (target
+    force per frame, 0 for no contact). callback(i, T) is called after each frame.
+    geometry : as for :func:`simulate`.
+    Returns ``pressure``, ``response``, ``edge_response`` (T, N) float, ``edge``
+    (T, N) bool and ``force`` (T,) newtons.
+    """
+    from ...contact import press
+    from ...errors import UnreachableTargetError
+
+    poses = np.asarray(poses, dtype=np.float64).reshape(-1, 4, 4)
+    t, n = len(poses), len(layout)
+    if n == 0:
+        raise InputError("the skin has no taxels", key="layout")
+    layer = soft_layer(thickness, material)
+    mesh = as_trimesh(indenter_vertices, indenter_triangles, SIZE_RANGE_M)
+    f = None if forces is None else np.broadcast_to(np.asarray(forces, float), (t,))
+    pressure = np.zeros((t, n))
+    force = np.zeros(t)
+    prev = None
+    for i in range(t):  # frames depend on each other through the warm start
+        target = None if f is None else float(f[i])
+        if target is not None and target <= 0:
+            prev = None  # no contact asked for this frame
+        else:
+            try:
+                res = press(layout, mesh, poses[i], layer, force=target, warm_start=prev, geometry=geometry)
+            except UnreachableTargetError as exc:
+                raise InputError(f"frame {i}: {exc}", key="force") from exc
+            pressure[i], force[i], prev = res.pressure, res.force, res
+        if callback is not None:
+            callback(i, t)
+    response = _response(pressure, counts_per_pa)
+    er, edge = _edges(layout, triangles, response, edge_fraction)
+    return {"pressure": pressure, "response": response, "edge_response": er, "edge": edge, "force": force}
+
+
+def edges(layout: Layout, triangles, response, edge_fraction: float = 0.3):
+    """Eq. 6 edge response and Eq. 7 edge flags of a (N,) or (T, N) response."""
+    return _edges(layout, triangles, np.asarray(response, dtype=np.float64), edge_fraction)
+
+
+# ---------------------------------------------------------------------------
