@@ -23,6 +23,7 @@ ALLOWED = {
     "augment": {"layout", "contact"},
     "categorize": {"layout", "contact"},
     "can": {"layout", "contact", "filters"},
+    "calibrate": {"layout", "contact", "can", "filters"},
     "control": {"layout", "contact", "filters", "augment", "categorize"},
     "learn": {"layout", "contact", "augment"},
     "scene": set(PACKAGES) - {"cli", "scene", "sweep"},

@@ -24,6 +24,10 @@ DEFAULTS: dict[str, dict] = {
     "cylinder": {"radius": 0.02, "height": 0.05, "sections": 96},
     "ruler": {"length": 0.30, "width": 0.03, "thickness": 0.004},
     "mug": {"radius": 0.04, "wall": 0.004, "height": 0.10, "bottom": 0.006, "sections": 128},
+    # a finger pad lying on the skin: a capsule 16 mm wide (an adult index fingertip is ~15-20 mm wide)
+    # and 40 mm from tip to tip (the pad and part of the middle phalanx, as the footprints of real
+    # one-finger presses on a CySkin patch show: ~4x longer than wide, shared/data/cyskin_gesture)
+    "fingerpad": {"radius": 0.008, "length": 0.04, "sections": 64},
 }
 
 
@@ -63,13 +67,31 @@ def _halfcylinder(radius, length, sections):
     return trimesh.Trimesh(v, np.vstack([cap0, cap1, side]), process=True)
 
 
+def fingerpad(radius: float, length: float, sections: int = 64):
+    """A finger pad: a capsule of ``radius`` (m), ``length`` (m, tip to tip, >= 2 radius) lying along
+    x on z = 0, centred on the z axis. ``sections`` points around its axis (and half as many
+    latitude steps per cap): 64 keeps the facets' sag below 0.02 mm at r = 8 mm."""
+    import trimesh
+
+    if length < 2 * radius:
+        raise InputError(f"fingerpad: length ({length} m, tip to tip) must be at least twice the radius "
+                         f"({2 * radius} m)", key="length")
+    m = trimesh.creation.capsule(height=length - 2 * radius, radius=radius,
+                                 count=[int(sections), max(int(sections) // 2, 4)])
+    # trimesh's capsule runs along z, centred at the origin: lay it along x, resting on z = 0
+    m.apply_transform(np.array([[0, 0, 1, 0], [0, 1, 0, 0], [-1, 0, 0, 0], [0, 0, 0, 1.0]]))
+    m.apply_translation((0, 0, radius))
+    return m
+
+
 def make_object(kind: str, **dims) -> "trimesh.Trimesh":
     """A closed, outward-oriented triangle mesh of an object, in metres.
 
     kind : "cube" (side), "cuboid" (side, length), "box" (extents (3,)),
         "sphere" (radius, subdivisions), "halfcylinder" (radius, length, sections),
         "cylinder" (radius, height, sections), "ruler" (length, width, thickness),
-        "mug" (radius, wall, height, bottom, sections).
+        "mug" (radius, wall, height, bottom, sections), "fingerpad" (radius, length from tip to
+        tip >= 2 radius, sections: a capsule lying along x, the standard finger probe).
     dims : overrides of :data:`DEFAULTS` [kind].
 
     The object rests on z = 0 with the face to press pointing up (+z).
@@ -107,6 +129,8 @@ def make_object(kind: str, **dims) -> "trimesh.Trimesh":
     elif kind == "ruler":
         mesh = trimesh.creation.box(extents=(d["length"], d["width"], d["thickness"]))
         mesh.apply_translation((0, 0, d["thickness"] / 2))
+    elif kind == "fingerpad":
+        mesh = fingerpad(d["radius"], d["length"], d["sections"])
     elif kind == "mug":
         r, w = d["radius"], d["wall"]
         if w >= r:

@@ -1,7 +1,7 @@
 """``[[objects]]``: what touches the skin.
 
 One table per object: ``kind`` (cube, cuboid, box, sphere,
-halfcylinder, cylinder, ruler, mug, or ``mesh`` with ``mesh = "file.stl"`` and
+halfcylinder, cylinder, ruler, mug, fingerpad (a capsule: radius, length tip to tip), or ``mesh`` with ``mesh = "file.stl"`` and
 ``scale``), its dimensions (metres; defaults are seed 001's objects), where it is
 (``position`` [x, y] on the skin, ``yaw`` rad, ``gap`` m above the layer, ``flip``),
 optional trajectory ``keyframes`` ([{t, offset = [dx, dy, dz], yaw}]) and its

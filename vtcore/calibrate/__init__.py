@@ -1,0 +1,1 @@
+"""Calibrating and validating the sensor model against real recordings (issue 27)."""
