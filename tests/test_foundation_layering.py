@@ -26,6 +26,7 @@ ALLOWED = {
     "calibrate": {"layout", "contact", "can", "filters"},
     "control": {"layout", "contact", "filters", "augment", "categorize"},
     "learn": {"layout", "contact", "augment"},
+    "evaluate": {"layout", "contact", "filters"},
     "scene": set(PACKAGES) - {"cli", "scene", "sweep"},
     "sweep": set(PACKAGES) - {"cli", "sweep"},
     "cli": set(PACKAGES) - {"cli"},

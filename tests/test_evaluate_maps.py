@@ -1,0 +1,160 @@
+"""Design maps (issue 29): the hard cases, and the linear shortcut against press-by-press solves."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from vtcore.contact import SoftLayer
+from vtcore.evaluate import Settings, evaluate, evaluate_points, reference_points, sensor_noise
+from vtcore.layout import Layout, PITCH, make_patch
+
+LAYER = SoftLayer(thickness=0.003)
+UP = np.array([0.0, 0.0, 1.0])
+
+
+@pytest.fixture(scope="module")
+def hexagon():
+    return make_patch("hexagon", "cyskin10", center=True).flat_layout()
+
+
+def between_three(layout):
+    """The centre of a lattice triangle of three taxels round the hexagon's centre taxel."""
+    c = layout.positions[np.argmin(np.linalg.norm(layout.positions, axis=1))]
+    d = np.linalg.norm(layout.positions - c, axis=1)
+    nb = layout.positions[np.argsort(d)[1:7]]
+    ang = np.arctan2(nb[:, 1] - c[1], nb[:, 0] - c[0])
+    a, b = nb[np.argsort(ang)[:2]]
+    return c, (c + a + b) / 3, (a, b)
+
+
+def test_probe_on_a_taxel_and_between_three(hexagon):
+    on, tri, (a, b) = between_three(hexagon)
+    assert np.allclose(np.linalg.norm(tri - a), PITCH / np.sqrt(3), rtol=1e-6)
+    pts = np.array([on, tri])
+    pm = evaluate_points(hexagon, pts, np.tile(UP, (2, 1)), LAYER, Settings(reference_force=2.0, two_point=False))
+    thr = pm.detection.threshold
+    assert pm.detection.detectable.all()
+    # between three taxels the probe is 4.3 mm from each: a harder touch is needed than on one
+    assert thr[1] > 2.5 * thr[0]
+    # by symmetry the centroid of the mean readings is the probe itself on a taxel and between three
+    assert pm.localisation.error_noise_free[0] < 1e-9
+    assert pm.localisation.error_noise_free[1] < 2e-4
+    # with noise the expected error is larger between three (fewer, weaker taxels)
+    assert 0 <= pm.localisation.error[0] < pm.localisation.error[1] < PITCH
+    # press by press, the same numbers (stated tolerance: threshold 5 %, localisation 5 % + 0.05 mm)
+    ref = reference_points(hexagon, pts, np.tile(UP, (2, 1)), LAYER, pm.settings, pm.noise,
+                           threshold_points=[0, 1])
+    np.testing.assert_allclose(thr, ref.threshold, rtol=0.05)
+    np.testing.assert_allclose(pm.localisation.error, ref.localisation.error, rtol=0.05, atol=5e-5)
+
+
+def test_point_outside_every_module_is_a_blind_spot(hexagon):
+    import trimesh
+
+    plate = trimesh.creation.box(extents=(0.2, 0.2, 0.01))
+    plate.apply_translation((0.05, 0, -0.005))
+    dm = evaluate(hexagon, plate.subdivide_to_size(0.004), LAYER, Settings(two_point=False), spacing=0.002,
+                  margin=0.03)
+    s = dm.samples
+    far = s.distance > 0.025
+    assert far.any() and s.covered.any()
+    assert dm.blind[far].all()
+    assert not dm.detection.detectable[far].any()
+    assert np.all(dm.detection.threshold[far] == dm.detection.force_cap) and dm.detection.force_cap > 0
+    assert not dm.localisation.located[far].any()
+    assert np.all(dm.localisation.error[far] == dm.settings.error_cap)
+    # a point with no taxel within the table's reach at all: no crash, blind, not zero
+    pm = evaluate_points(hexagon, [[0.5, 0.5, 0.0]], [UP], LAYER)
+    assert pm.blind[0] and pm.detection.threshold[0] > 0 and pm.localisation.error[0] == pm.settings.error_cap
+    assert not pm.two_point.found[0]
+    summary = dm.summary()
+    assert summary["blind_area_margin_cm2"] > 0
+    assert all(np.isfinite(v) for v in summary.values())
+
+
+def ring_skin(radius=0.02, rows=5):
+    """Taxels on a cylinder (axis z) at an even angular pitch all the way round, alternate rows shifted
+    by half a step: a skin wrapped round a link without a seam."""
+    n = int(round(2 * np.pi * radius / PITCH))
+    dz = PITCH * np.sqrt(3) / 2
+    th = np.concatenate([2 * np.pi * (np.arange(n) + 0.5 * (r % 2)) / n for r in range(rows)])
+    z = np.repeat((np.arange(rows) - (rows - 1) / 2) * dz, n)
+    nrm = np.column_stack([np.cos(th), np.sin(th), np.zeros_like(th)])
+    return Layout(radius * nrm + z[:, None] * [0, 0, 1], nrm, np.arange(len(th)), np.arange(len(th)) // 10), n
+
+
+def test_wrapped_link_has_no_seam():
+    lay, n = ring_skin()
+    # the same lattice position once per period of the ring, across the angle where a chart would cut
+    th = -0.3 * 2 * np.pi / n + 2 * np.pi * np.arange(n) / n
+    nrm = np.column_stack([np.cos(th), np.sin(th), np.zeros(n)])
+    pts = 0.02 * nrm + [0, 0, 0.0021]
+    st = Settings(reference_force=1.0, probe_axis=(0, 0, 1), draws=8)
+    pm = evaluate_points(lay, pts, nrm, LAYER, st)
+    for v in (pm.detection.threshold, pm.localisation.error_noise_free, pm.two_point.distance):
+        assert np.ptp(v) <= 1e-6 * np.abs(v).max() + 1e-12, v
+    # and on the closed cylinder's mesh, the map of one row is the same all round (no seam band)
+    from vtcore.layout.cadmeshes import full_cylinder
+
+    dm = evaluate(lay, full_cylinder(0.02, 0.08, 0.0015), LAYER, Settings(two_point=False, probe_axis=(0, 0, 1)),
+                  spacing=0.0015, margin=0.0)
+    s = dm.samples
+    band = np.abs(s.positions[:, 2]) < 0.004
+    ang = np.arctan2(s.positions[band, 1], s.positions[band, 0])
+    near_seam = np.abs(np.angle(np.exp(1j * (ang - np.pi)))) < 0.4   # where atan2 jumps
+    thr = dm.detection.threshold[band]
+    assert np.median(thr[near_seam]) == pytest.approx(np.median(thr[~near_seam]), rel=0.15)
+
+
+def test_dead_taxel_shows_as_a_hole(hexagon):
+    dead_i = 20
+    x = hexagon.positions[dead_i]
+    st = Settings(reference_force=1.0, two_point=False)
+    ok = evaluate_points(hexagon, [x], [UP], LAYER, st)
+    hole = evaluate_points(hexagon, [x], [UP], LAYER, Settings(reference_force=1.0, two_point=False,
+                                                              dead=(int(hexagon.taxel_ids[dead_i]),)))
+    assert hole.taxels_live == len(hexagon) - 1
+    assert hole.detection.threshold[0] > 2.5 * ok.detection.threshold[0]
+    assert hole.localisation.error[0] > ok.localisation.error[0]
+    with pytest.raises(ValueError, match="dead"):
+        Settings(dead=(99999,)) and evaluate_points(hexagon, [x], [UP], LAYER, Settings(dead=(99999,)))
+
+
+def test_thick_layer_detects_nothing_clearly(hexagon):
+    thick = SoftLayer(thickness=0.012)
+    st = Settings(reference_force=0.05, force_max=0.2, draws=8)
+    pts = hexagon.positions[:5]
+    pm = evaluate_points(hexagon, pts, np.tile(UP, (5, 1)), thick, st)
+    assert not pm.localisation.located.any() and np.all(pm.localisation.detect_rate == 0)
+    assert np.all(pm.localisation.error == st.error_cap)
+    assert not pm.detection.detectable.any() and np.all(pm.detection.threshold == pm.detection.force_cap)
+    assert pm.blind.all() and not pm.two_point.found.any()
+    for arr in (pm.detection.threshold, pm.localisation.error, pm.two_point.distance):
+        assert np.all(np.isfinite(arr))
+
+
+def test_same_seed_same_map(hexagon):
+    pts = hexagon.positions[:6] + [0.001, 0.002, 0]
+    a = evaluate_points(hexagon, pts, np.tile(UP, (6, 1)), LAYER, Settings(two_point=False, seed=3))
+    b = evaluate_points(hexagon, pts, np.tile(UP, (6, 1)), LAYER, Settings(two_point=False, seed=3))
+    np.testing.assert_array_equal(a.localisation.error, b.localisation.error)
+
+
+@pytest.mark.slow
+def test_shortcut_matches_press_by_press_on_the_hexagon(hexagon):
+    """The map against full press-by-press solves at a dozen random points of the flat hexagon
+    (the benchmark does a few dozen): localisation 5 % + 0.05 mm, threshold 5 %, two-point within
+    one separation step."""
+    rng = np.random.default_rng(7)
+    m = 12
+    pts = np.column_stack([rng.uniform(-0.02, 0.02, m), rng.uniform(-0.02, 0.02, m), np.zeros(m)])
+    nrm = np.tile(UP, (m, 1))
+    st = Settings(reference_force=2.0, draws=32, two_point_directions=2)
+    noise = sensor_noise()
+    pm = evaluate_points(hexagon, pts, nrm, LAYER, st, noise)
+    ref = reference_points(hexagon, pts, nrm, LAYER, st, noise, threshold_points=range(4),
+                           two_point_points=range(3), two_point_directions=(0.0, np.pi / 2))
+    np.testing.assert_allclose(pm.localisation.error, ref.localisation.error, rtol=0.05, atol=5e-5)
+    np.testing.assert_allclose(pm.detection.threshold[:4], ref.threshold[:4], rtol=0.05)
+    assert np.all(np.abs(pm.two_point.distance[:3] - ref.two_point[:3]) <= st.two_point_step + 1e-9)

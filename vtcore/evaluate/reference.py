@@ -1,0 +1,143 @@
+"""The maps press by press: the slow, direct answer the linear shortcut is checked against.
+
+Every value here comes from full contact solves (:func:`vtcore.contact.press`) of the probe on the
+real layout at the point itself, read through the same estimator, noise draws and blob criterion as
+the maps, so the difference is the shortcut's alone (translation invariance of the table, the
+tangent-plane offsets, superposition of two probes). Slow: one solve per point and force.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import UnreachableTargetError
+from .design import Settings, live_taxels
+from .maps import Localisation, frames, localise, neighbours
+from .noise import SensorNoise
+from .two_point import BLOB_FRACTION, count_blobs
+
+
+def probe_pose(mesh, point, normal, e1, e2, thickness: float, gap: float = 1e-4) -> np.ndarray:
+    """(4, 4) pose of a probe mesh (resting on z = 0, pressed face up) turned over above ``point`` on the
+    layer's outer surface (``thickness`` out along ``normal``), its x axis along ``e1``, ``gap`` m clear."""
+    r = np.column_stack([e1, e2, normal]) @ np.diag([1.0, -1.0, -1.0])
+    v = np.asarray(mesh.vertices, float) @ r.T
+    low = float((v @ normal).min())
+    pose = np.eye(4)
+    pose[:3, :3] = r
+    pose[:3, 3] = np.asarray(point, float) + (thickness + gap - low) * np.asarray(normal, float)
+    return pose
+
+
+def two_probes(mesh, separation: float, angle: float):
+    """One mesh of two copies of ``mesh`` at ``-+ separation / 2`` along ``angle`` (radians from the object's
+    x towards minus y, which :func:`probe_pose` turns into ``cos a e1 + sin a e2``)."""
+    import trimesh
+
+    d = 0.5 * separation * np.array([np.cos(angle), -np.sin(angle), 0.0])
+    a, b = mesh.copy(), mesh.copy()
+    a.apply_translation(-d)
+    b.apply_translation(d)
+    return trimesh.util.concatenate([a, b])
+
+
+@dataclass
+class Reference:
+    """Press-by-press values at M points: threshold (M,) N (nan where not computed), localisation,
+    readings (M, K) counts at the reference force, two_point (M,) m (nan where not computed), presses."""
+
+    threshold: np.ndarray
+    localisation: Localisation
+    two_point: np.ndarray
+    presses: int
+
+
+def _press_kw(settings: Settings, grid_spacing: float, margin: float):
+    from ..contact import ContactGrid
+
+    return {"model": settings.model, "spreading": settings.spreading, "samples_per_taxel": 19,
+            "grid": ContactGrid(spacing=grid_spacing, margin=margin)}
+
+
+def reference_points(layout, points, normals, layer, settings: Settings, noise: SensorNoise, *,
+                     threshold_points=(), two_point_points=(), two_point_directions=(0.0,),
+                     grid_spacing: float = 5e-4, margin: float = 0.02, rel_tol: float = 0.01) -> Reference:
+    """Press-by-press maps at ``points (M, 3)`` / ``normals (M, 3)``: localisation at every point, the
+    detection threshold at ``threshold_points`` (indices; bisection on the force to ``rel_tol``), the
+    two-point distance at ``two_point_points`` along ``two_point_directions`` (radians, worst taken)."""
+    from ..contact import press
+    from ..layout import skin_mesh
+
+    points = np.asarray(points, float).reshape(-1, 3)
+    normals = np.asarray(normals, float).reshape(-1, 3)
+    normals = normals / np.linalg.norm(normals, axis=1, keepdims=True)
+    alive = live_taxels(layout, settings.dead)
+    live = layout.subset(alive)
+    mesh = settings.probe.mesh()
+    kw = _press_kw(settings, grid_spacing, margin)
+    e1s, e2s = frames(normals, settings.probe.yaw, settings.probe_axis)
+    from .design import table_for
+
+    reach = table_for(settings, layer).reach
+    nb = neighbours(live.positions, live.normals, points, normals, reach, settings.probe.yaw,
+                    axis=settings.probe_axis)
+    presses = 0
+
+    def read(i, force, m=mesh):
+        nonlocal presses
+        presses += 1
+        pose = probe_pose(m, points[i], normals[i], e1s[i], e2s[i], layer.thickness)
+        res = press(live, m, pose, layer, force=force, direction=-normals[i], **kw)
+        return res.pressure  # (N_live,) Pa
+
+    mean = np.zeros(nb.index.shape)
+    for i in range(len(points)):
+        p = read(i, settings.reference_force)
+        ok = nb.index[i] >= 0
+        mean[i, ok] = noise.counts_per_pa * p[nb.index[i, ok]]
+    loc = localise(mean, nb, noise, draws=settings.draws, seed=settings.seed, error_cap=settings.error_cap)
+
+    thr = np.full(len(points), np.nan)
+    need = noise.threshold_pa
+    for i in threshold_points:
+        lo, hi = 1e-3, settings.force_max
+        try:
+            if read(i, hi).max() < need:
+                thr[i] = np.inf
+                continue
+        except UnreachableTargetError:
+            hi = settings.force_max / 2
+        while hi / lo > 1 + rel_tol:
+            mid = np.sqrt(lo * hi)
+            try:
+                ok = read(i, mid).max() >= need
+            except UnreachableTargetError:
+                ok = True
+            lo, hi = (lo, mid) if ok else (mid, hi)
+        thr[i] = np.sqrt(lo * hi)
+
+    tp = np.full(len(points), np.nan)
+    if len(two_point_points):
+        adj = skin_mesh(live).adjacency
+        seps = np.arange(settings.two_point_step, settings.max_separation + settings.two_point_step / 2,
+                         settings.two_point_step)
+        for i in two_point_points:
+            worst = 0.0
+            for a in two_point_directions:
+                found = settings.max_separation
+                for s in seps:
+                    pair = two_probes(mesh, s, a)
+                    presses += 1
+                    pose = probe_pose(pair, points[i], normals[i], e1s[i], e2s[i], layer.thickness)
+                    p = press(live, pair, pose, layer, force=2 * settings.reference_force, direction=-normals[i],
+                              **kw).pressure
+                    level = max(need, BLOB_FRACTION * p.max())
+                    n = count_blobs((p > level)[None], np.arange(len(p))[None], adj)[0]
+                    if n >= 2:
+                        found = s
+                        break
+                worst = max(worst, found)
+            tp[i] = worst
+    return Reference(thr, loc, tp, presses)
