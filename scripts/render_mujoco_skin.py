@@ -90,7 +90,7 @@ def urdf_picture(lay) -> None:
     with tempfile.TemporaryDirectory() as tmp:
         save(lay, Path(tmp) / "skin.urdf", "urdf", parent="l_forearm")
         robot = yourdfpy.URDF.load(str(Path(tmp) / "skin.urdf"), load_meshes=False)
-        frames = np.array([robot.get_transform(n, "l_forearm") for n in robot.link_map if "_skin_" in n])
+        frames = np.array([robot.get_transform(n, "l_forearm") for n in robot.link_map if "_vtskin_" in n])
     fig = plt.figure(figsize=(6.5, 5))
     ax = fig.add_subplot(projection="3d")
     th = np.linspace(-0.9, 0.9, 40)
@@ -105,7 +105,7 @@ def urdf_picture(lay) -> None:
     ax.set_zlabel("z (mm)")
     ax.set_box_aspect((80, 72, 20))
     ax.view_init(38, -60)
-    ax.set_title(f"{len(frames)} links l_forearm_skin_<id> read by yourdfpy\n(x red, y green, z blue = normal)",
+    ax.set_title(f"{len(frames)} links l_forearm_vtskin_<id> read by yourdfpy\n(x red, y green, z blue = normal)",
                  fontsize=10)
     out = ROOT / "docs" / "img" / "urdf_frames.png"
     fig.savefig(out, dpi=110)

@@ -89,7 +89,7 @@ def test_model_sites_exact_and_frame_applied(tmp_path, forearm_skin):
     d = mujoco.MjData(m)
     mujoco.mj_forward(m, d)
     assert m.nsensor == len(patch)
-    ids = [m.site(f"forearm_skin_{i}").id for i in patch.taxel_ids]
+    ids = [m.site(f"forearm_vtskin_{i}").id for i in patch.taxel_ids]
     assert all(m.site_bodyid[i] == m.body("forearm").id for i in ids)  # in the link itself: it senses
     np.testing.assert_allclose(d.site_xpos[ids], on_link.positions + [0, 0, 0.5], atol=1e-8)
     z = d.site_xmat[ids].reshape(-1, 3, 3)[:, :, 2]
@@ -100,7 +100,7 @@ def test_model_sites_exact_and_frame_applied(tmp_path, forearm_skin):
     np.testing.assert_allclose(z[tilted], on_link.normals[tilted], atol=1e-9)
     np.testing.assert_allclose(z, on_link.normals, atol=2.1e-6)
     # taxel order: sensor k is taxel row k
-    assert [m.sensor(k).name for k in range(3)] == [f"forearm_skin_{i}_touch" for i in patch.taxel_ids[:3]]
+    assert [m.sensor(k).name for k in range(3)] == [f"forearm_vtskin_{i}_touch" for i in patch.taxel_ids[:3]]
     np.testing.assert_allclose(m.site_size[ids[0]][0], 2e-3)  # the CySkin 4 mm disc
     # the robot's own content is kept (comment, option, the ball)
     text = (tmp_path / "skinned.xml").read_text()
@@ -247,7 +247,7 @@ def test_model_errors(tmp_path, forearm_skin):
         save(patch, tmp_path / "o.xml", "mjcf", model=robot)
     assert not (tmp_path / "o.xml").exists()
     save(patch, tmp_path / "once.xml", "mjcf", model=robot, body="forearm")
-    with pytest.raises(InputError, match="already has elements named forearm_skin_"):
+    with pytest.raises(InputError, match="already has elements named forearm_vtskin_"):
         save(patch, tmp_path / "o.xml", "mjcf", model=tmp_path / "once.xml", body="forearm")
     assert not (tmp_path / "o.xml").exists()
 
@@ -273,14 +273,14 @@ def frames_of(urdf_path, parent):
     import yourdfpy
 
     robot = yourdfpy.URDF.load(str(urdf_path), load_meshes=False, build_scene_graph=True)
-    return robot, {name: robot.get_transform(name, parent) for name in robot.link_map if "_skin_" in name}
+    return robot, {name: robot.get_transform(name, parent) for name in robot.link_map if "_vtskin_" in name}
 
 
 def check_frames(frames, parent, on_parent):
     """Every taxel frame: origin at the taxel, z along its normal (in the parent link)."""
     assert len(frames) == len(on_parent)
     for k, i in enumerate(on_parent.taxel_ids):
-        f = frames[f"{parent}_skin_{i}"]
+        f = frames[f"{parent}_vtskin_{i}"]
         np.testing.assert_allclose(f[:3, 3], on_parent.positions[k], atol=1e-10)
         np.testing.assert_allclose(f[:3, 2], on_parent.normals[k], atol=1e-10)
         np.testing.assert_allclose(f[:3, :3] @ f[:3, :3].T, np.eye(3), atol=1e-10)
@@ -334,7 +334,7 @@ def test_cli_export_mjcf_and_urdf(tmp_path, forearm_skin, capsys):
     robot = robot_xml(tmp_path / "robot.xml", CYLINDER, SLIDE)
     assert main(["layout", "export", str(tmp_path / "p.json"), "--format", "mjcf", "--model", str(robot),
                  "--body", "forearm", "--footprint", "tile", "--out", str(tmp_path / "s.xml")]) == 0
-    assert "forearm_skin_" in (tmp_path / "s.xml").read_text()
+    assert "forearm_vtskin_" in (tmp_path / "s.xml").read_text()
     assert main(["layout", "export", str(tmp_path / "p.json"), "--format", "urdf", "--parent", "l_forearm",
                  "--out", str(tmp_path / "s.urdf")]) == 0
     assert main(["layout", "export", str(tmp_path / "p.json"), "--format", "csv", "--body", "x",

@@ -198,7 +198,7 @@ def test_cyskin_variants(tmp_path, variant, bare):
     if variant != "C":
         np.testing.assert_allclose(b.positions, lay.positions)
         np.testing.assert_allclose(b.transform, tf)  # column-major in the file
-        assert b.frame == "wrist"
+        assert b.parent == "wrist" and b.frame == "wrist_patch"
         assert b.meta["faces"][0] == [0, 1, 4]
     if variant != "A":
         np.testing.assert_allclose(b.flat, lay.flat)
@@ -229,7 +229,7 @@ def test_cyskin_import_export_import_unchanged(tmp_path, curved):
     same(a, b)
     np.testing.assert_allclose(a.transform, b.transform)
     np.testing.assert_allclose(a.flat, b.flat)
-    assert a.frame == b.frame == "wrist"
+    assert a.parent == b.parent == "wrist" and a.frame == b.frame == "wrist_patch"
     assert a.meta["faces"] == b.meta["faces"] == doc["skin"]["faces"]  # the maker's faces survive
 
 

@@ -5,7 +5,8 @@
 - ``vtcore layout import FILE [--format icub|cyskin|csv|json|ply] --out LAYOUT``
 - ``vtcore layout export LAYOUT --format icub|cyskin|csv|json|ply|mjcf|urdf --out FILE [--transform FILE_OR_16_NUMBERS]``
   MJCF: ``[--model ROBOT.xml --body BODY] [--footprint taxel|tile] [--pad|--no-pad] [--site-radius M]``;
-  URDF: ``--parent LINK [--model ROBOT.urdf]``; iCub, CySkin: ``[--estimate-normals]``; PLY: ``[--mesh]``.
+  URDF: ``--parent LINK [--model ROBOT.urdf]``; both: ``[--prefix NAME_]``; iCub, CySkin: ``[--estimate-normals]``; PLY: ``[--mesh]``.
+- ``vtcore layout reframe LAYOUT (--pose FILE_OR_16_NUMBERS [--parent NAME] | --into-parent) [--frame NAME] --out LAYOUT``
 - ``vtcore layout info LAYOUT [--json]``
 
 Layouts are written in the format their ``--out`` name says (``.json`` is our own JSON).
@@ -125,11 +126,11 @@ def cmd_import(args) -> int:
     return 0
 
 
-def _read_transform(value: list[str]) -> np.ndarray:
+def _read_transform(value: list[str], key: str = "--transform") -> np.ndarray:
     if len(value) == 1:
         p = Path(value[0])
         if not p.is_file():
-            raise InputError("transform file not found (give a file or 16 numbers)", file=p, key="--transform")
+            raise InputError("transform file not found (give a file or 16 numbers)", file=p, key=key)
         text = p.read_text(encoding="utf-8")
         try:
             data = json.loads(text)
@@ -144,9 +145,9 @@ def _read_transform(value: list[str]) -> np.ndarray:
         try:
             nums = np.asarray(value, float)
         except ValueError:
-            raise InputError(f"--transform needs 16 numbers, got {' '.join(value)}", key="--transform") from None
+            raise InputError(f"{key} needs 16 numbers, got {' '.join(value)}", key=key) from None
     if nums.size != 16:
-        raise InputError(f"a transform has 16 numbers (row-major 4x4), got {nums.size}", key="--transform")
+        raise InputError(f"a transform has 16 numbers (row-major 4x4), got {nums.size}", key=key)
     return nums.reshape(4, 4)
 
 
@@ -158,10 +159,10 @@ def _export_options(args) -> dict:
         if getattr(args, k) is not None:
             to_float(getattr(args, k), lo=MJCF_SIZE_M[0], hi=MJCF_SIZE_M[1], key="--" + k.replace("_", "-"))
     given = {k: getattr(args, k) for k in ("model", "body", "parent", "footprint", "pad", "site_radius",
-                                           "pad_thickness") if getattr(args, k) is not None}
+                                           "pad_thickness", "prefix") if getattr(args, k) is not None}
     given.update({k: True for k in ("estimate_normals", "mesh") if getattr(args, k)})  # store_true flags
-    takes = {"mjcf": {"model", "body", "footprint", "pad", "site_radius", "pad_thickness"},
-             "urdf": {"model", "parent"}, "icub": {"estimate_normals"}, "cyskin": {"estimate_normals"},
+    takes = {"mjcf": {"model", "body", "footprint", "pad", "site_radius", "pad_thickness", "prefix"},
+             "urdf": {"model", "parent", "prefix"}, "icub": {"estimate_normals"}, "cyskin": {"estimate_normals"},
              "ply": {"mesh"}}.get(args.format, set())
     wrong = sorted(set(given) - takes)
     if wrong:
@@ -184,6 +185,32 @@ def cmd_export(args) -> int:
         save(layout, args.out, args.format, transform=transform, **options)
     _print_warnings(caught)
     print(f"{args.out}: {len(layout)} taxels as {args.format}")
+    return 0
+
+
+def cmd_reframe(args) -> int:
+    """Say where the layout's frame is (``--pose``) or re-express the taxels in its parent."""
+    from ..layout import load, save
+
+    if (args.pose is None) == (not args.into_parent):
+        raise InputError("give either --pose (where the layout's frame sits in its parent) or --into-parent "
+                         "(re-express the taxels in the parent)", key="--pose")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        layout = load(args.layout)
+    _print_warnings(caught)
+    if args.into_parent:
+        if args.parent is not None:
+            raise InputError("--parent goes with --pose; --into-parent uses the layout's own parent", key="--parent")
+        out = layout.in_parent()
+        what = f"re-expressed in {out.frame!r}"
+    else:
+        out = layout.posed(_read_transform(args.pose, "--pose"), args.parent)
+        what = f"frame {layout.frame!r} placed in {out.parent or 'its parent'!r}"
+    if args.frame:
+        out.frame = args.frame
+    save(out, args.out)
+    print(f"{args.out}: {len(out)} taxels, {what}")
     return 0
 
 
@@ -298,10 +325,16 @@ def register(sub) -> None:
     ex.add_argument("--format", required=True, choices=FORMATS)
     ex.add_argument("--out", required=True, metavar="FILE")
     ex.add_argument("--transform", nargs="+", metavar="FILE_OR_16_NUMBERS",
-                    help="4x4 rigid transform (row-major): a file or 16 numbers; taxels are written in that frame")
+                    help="4x4 rigid transform T (row-major; a file or 16 numbers): the pose of the layout's frame "
+                         "in the frame the file is written in (urdf, mjcf --model: in the link), taxels written "
+                         "as T p")
     ex.add_argument("--model", metavar="ROBOT", help="mjcf/urdf: the robot file to add the skin to")
-    ex.add_argument("--body", help="mjcf with --model: the robot body the skin's frame is expressed in")
-    ex.add_argument("--parent", help="urdf: the link the taxel links hang from (default: the layout's frame)")
+    ex.add_argument("--body", help="mjcf with --model: the robot body the skin is on (default: the layout's "
+                                   "parent, else its frame)")
+    ex.add_argument("--parent", help="urdf: the link the taxel links hang from (default: the layout's parent, "
+                                     "else its frame)")
+    ex.add_argument("--prefix", help="urdf, mjcf with --model: start of the taxel frame / site names "
+                                     "(default LINK_vtskin_)")
     ex.add_argument("--footprint", choices=("taxel", "tile"),
                     help="mjcf: sites of the taxel's size (default) or pads and sites tiling the skin")
     ex.add_argument("--pad", action=argparse.BooleanOptionalAction, default=None,
@@ -314,6 +347,19 @@ def register(sub) -> None:
                     help="ply: a standard 'face' element for mesh viewers (default: 'skin_face', so point-cloud "
                          "loaders keep one vertex per taxel)")
     ex.set_defaults(func=cmd_export)
+
+    rf = lsub.add_parser("reframe", help="place the layout's frame in its parent (--pose) or re-express the "
+                                         "taxels in that parent (--into-parent)")
+    rf.add_argument("layout", metavar="LAYOUT")
+    rf.add_argument("--pose", nargs="+", metavar="FILE_OR_16_NUMBERS",
+                    help="4x4 rigid transform (row-major): the pose of the layout's frame in its parent "
+                         "(p_parent = R p + t); the positions stay as they are")
+    rf.add_argument("--parent", help="with --pose: the parent frame's name (e.g. the robot link)")
+    rf.add_argument("--into-parent", action="store_true",
+                    help="re-express the positions in the parent (R p + t); the transform becomes identity")
+    rf.add_argument("--frame", help="new name of the layout's frame")
+    rf.add_argument("--out", required=True, metavar="LAYOUT")
+    rf.set_defaults(func=cmd_reframe)
 
     inf = lsub.add_parser("info", help="counts, spacing, strain, overlaps, coverage, bounding box")
     inf.add_argument("layout", metavar="LAYOUT")

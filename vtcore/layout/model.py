@@ -20,8 +20,12 @@ class Layout:
     flat : (N, 2) float, metres, or None: coordinates in the flat (unrolled) patch
         domain when known, the natural domain for triangulation and tactile images.
     roles : (N,) str, "pressure" unless a module type says otherwise ("thermal").
-    frame : str, the name of the frame the positions are expressed in.
-    transform : (4, 4) float, pose of ``frame`` in its parent (identity by default).
+    frame : str, the name of the frame the positions are expressed in (a robot link, a patch
+        frame, or a mesh's own coordinates).
+    transform : (4, 4) float, the pose of ``frame`` in its parent: ``p_parent = R p + t``
+        (identity by default: the frame is its own parent, e.g. a skin born on a robot link).
+    parent : str or None: the name of the frame ``transform`` places ``frame`` in (a CySkin
+        ``parent_frames`` name, a robot link); None when unnamed or the same as ``frame``.
     meta : free-form provenance (source file, module type, patch, placement report).
     can_ids : (N,) int or None, the CAN address that carries each taxel (iCub:
         ``board_address << 4 | triangle``; CySkin: the hub's module address), -1 unknown.
@@ -40,6 +44,7 @@ class Layout:
     meta: dict = field(default_factory=dict)
     can_ids: np.ndarray | None = None
     normals_estimated: np.ndarray | None = None
+    parent: str | None = None
 
     def __post_init__(self):
         self.positions = np.ascontiguousarray(self.positions, dtype=np.float64).reshape(-1, 3)
@@ -80,7 +85,7 @@ class Layout:
                       None if self.flat is None else self.flat[idx], self.roles[idx], self.frame,
                       self.transform.copy(), dict(self.meta),
                       None if self.can_ids is None else self.can_ids[idx],
-                      None if self.normals_estimated is None else self.normals_estimated[idx])
+                      None if self.normals_estimated is None else self.normals_estimated[idx], self.parent)
 
     def transformed(self, matrix: np.ndarray, frame: str | None = None) -> "Layout":
         """Positions and normals mapped by the 4x4 rigid ``matrix`` (p' = R p + t).
@@ -95,6 +100,26 @@ class Layout:
         out.normals = self.normals @ r.T
         out.frame = frame or self.frame
         out.transform = self.transform @ np.linalg.inv(m)
+        return out
+
+    def posed(self, transform, parent: str | None = None) -> "Layout":
+        """The same taxels (positions unchanged, still in ``frame``) with ``transform`` as the
+        pose of ``frame`` in ``parent`` (the frame's declared place, e.g. the visual origin of
+        the mesh a skin was laid on, in its robot link). ``parent`` None keeps the current one."""
+        out = self.subset(slice(None))
+        out.transform = rigid_transform(transform, "transform")
+        out.parent = parent if parent is not None else self.parent
+        return out
+
+    def in_parent(self) -> "Layout":
+        """The taxels re-expressed in the parent frame: positions ``R p + t``, normals ``R n``,
+        transform identity, ``frame`` the parent's name (the parent becomes the frame)."""
+        if self.parent is None and not np.allclose(self.transform, np.eye(4)):
+            raise InputError("the layout's transform places it in an unnamed parent: name the parent "
+                             "(reframe --parent NAME) before expressing the taxels in it", key="parent")
+        out = self.transformed(self.transform, frame=self.parent or self.frame)
+        out.transform = np.eye(4)  # exactly: transform @ inv(transform) rounds
+        out.parent = None
         return out
 
     def renumber(self, first_module: int = 0) -> "Layout":
@@ -153,4 +178,20 @@ class Layout:
         return cls(np.vstack([p.positions for p in parts]), np.vstack([p.normals for p in parts]),
                    np.concatenate([p.taxel_ids for p in parts]), np.concatenate([p.module_ids for p in parts]),
                    flat, np.concatenate([p.roles for p in parts]), first.frame, first.transform.copy(),
-                   dict(first.meta), joined("can_ids", -1), joined("normals_estimated", False))
+                   dict(first.meta), joined("can_ids", -1), joined("normals_estimated", False), first.parent)
+
+
+def rigid_transform(matrix, key: str = "transform", max_translation: float | None = None) -> np.ndarray:
+    """``matrix`` as a (4, 4) float64 rigid transform (rotation with determinant +1, bottom row
+    0 0 0 1), or an InputError naming ``key``; translations beyond ``max_translation`` metres refused."""
+    t = np.asarray(matrix, dtype=np.float64)
+    if t.shape != (4, 4) or not np.isfinite(t).all():
+        raise InputError("must be a finite 4x4 matrix", key=key)
+    r = t[:3, :3]
+    if not np.allclose(r @ r.T, np.eye(3), atol=1e-4) or not np.allclose(t[3], [0, 0, 0, 1]) \
+            or np.linalg.det(r) < 0:  # a mirror keeps r r^T = I but turns the skin inside out
+        raise InputError("must be rigid (a rotation: orthonormal, determinant +1; bottom row 0 0 0 1)", key=key)
+    if max_translation is not None and np.abs(t[:3, 3]).max() > max_translation:
+        raise InputError(f"translation must be within +-{max_translation:g} m, got "
+                         f"{np.abs(t[:3, 3]).max():.3g} m", key=key)
+    return t

@@ -45,7 +45,8 @@ import numpy as np
 
 from ...errors import FormatError, InputError, VtError
 from ...inputs import check_input, clean, read_bytes
-from ..model import Layout
+from ..mesh import LayoutWarning
+from ..model import Layout, rigid_transform
 from . import csv, cyskin, icub, mjcf, native, ply, urdf
 
 # name -> module with read/write (the one table every dispatch goes through)
@@ -116,12 +117,28 @@ def load(path, format: str | None = None, *, units: str | None = None) -> Layout
     return layout
 
 
+#: formats written in the parent (the robot link or body the skin hangs from), not in the layout's frame
+IN_PARENT = ("urdf", "mjcf")
+
+
+def writes_in_parent(fmt: str, options: dict) -> bool:
+    """Whether format ``fmt`` with these writer options writes taxel positions in the layout's
+    parent (a URDF, or an MJCF merged into a robot model) rather than in a frame of its own."""
+    return fmt == "urdf" or (fmt == "mjcf" and options.get("model") is not None)
+
+
 def save(layout: Layout, path, format: str | None = None, *, transform=None, **options) -> None:
     """Write ``layout`` to ``path`` (written to a temporary file, then renamed).
 
     format : one of ``json, icub, cyskin, csv, ply, mjcf, urdf`` (default from the
-    extension; ``.json`` means our own JSON). transform : optional (4, 4)
-    rigid transform; the taxels are written in that frame (``p' = R p + t``).
+    extension; ``.json`` means our own JSON).
+    transform : optional (4, 4) rigid transform ``T``: the pose of the layout's frame in the
+        frame the file is written in, so the file's taxels are ``T p`` (``p_file = R p + t``).
+        Formats that carry a frame (json, csv, ply, cyskin, the MJCF fragment) also write that
+        file frame's pose in the layout's parent (``transform @ inv(T)``), so the skin keeps its
+        place there. URDF and an MJCF merged into a model are written in the parent link itself:
+        there ``T`` is the pose of the layout's frame in that link and takes the place of the
+        layout's own ``transform`` (warned about when they differ).
     options : passed to the format's ``write`` (see each format module).
     """
     path = Path(path)
@@ -134,22 +151,19 @@ def save(layout: Layout, path, format: str | None = None, *, transform=None, **o
     if fmt not in FORMAT_MODULES:
         raise InputError(f"unknown format {fmt!r}; use one of {', '.join(FORMATS)}", file=path, key="format")
     if transform is not None:
-        t = np.asarray(transform, dtype=np.float64)
-        if t.shape != (4, 4) or not np.isfinite(t).all():
-            raise InputError("transform must be a finite 4x4 matrix", key="transform")
-        r = t[:3, :3]
-        if not np.allclose(r @ r.T, np.eye(3), atol=1e-4) or not np.allclose(t[3], [0, 0, 0, 1]) \
-                or np.linalg.det(r) < 0:  # a mirror keeps r r^T = I but turns the skin inside out
-            raise InputError("transform must be rigid (a rotation: orthonormal, determinant +1; bottom row "
-                             "0 0 0 1)", key="transform")
-        if np.abs(t[:3, 3]).max() > MAX_COORDINATE_M:  # checked first: a translation of 1e308 would overflow
-            raise InputError(f"translation must be within +-{MAX_COORDINATE_M:g} m, got "
-                             f"{np.abs(t[:3, 3]).max():.3g} m", key="transform")
+        t = rigid_transform(transform, "transform", MAX_COORDINATE_M)
+        own = layout.transform
         layout = layout.transformed(t)
+        if writes_in_parent(fmt, options):
+            if not np.allclose(own, np.eye(4), atol=1e-9) and not np.allclose(own, t, atol=1e-9):
+                warnings.warn(f"{path.name}: the given transform replaces the layout's own (the pose of "
+                              f"{layout.frame!r} in {layout.parent or 'its parent'!r}): the taxels are written "
+                              "at the given pose in the link", LayoutWarning, stacklevel=2)
+            layout.transform = np.eye(4)  # T p is already in the link
         if len(layout) and np.abs(layout.positions).max() > MAX_COORDINATE_M:
             raise InputError(f"moves taxels {np.abs(layout.positions).max():.3g} m from the origin, beyond the "
                              f"+-{MAX_COORDINATE_M:g} m every layout reader accepts", key="transform")
     FORMAT_MODULES[fmt].write(layout, path, **options)
 
 
-__all__ = ["FORMATS", "READ_FORMATS", "FORMAT_MODULES", "SUFFIX_FORMATS", "detect_format", "load", "save"]
+__all__ = ["IN_PARENT", "writes_in_parent", "FORMATS", "READ_FORMATS", "FORMAT_MODULES", "SUFFIX_FORMATS", "detect_format", "load", "save"]

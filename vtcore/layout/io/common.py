@@ -177,6 +177,63 @@ def taxel_labels(layout: Layout) -> np.ndarray:
     return np.arange(len(layout))
 
 
+def identifier(name: str) -> str:
+    """``name`` as a name every robot format and tool takes: letters, digits and ``_`` only
+    (spaces, slashes, dots and the rest become ``_``; a leading digit gets a ``_`` before it).
+    MJCF and URDF accept more, but ROS tf, MuJoCo's name lookups in scripts and iCub's
+    skinManager configs break on spaces and slashes."""
+    import re
+
+    out = re.sub(r"[^A-Za-z0-9_]", "_", str(name)) or "_"
+    return "_" + out if out[0].isdigit() else out
+
+
+def skin_prefix(link: str, prefix: str | None = None) -> str:
+    """The name prefix of a skin's taxel frames or sites on ``link``: ``prefix`` as given (it must
+    already be an identifier), else ``<link>_vtskin_`` (``vtskin``, not ``skin``: robot models such
+    as iCub's already carry ``<link>_skin_<n>`` frames of their own skin)."""
+    if prefix is None:
+        return identifier(f"{link}_vtskin_")
+    if identifier(prefix) != prefix:
+        raise InputError(f"{prefix!r} is not a valid name prefix (letters, digits and _ only; e.g. "
+                         f"{identifier(prefix)!r})", key="--prefix")
+    return prefix
+
+
+def refuse_clash(taken, names, model, what: str, prefix: str) -> None:
+    """An InputError naming the ``names`` the model already ``taken`` (and the option to change)."""
+    clash = sorted(set(taken) & set(names))
+    if clash:
+        more = f" and {len(clash) - 5} more" if len(clash) > 5 else ""
+        raise InputError(f"the robot already has {what} named {', '.join(clash[:5])}{more}: the skin's names "
+                         f"start with {prefix!r}; pass another --prefix", file=model, key="--prefix")
+
+
+def indent_added(root, added, space: str = "  ") -> None:
+    """Indent the elements ``added`` to the tree under ``root`` like the file's own, touching
+    none of the file's other text (``ET.indent`` of the whole tree would rewrite the robot's
+    own whitespace). Each added element's parent decides its depth."""
+    import xml.etree.ElementTree as ET
+
+    parent_of = {c: p for p in root.iter() for c in p}
+    added = set(map(id, added))
+    for parent in {parent_of[e] for e in parent_of if id(e) in added}.union(
+            [root] if any(id(c) in added for c in root) else []):
+        depth, el = 0, parent
+        while el in parent_of:
+            el, depth = parent_of[el], depth + 1
+        kids = list(parent)
+        inner, outer = "\n" + space * (depth + 1), "\n" + space * depth
+        if not (parent.text or "").strip():
+            parent.text = inner
+        for k, e in enumerate(kids):
+            if id(e) in added:
+                ET.indent(e, space=space, level=depth + 1)
+                if k:
+                    kids[k - 1].tail = inner
+                e.tail = outer if k == len(kids) - 1 else inner
+
+
 def row_digests(layout: Layout) -> list[str]:
     """One short hash per taxel row of its position and normal (float64 bits).
 

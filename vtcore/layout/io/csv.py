@@ -39,6 +39,7 @@ def write(layout: Layout, path) -> None:
     fmt = number
     lines = ["# vtcore layout: one taxel a row", "# units: m",
              f"# frame: {layout.frame}",
+             *([f"# parent: {layout.parent}"] if layout.parent else []),
              "# transform: " + " ".join(number(v) for v in layout.transform.ravel()),
              "# normals: unit, outward, in the frame" + (
                  f"; {int(layout.normals_estimated.sum())} estimated (the source had none)"
@@ -63,7 +64,7 @@ def read(path, units: str | None = None) -> Layout:
     lines = text.split("\n")
     header = None
     declared = None
-    frame, transform = "end_effector", np.eye(4)
+    frame, transform, parent = "end_effector", np.eye(4), None
     rows = []
     for ln, line in enumerate(lines, start=1):
         s = line.strip()
@@ -76,6 +77,9 @@ def read(path, units: str | None = None) -> Layout:
             m = re.match(r"#\s*frame\s*:\s*(\S+)", s)
             if m:
                 frame = m.group(1)
+            m = re.match(r"#\s*parent\s*:\s*(\S+)", s)
+            if m:
+                parent = m.group(1)
             m = re.match(r"#\s*transform\s*:(.*)", s)
             if m:
                 toks = m.group(1).split()
@@ -147,7 +151,7 @@ def read(path, units: str | None = None) -> Layout:
     can = numeric("can_id", True) if "can_id" in col else None
     transform = transform.copy()
     transform[:3, 3] *= scale
-    layout = Layout(pos * scale, nrm, ids, mods, flat, roles, frame, transform, can_ids=can,
+    layout = Layout(pos * scale, nrm, ids, mods, flat, roles, frame, transform, can_ids=can, parent=parent,
                     normals_estimated=estimated)
     return finish(layout, report, path, "csv")
 

@@ -118,7 +118,7 @@ def read(path, units: str | None = None) -> Layout:
         estimated[:] = True  # (0, 0, 1) was invented for a maps-only file
     check_repeats(pos, report)
     transform = np.eye(4)
-    frame = "end_effector"
+    frame, parent = "end_effector", None
     parents = (skin or {}).get("parent_frames") or []
     if parents:
         pf = parents[0]
@@ -128,7 +128,10 @@ def read(path, units: str | None = None) -> Layout:
             transform[:3, 3] *= scale
             if not np.allclose(transform[3], [0, 0, 0, 1], atol=1e-6):
                 report.warn("tf_matrix bottom row is not [0, 0, 0, 1]: was it written row-major?")
-        frame = pf.get("name") or frame
+        # tf_matrix is the patch's pose in the link the parent frame names (p_link = R p + t): that
+        # link is the layout's parent; the patch frame itself has no name in the format
+        parent = pf.get("name") or None
+        frame = f"{parent}_patch" if parent else frame
         if len(parents) > 1:
             report.warn(f"{len(parents)} parent frames; used the first")
     # UID = module_uid << 4 | sensor; our module ids are 0-based (module_uid - 1), -1 unknown
@@ -138,7 +141,7 @@ def read(path, units: str | None = None) -> Layout:
                                               for m in maps],
             "cyskin_doc": doc, "cyskin_units": "mm" if scale == 1e-3 else "m"}
     layout = Layout(pos * scale, nrm, ids, mods, flat, types, frame, transform, meta,
-                    normals_estimated=estimated)
+                    normals_estimated=estimated, parent=parent)
     layout.meta.update(_digests(layout))
     return finish(layout, report, path, "cyskin")
 
@@ -179,10 +182,20 @@ def _taxel(layout, k, normals, scale, cut=0) -> dict:
             "n": [float(v) for v in normals[k]], "type": str(layout.roles[k]), "cut": cut}
 
 
+def _parent_name(layout: Layout, read_name) -> str:
+    """The name of ``parent_frames[0]``: the link ``tf_matrix`` places the patch in (the layout's
+    parent; a layout born in a link frame names that link), else what the file had."""
+    if layout.parent:
+        return layout.parent
+    if layout.frame != "end_effector" and not (read_name and layout.frame == f"{read_name}_patch"):
+        return layout.frame
+    return read_name or ""
+
+
 def _fresh_skin(layout, faces, estimate_normals, scale, parent) -> dict:
     normals = _normals_out(layout, estimate_normals)
     parent = dict(parent or {"key": 0, "id": 0, "type": "", "name": ""})
-    parent["name"] = layout.frame if layout.frame != "end_effector" or not parent.get("name") else parent["name"]
+    parent["name"] = _parent_name(layout, parent.get("name"))
     tf = layout.transform.copy()
     tf[:3, 3] /= scale
     parent["tf_matrix"] = tf.T.reshape(-1).tolist()  # column-major
@@ -238,7 +251,8 @@ def _as_read_doc(layout: Layout, faces_arg, estimate_normals: bool) -> dict:
             parents = skin.get("parent_frames") or [{}]
             tf = layout.transform.copy()
             tf[:3, 3] /= scale
-            parents[0] = dict(parents[0], name=layout.frame, tf_matrix=tf.T.reshape(-1).tolist())
+            parents[0] = dict(parents[0], name=_parent_name(layout, parents[0].get("name")),
+                              tf_matrix=tf.T.reshape(-1).tolist())
             skin["parent_frames"] = parents
     # the maps are 2-D: they stay as read while the same taxels (ids, order) keep their flat coordinates
     maps_same = all(now[k] == meta.get(k) for k in ("cyskin_flat", "cyskin_ids")) and len(layout) == n_read

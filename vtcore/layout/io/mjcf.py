@@ -51,7 +51,7 @@ from ..._io import atomic_write
 from ...errors import InputError
 from ...tolerances import ZERO_NORMAL
 from ..model import Layout
-from .common import default_faces, read_robot_xml, taxel_labels
+from .common import default_faces, identifier, indent_added, read_robot_xml, refuse_clash, skin_prefix, taxel_labels
 
 NAME = "mjcf"
 SUFFIXES = (".xml", ".mjcf")
@@ -185,6 +185,7 @@ def _rebase(root: ET.Element, src_dir: Path, out_dir: Path) -> None:
     if compiler is None:
         compiler = ET.Element("compiler")
         root.insert(0, compiler)
+        indent_added(root, [compiler])
     for key in ("meshdir", "texturedir"):
         v = compiler.get(key)
         if v is not None and not os.path.isabs(v):
@@ -229,15 +230,43 @@ def colliding_geoms(root: ET.Element, body: ET.Element) -> int:
     return n
 
 
-def merge_into_model(layout: Layout, model, body: str, **options) -> ET.ElementTree:
-    """The robot MJCF ``model`` (a path) with the skin added to its body ``body``."""
+def inline_includes(root: ET.Element, model_dir: Path, model) -> None:
+    """Replace every ``<include file=...>`` under ``root`` by the children of the included
+    file's ``<mujoco>`` (MuJoCo's own semantics: paths relative to the main model's folder,
+    includes nested inside included files too), so a body an include defines can take sites."""
+    seen = 0
+    while True:
+        parent_of = {c: p for p in root.iter() for c in p}
+        inc = next((e for e in root.iter("include") if e in parent_of), None)
+        if inc is None:
+            return
+        seen += 1
+        if seen > 1000:
+            raise InputError("more than 1000 <include>s: a file including itself?", file=model)
+        f = inc.get("file") or ""
+        sub = read_robot_xml(model_dir / f if not os.path.isabs(f) else Path(f), "mujoco").getroot()
+        parent = parent_of[inc]
+        k = list(parent).index(inc)
+        parent.remove(inc)
+        for j, child in enumerate(list(sub)):
+            parent.insert(k + j, child)
+
+
+def merge_into_model(layout: Layout, model, body: str | None = None, **options) -> ET.ElementTree:
+    """The robot MJCF ``model`` (a path) with the skin added to its body ``body`` (default the
+    layout's parent, else its frame). A body defined in an ``<include>``d file is found there:
+    the includes are then written inline, every element as it was."""
+    body = body or layout.parent or layout.frame
     tree = read_robot_xml(model, "mujoco")
     root = tree.getroot()
-    target = next((b for b in root.iter("body") if b.get("name") == body), None)
+    find = lambda: next((b for b in root.iter("body") if b.get("name") == body), None)  # noqa: E731
+    target = find()
+    if target is None and root.find(".//include") is not None:
+        inline_includes(root, Path(model).parent, model)
+        target = find()
     if target is None:
         names = [b.get("name") for b in root.iter("body") if b.get("name")]
-        hint = " (it may be in an <include>d file: merge into that file)" if root.find(".//include") is not None else ""
-        raise InputError(f"no body named {body!r}{hint}; bodies: {', '.join(names[:20]) or 'none'}",
+        raise InputError(f"no body named {body!r}; bodies: {', '.join(names[:40]) or 'none'}",
                          file=model, key="--body")
     if not options.get("pad") and options.get("footprint", "taxel") == "taxel" and not colliding_geoms(root, target):
         import warnings
@@ -248,16 +277,18 @@ def merge_into_model(layout: Layout, model, body: str, **options) -> ET.ElementT
                       "touch sensors would read 0; export with pad=True (--pad) to give the skin a contact surface",
                       LayoutWarning, stacklevel=3)
     taken = {e.get("name") for e in root.iter() if e.get("name")}
+    prefix = skin_prefix(body, options.pop("prefix", None))
+    labels = taxel_labels(layout)
+    names = [f"{prefix}{lab}" for lab in labels]
+    suffixes = ("", "_touch", "_pad", "_cell")
+    refuse_clash(taken, [n + s for n in names for s in suffixes], model, "elements", prefix)
     pos, nrm = _body_frame(layout)
     sensor = root.find("sensor")
     if sensor is None:
         sensor = ET.SubElement(root, "sensor")
-    prefix = options.pop("prefix", None) or f"{body}_skin_"
-    names = add_skin(layout, target, sensor, positions=pos, normals=nrm, prefix=prefix, **options)
-    clash = sorted(taken & set(names))
-    if clash:
-        raise InputError(f"the model already has elements named {', '.join(clash[:5])}; pass another prefix",
-                         file=model, key="prefix")
+    before = {id(e) for e in root.iter()}
+    add_skin(layout, target, sensor, positions=pos, normals=nrm, prefix=prefix, **options)
+    indent_added(root, [e for e in root.iter() if id(e) not in before])
     return tree
 
 
@@ -267,34 +298,33 @@ def write(layout: Layout, path, *, model=None, body: str | None = None, footprin
     """Write the skin as MJCF: a fragment, or ``model`` with the skin added to ``body``.
 
     model : path of the robot's MJCF, or None for the self-contained fragment.
-    body : the robot body the layout's frame is expressed in (required with ``model``).
+    body : with ``model``, the robot body the skin is on (default: the layout's ``parent``, else its
+        ``frame``); the layout's ``transform`` is the pose of its frame in that body.
     footprint : ``"taxel"`` or ``"tile"`` (see the module docstring). pad : add
     covering contact pads (default: True for the fragment, False in a model).
     site_radius : m, overrides the module's taxel radius. pad_thickness : m.
-    prefix : site name prefix (default ``taxel_`` in the fragment, ``BODY_skin_`` in a model).
+    prefix : site name prefix (default ``taxel_`` in the fragment, ``BODY_vtskin_`` in a model).
     """
     opts = dict(footprint=footprint, site_radius=site_radius, pad_thickness=pad_thickness)
     if model is not None:
-        if not body:
-            raise InputError("--model needs --body: the robot body the skin is on", key="--body")
         tree = merge_into_model(layout, model, body, pad=bool(pad), prefix=prefix, **opts)
         _rebase(tree.getroot(), Path(model).parent, Path(path).parent)
     else:
         root = ET.Element("mujoco", model=str(layout.meta.get("name") or layout.meta.get("end_effector") or "skin"))
         root.append(ET.Comment(
             " written by vtcore (metres): one site and one touch sensor per taxel, in taxel order. "
-            "Attach the body to a robot link: <attach model=\"skin\" body=\"" + layout.frame + "\" prefix=\"skin/\"/> "
+            "Attach the body to a robot link: <attach model=\"skin\" body=\"" + identifier(layout.frame) + "\" prefix=\"skin/\"/> "
             "(or MjSpec.attach_body). Touch sensors count contacts of their own body's geoms only: "
             "this body senses through its pads; without pads, export the skin into the robot's own MJCF instead "
             "(vtcore layout export with the model and body options). "))
         wb = ET.SubElement(root, "worldbody")
         t = layout.transform
-        frame = ET.SubElement(wb, "body", name=layout.frame, pos=_vec(t[:3, 3]), quat=_vec(_quat(t[:3, :3])))
+        frame = ET.SubElement(wb, "body", name=identifier(layout.frame), pos=_vec(t[:3, 3]), quat=_vec(_quat(t[:3, :3])))
         sensor = ET.SubElement(root, "sensor")
         add_skin(layout, frame, sensor, positions=layout.positions, normals=layout.normals,
                  prefix=prefix or "taxel_", pad=True if pad is None else bool(pad), **opts)
         tree = ET.ElementTree(root)
-    ET.indent(tree, space="  ")
+        ET.indent(tree, space="  ")
     with atomic_write(path, "w", encoding="utf-8", newline="\n") as fh:
         tree.write(fh, encoding="unicode", xml_declaration=False)
         fh.write("\n")

@@ -40,7 +40,7 @@ def _jsonable(obj):
 def write(layout: Layout, path) -> None:
     doc = {
         "format": "vtcore-layout", "version": JSON_VERSION, "units": "m",
-        "frame": layout.frame, "transform": layout.transform.tolist(),
+        "frame": layout.frame, "parent": layout.parent, "transform": layout.transform.tolist(),
         "n_taxels": len(layout),
         "taxels": {
             "positions": layout.positions.tolist(), "normals": layout.normals.tolist(),
@@ -55,6 +55,12 @@ def write(layout: Layout, path) -> None:
     with atomic_write(path, "w", encoding="utf-8") as fh:
         json.dump(doc, fh, indent=1, allow_nan=False)
         fh.write("\n")
+
+
+def _name(value, path):
+    if value is None or isinstance(value, str):
+        return value or None
+    raise FormatError(f"must be a frame name (a string), got {type(value).__name__}", file=path, key="parent")
 
 
 def read(path, units: str | None = None) -> Layout:
@@ -99,7 +105,7 @@ def read(path, units: str | None = None) -> Layout:
                     t.get("module_ids", np.zeros(n, int)),
                     None if flat is None else flat * scale,
                     t.get("roles"), doc.get("frame", "end_effector"), transform, dict(doc.get("meta") or {}),
-                    t.get("can_ids"), estimated)
+                    t.get("can_ids"), estimated, _name(doc.get("parent"), path))
     return finish(layout, report, path, "json")
 
 

@@ -48,6 +48,7 @@ def write(layout: Layout, path, faces: np.ndarray | None = None, *, mesh: bool =
     face_el = "face" if mesh else "skin_face"
     head = ["ply", "format ascii 1.0", "comment vtcore layout, units metres, one vertex per taxel in taxel order",
             f"comment frame {layout.frame}",
+            *([f"comment parent {layout.parent}"] if layout.parent else []),
             "comment transform " + " ".join(number(v) for v in layout.transform.ravel()),
             f"element vertex {len(layout)}"] + [f"property {p}" for p in props] + \
         [f"element {face_el} {len(faces)}", "property list uchar int vertex_indices", "end_header"]
@@ -83,7 +84,7 @@ def read(path, units: str | None = None) -> Layout:
     body = raw[nl + 1:]
     fmt = None
     elements = []  # (name, count, [(type, name) or ('list', ct, it, name)])
-    frame, transform = "end_effector", np.eye(4)
+    frame, transform, parent = "end_effector", np.eye(4), None
     for hno, line in enumerate(head, start=1):
         tok = line.split()
         if not tok:
@@ -92,6 +93,8 @@ def read(path, units: str | None = None) -> Layout:
             fmt = tok[1]
         elif tok[0] == "comment" and len(tok) > 2 and tok[1] == "frame":
             frame = tok[2]
+        elif tok[0] == "comment" and len(tok) > 2 and tok[1] == "parent":
+            parent = tok[2]
         elif tok[0] == "comment" and len(tok) == 18 and tok[1] == "transform":
             transform = transform_of([parse_number(t, path, hno, "transform") for t in tok[2:]], path,
                                      "comment transform", line=hno)
@@ -180,7 +183,7 @@ def read(path, units: str | None = None) -> Layout:
     if len(faces) and (faces.min() < 0 or faces.max() >= n):
         raise FormatError("face indices out of range", file=path)
     layout = Layout(pos * scale, nrm, ids, mods, flat, roles, frame, transform,
-                    {"faces": faces.tolist()}, can, normals_estimated=estimated)
+                    {"faces": faces.tolist()}, can, normals_estimated=estimated, parent=parent)
     return finish(layout, report, path, "ply")
 
 

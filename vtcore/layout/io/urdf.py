@@ -4,8 +4,10 @@ The iCub robot model gives each skin patch's taxel frames as fixed links
 ``<parent>_skin_<n>`` under the link they sit on (origin at the taxel, z along its
 normal); robot software finds taxels through those frames. We write the same:
 
-- link ``{parent}_skin_{n}`` (no geometry, no inertia: a frame) for every taxel,
-- joint ``{parent}_skin_{n}_joint`` of type ``fixed``, parent ``parent``, child that link,
+- link ``{prefix}{n}`` (no geometry, no inertia: a frame) for every taxel, ``prefix``
+  by default ``{parent}_vtskin_`` (``vtskin``: robot models such as iCub's already have
+  ``{parent}_skin_{n}`` frames of their own; names are letters, digits and ``_``),
+- joint ``{prefix}{n}_joint`` of type ``fixed``, parent ``parent``, child that link,
   ``origin xyz`` = the taxel position in ``parent`` (the layout's ``transform`` applied:
   it is the pose of the layout frame in the parent link), ``rpy`` = a rotation whose z
   axis is the taxel normal (x: the parent's x axis projected onto the taxel plane, or
@@ -29,7 +31,7 @@ from ..._io import atomic_write
 from ...errors import InputError
 from ...tolerances import ZERO_NORMAL
 from ..model import Layout
-from .common import read_robot_xml, taxel_labels
+from .common import identifier, indent_added, read_robot_xml, refuse_clash, skin_prefix, taxel_labels
 
 NAME = "urdf"
 SUFFIXES = (".urdf",)
@@ -61,13 +63,17 @@ def taxel_poses(layout: Layout) -> tuple[np.ndarray, np.ndarray]:
     return layout.positions @ t[:3, :3].T + t[:3, 3], taxel_rotations(layout.normals @ t[:3, :3].T)
 
 
-def add_skin(layout: Layout, robot: ET.Element, parent: str) -> list[str]:
-    """Append the taxel links and fixed joints to the ``<robot>`` element; returns the link names."""
+def add_skin(layout: Layout, robot: ET.Element, parent: str, prefix: str | None = None) -> list[str]:
+    """Append the taxel links and fixed joints to the ``<robot>`` element; returns the link names.
+
+    Positions go in as ``layout.transform`` places them in ``parent``. prefix : the names'
+    start (default :func:`~vtcore.layout.io.common.skin_prefix` of ``parent``)."""
     from scipy.spatial.transform import Rotation
 
     origins, rots = taxel_poses(layout)
     rpy = Rotation.from_matrix(rots).as_euler("xyz")  # extrinsic x, y, z: URDF's rpy
-    names = [f"{parent}_skin_{lab}" for lab in taxel_labels(layout)]
+    prefix = skin_prefix(parent, prefix)
+    names = [f"{prefix}{lab}" for lab in taxel_labels(layout)]
     for name, o, a in zip(names, origins, rpy):
         ET.SubElement(robot, "link", name=name)
         j = ET.SubElement(robot, "joint", name=f"{name}_joint", type="fixed")
@@ -77,33 +83,50 @@ def add_skin(layout: Layout, robot: ET.Element, parent: str) -> list[str]:
     return names
 
 
-def write(layout: Layout, path, *, parent: str | None = None, model=None) -> None:
+def merge_into_tree(layout: Layout, tree: ET.ElementTree, parent: str, *, prefix: str | None = None,
+                    model=None) -> list[str]:
+    """Add the skin's taxel frames under link ``parent`` of the robot ``tree`` (the robot's own
+    elements untouched); an unknown link or a name the robot already has is an InputError."""
+    robot = tree.getroot()
+    links = [e.get("name") for e in robot.findall("link")]
+    if parent not in links:
+        raise InputError(f"no link named {parent!r}; links: {', '.join(links[:40]) or 'none'}",
+                         file=model, key="--parent")
+    taken = set(links) | {e.get("name") for e in robot.findall("joint")}
+    prefix = skin_prefix(parent, prefix)
+    labels = taxel_labels(layout)
+    names = [f"{prefix}{lab}" for lab in labels]
+    refuse_clash(taken, names + [f"{n}_joint" for n in names], model, "links or joints", prefix)
+    start = len(robot)
+    out = add_skin(layout, robot, parent, prefix)
+    indent_added(robot, list(robot)[start:])
+    return out
+
+
+def write(layout: Layout, path, *, parent: str | None = None, model=None, prefix: str | None = None) -> None:
     """Write the taxel frames as URDF.
 
-    parent : the link the layout's frame is expressed in (default: the layout's frame name).
+    parent : the link the taxel frames hang from (default: the layout's ``parent``, else its
+        ``frame``); the layout's ``transform`` is the pose of its frame in that link.
     model : path of the robot's URDF to merge into (it must have the link ``parent``).
+    prefix : start of the taxel frame names (default ``<parent>_vtskin_``).
     """
-    parent = parent or layout.frame
+    parent = parent or layout.parent or layout.frame
     if model is not None:
         tree = read_robot_xml(model, "robot")
-        robot = tree.getroot()
-        links = [e.get("name") for e in robot.findall("link")]
-        if parent not in links:
-            raise InputError(f"no link named {parent!r}; links: {', '.join(links[:20]) or 'none'}",
-                             file=model, key="--parent")
-        taken = set(links) | {e.get("name") for e in robot.findall("joint")}
     else:
-        robot = ET.Element("robot", name=str(layout.meta.get("name") or f"{parent}_skin"))
+        robot = ET.Element("robot", name=identifier(layout.meta.get("name") or f"{parent}_skin"))
         robot.append(ET.Comment(f" written by vtcore (metres, radians): one fixed link per taxel under "
                                 f"{parent!r}, origin at the taxel, z along its normal "))
         ET.SubElement(robot, "link", name=parent)
-        tree, taken = ET.ElementTree(robot), {parent}
-    names = add_skin(layout, robot, parent)
-    clash = sorted(taken & (set(names) | {f"{n}_joint" for n in names}))
-    if clash:
-        raise InputError(f"the robot already has links or joints named {', '.join(clash[:5])}",
-                         file=model, key="--parent")
-    ET.indent(tree, space="  ")
+        ET.indent(robot, space="  ")
+        tree = ET.ElementTree(robot)
+    merge_into_tree(layout, tree, parent, prefix=prefix, model=model)
+    write_tree(tree, path)
+
+
+def write_tree(tree: ET.ElementTree, path) -> None:
+    """Write a URDF tree (written to a temporary file, then renamed)."""
     with atomic_write(path, "w", encoding="utf-8", newline="\n") as fh:
         fh.write('<?xml version="1.0"?>\n')
         tree.write(fh, encoding="unicode", xml_declaration=False)
