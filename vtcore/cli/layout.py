@@ -214,43 +214,60 @@ def cmd_reframe(args) -> int:
     return 0
 
 
+def _pairs_within(points: np.ndarray, radius: float, key: str) -> np.ndarray:
+    """(P, 2) index pairs of ``points`` closer than ``radius``, counted (and held to the memory budget)
+    before they are listed: a pitch as large as the layout would pair every taxel with every other."""
+    from scipy.spatial import cKDTree
+
+    from ..inputs import need_memory
+
+    tree = cKDTree(points)
+    pairs = (int(tree.count_neighbors(tree, radius)) - len(points)) // 2  # ordered, with each point itself
+    need_memory(8.0 * 6 * pairs, key=key, what=f"{pairs} taxel pairs within {radius:.3g} m")
+    return tree.query_pairs(radius, output_type="ndarray")
+
+
 def layout_info(layout) -> dict:
     """Summary numbers of a layout (the ``layout info`` fields)."""
-    from ..layout.conform import OVERLAP_FRACTION, find_overlaps, layout_strain
+    from ..layout.report import OVERLAP_FRACTION, layout_strain
     from ..layout.mesh import nn_spacing
     from ..layout.summary import report_fields
 
     n = len(layout)
     sp = nn_spacing(layout.positions) if n > 1 else np.zeros(n)
+    pitch_key = "meta.pitch_m" if layout.meta.get("pitch_m") else "positions"
     pitch = float(layout.meta.get("pitch_m") or (np.median(sp) if n > 1 else 0.0))
-    placement = layout.meta.get("placement") or {}
-    strain_max = placement.get("strain_max")
-    strain_mean = placement.get("strain_mean")
-    if strain_max is None and layout.flat is not None and n >= 2:
-        from scipy.spatial import cKDTree
-
-        pairs = cKDTree(layout.flat).query_pairs(1.25 * pitch, output_type="ndarray")
+    placement = layout.meta.get("placement")
+    fields = report_fields(placement if isinstance(placement, dict) else None)  # the numbers it can read
+    strain_max, strain_mean = fields.get("strain_max"), fields.get("strain_mean")
+    if strain_max is None and layout.flat is not None and n >= 2 and pitch > 0:
+        pairs = _pairs_within(layout.flat, 1.25 * pitch, pitch_key)
         pairs = pairs[layout.module_ids[pairs[:, 0]] == layout.module_ids[pairs[:, 1]]] if len(pairs) else pairs
-        s = layout_strain(layout, layout.flat, pairs) if len(pairs) else np.zeros(0)
+        with np.errstate(all="ignore"):  # coincident flat points: an undefined strain, dropped below
+            s = layout_strain(layout, layout.flat, pairs) if len(pairs) else np.zeros(0)
         s = s[np.isfinite(s)]
         strain_max = float(np.abs(s).max()) if len(s) else 0.0
         strain_mean = float(np.abs(s).mean()) if len(s) else 0.0
-    overlaps = find_overlaps(layout.positions, layout.module_ids, OVERLAP_FRACTION * pitch) if pitch > 0 else []
+    overlaps = 0
+    if pitch > 0 and n >= 2:
+        pairs = _pairs_within(layout.positions, OVERLAP_FRACTION * pitch, pitch_key)
+        a, b = layout.module_ids[pairs[:, 0]], layout.module_ids[pairs[:, 1]]
+        cross = a != b  # module pairs with taxels too close (as report.find_overlaps, on the counted pairs)
+        overlaps = len(np.unique(np.sort(np.column_stack([a[cross], b[cross]]), axis=1), axis=0)) if cross.any() else 0
     lo, hi = (layout.positions.min(axis=0), layout.positions.max(axis=0)) if n else (np.zeros(3), np.zeros(3))
     return {
         "taxels": int(n), "modules": int(layout.n_modules),
         "spacing_min_mm": float(sp.min() * 1e3) if n > 1 else None,
         "spacing_median_mm": float(np.median(sp) * 1e3) if n > 1 else None,
-        "strain_max": None if strain_max is None else float(strain_max),
-        "strain_mean": None if strain_mean is None else float(strain_mean),
-        "overlaps": len(overlaps),
-        "off_boundary": len(placement.get("off_boundary", [])),
-        "coverage": placement.get("coverage"),
+        "strain_max": strain_max, "strain_mean": strain_mean,
+        "overlaps": overlaps,
+        "off_boundary": fields.get("off_boundary", 0),
+        "coverage": fields.get("coverage"),
         "bbox_min_m": lo.tolist(), "bbox_max_m": hi.tolist(),
         "frame": layout.frame, "module_type": layout.meta.get("module_type"),
         "roles": {str(r): int(c) for r, c in zip(*np.unique(layout.roles.astype(str), return_counts=True))},
         "mirror": layout.meta.get("module_mirror"),
-        "placement": report_fields(placement),
+        "placement": fields,
     }
 
 

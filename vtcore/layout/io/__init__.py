@@ -55,10 +55,7 @@ FORMATS = tuple(FORMAT_MODULES)
 READ_FORMATS = tuple(n for n, m in FORMAT_MODULES.items() if m.read is not None)
 # suffix -> format name when writing; ".json" is ambiguous (ours or CySkin), ours wins on save
 SUFFIX_FORMATS = {s: n for n, m in reversed(FORMAT_MODULES.items()) for s in m.SUFFIXES if s}
-
-
-#: Largest |coordinate| of a taxel, metres: a skin larger than a kilometre is a unit or file error.
-MAX_COORDINATE_M = 1e3
+from .fields import MAX_COORDINATE_M, check_layout
 
 
 def detect_format(path: Path) -> str:
@@ -114,6 +111,7 @@ def load(path, format: str | None = None, *, units: str | None = None) -> Layout
     if len(layout) and np.abs(layout.positions).max() > MAX_COORDINATE_M:
         raise FormatError(f"positions must be within +-{MAX_COORDINATE_M:g} m, got "
                           f"{np.abs(layout.positions).max():g} m (wrong units?)", file=path, key="positions")
+    check_layout(layout, path)  # a frame, roles and transform every writer can write, whatever the format
     return layout
 
 
@@ -160,6 +158,11 @@ def save(layout: Layout, path, format: str | None = None, *, transform=None, **o
                               f"{layout.frame!r} in {layout.parent or 'its parent'!r}): the taxels are written "
                               "at the given pose in the link", LayoutWarning, stacklevel=2)
             layout.transform = np.eye(4)  # T p is already in the link
+        else:  # the frame's pose in its parent moves the other way: it must stay a transform a reader accepts
+            try:
+                rigid_transform(layout.transform, "transform", MAX_COORDINATE_M)
+            except InputError as exc:
+                raise InputError(f"would make the layout's own transform {exc.reason}", key="transform") from None
         if len(layout) and np.abs(layout.positions).max() > MAX_COORDINATE_M:
             raise InputError(f"moves taxels {np.abs(layout.positions).max():.3g} m from the origin, beyond the "
                              f"+-{MAX_COORDINATE_M:g} m every layout reader accepts", key="transform")

@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from ..._io import atomic_write
-from ...errors import FormatError
+from ...errors import FormatError, InputError
 from ...inputs import finite_json
 from ..model import Layout
 from ..uids import cyskin_modules
@@ -125,9 +125,13 @@ def read(path, units: str | None = None) -> Layout:
         tf = pf.get("tf_matrix")
         if tf is not None:
             transform = transform_of(tf, path, "skin.parent_frames[0].tf_matrix", column_major=True)
-            transform[:3, 3] *= scale
-            if not np.allclose(transform[3], [0, 0, 0, 1], atol=1e-6):
+            if not np.allclose(transform[3], [0, 0, 0, 1], atol=1e-6) and np.allclose(transform[:, 3], [0, 0, 0, 1]):
+                transform = transform.T.copy()  # the translation sat in the bottom row: a row-major matrix
+                report.warn("tf_matrix bottom row is not [0, 0, 0, 1] but its last column is: read it as written "
+                            "row-major (the format says column-major)")
+            elif not np.allclose(transform[3], [0, 0, 0, 1], atol=1e-6):
                 report.warn("tf_matrix bottom row is not [0, 0, 0, 1]: was it written row-major?")
+            transform[:3, 3] *= scale
         # tf_matrix is the patch's pose in the link the parent frame names (p_link = R p + t): that
         # link is the layout's parent; the patch frame itself has no name in the format
         parent = pf.get("name") or None
@@ -144,6 +148,29 @@ def read(path, units: str | None = None) -> Layout:
                     normals_estimated=estimated, parent=parent)
     layout.meta.update(_digests(layout))
     return finish(layout, report, path, "cyskin")
+
+
+def doc_problem(doc: dict) -> str | None:
+    """Why ``doc`` (a layout's ``meta["cyskin_doc"]``, the document as read) cannot be written back
+    by :func:`write`, or None: the parts the writer walks must have the shapes a CySkin file has."""
+    skin, maps, info = doc.get("skin"), doc.get("tactile_maps"), doc.get("info")
+    if info is not None and not isinstance(info, dict):
+        return "info must be an object"
+    if skin is not None:
+        if not isinstance(skin, dict):
+            return "skin must be an object"
+        if not isinstance(skin.get("taxels", []), list):
+            return "skin.taxels must be a list"
+        parents = skin.get("parent_frames")
+        if parents is not None and (not isinstance(parents, list) or not all(isinstance(p, dict) for p in parents)):
+            return "skin.parent_frames must be a list of objects"
+    if maps is not None and not isinstance(maps, (dict, list)):
+        return "tactile_maps must be an object or a list of objects"
+    try:
+        finite_json(doc)
+    except InputError as exc:
+        return f"{exc.key}: {exc.reason}"
+    return None
 
 
 def _digests(layout: Layout) -> dict:

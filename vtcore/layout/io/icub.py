@@ -28,6 +28,9 @@ from .common import (ImportReport, check_repeats, clean_normals, finish, number,
 
 NAME = "icub"
 SUFFIXES = (".txt", ".ini", "")
+#: Most calibration rows (12 per triangle) a file is written with: 5,461 triangles, far past a whole
+#: iCub (about 4,000 taxels); a taxel id of 2**40 under the iCub scheme would ask for a file of 2**40 rows.
+MAX_ROWS = 1 << 16
 
 
 _T2R = re.compile(r"taxel2Repr\s*\((.*?)\)", re.S)
@@ -134,9 +137,41 @@ def read(path, units: str | None = None) -> Layout:
             "icub_names": names, "icub_header_lines": header_lines, "icub_row_text": row_text,
             "icub_units": "mm" if scale == 1e-3 else "m"}
     layout = Layout(pos * scale, nrm, keep, keep // 12, roles=roles,
-                    frame=header.get("frame", "end_effector"), meta=meta, normals_estimated=estimated)
+                    frame=header.get("frame") or "end_effector", meta=meta, normals_estimated=estimated)
     layout.meta["icub_digests"] = row_digests(layout)
     return finish(layout, report, path, "icub")
+
+
+def _comment_free(line: str) -> str:
+    return line.split("//")[0].split("#")[0].strip()
+
+
+def header_line_problem(line: str) -> str | None:
+    """Why ``line`` cannot be a header line of a positions file (the reader would read it as
+    something else), or None."""
+    if "\n" in line or "\r" in line:
+        return "holds a line break; each entry is one line of the file"
+    s = _comment_free(line)
+    if s.lower().startswith("[calibration") or s[:1] in tuple("0123456789-+."):
+        return f"would be read as the calibration table, not the header: {s[:40]!r}"
+    return None
+
+
+def row_problem(row: str) -> str | None:
+    """Why ``row`` cannot be a calibration row's text as read (6 finite numbers first), or None."""
+    if "\n" in row or "\r" in row:
+        return "holds a line break; each entry is one line of the file"
+    toks = _comment_free(row).split()
+    if len(toks) < 6:
+        return f"must start with 6 numbers (x y z nx ny nz), got {len(toks)} values"
+    for t in toks[:6]:
+        try:
+            v = float(t)
+        except ValueError:
+            return f"{t[:40]!r} is not a number"
+        if not math.isfinite(v):
+            return f"{t[:40]!r} is not a finite number"
+    return None
 
 
 def _icub_slots(layout: Layout) -> np.ndarray:
@@ -209,6 +244,9 @@ def write(layout: Layout, path, *, estimate_normals: bool = False) -> None:
     ours = "icub_row_text" in meta  # read from an iCub file (perhaps through our JSON)
     known_rows = int(meta.get("icub_rows", 0) or 0) if ours else 0
     nrows = int(max(slots.max() + 1, known_rows))
+    if nrows > MAX_ROWS:
+        raise InputError(f"an iCub positions file of these taxel ids would have {nrows} rows, more than the "
+                         f"{MAX_ROWS} written; taxel ids under the iCub scheme are file rows", key="taxel_ids")
     if not known_rows:
         nrows = int(math.ceil(nrows / 12) * 12)
     scale = 1e-3 if (ours and meta.get("icub_units") == "mm") else 1.0

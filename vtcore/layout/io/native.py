@@ -9,10 +9,10 @@ import numpy as np
 
 from ..._io import atomic_write
 from ...errors import FormatError
-from ...inputs import finite_json
+from ...inputs import finite_json, validate
 from ..model import Layout
-from .common import (ImportReport, as_list, clean_normals, finish, finite_rows, read_json_doc, transform_of,
-                     units_scale)
+from .common import ImportReport, as_list, clean_normals, finish, finite_rows, read_json_doc, units_scale
+from .fields import DOCUMENT, META, TAXELS, relation_problems
 
 NAME = "json"
 SUFFIXES = (".json",)
@@ -57,55 +57,39 @@ def write(layout: Layout, path) -> None:
         fh.write("\n")
 
 
-def _name(value, path):
-    if value is None or isinstance(value, str):
-        return value or None
-    raise FormatError(f"must be a frame name (a string), got {type(value).__name__}", file=path, key="parent")
-
-
 def read(path, units: str | None = None) -> Layout:
+    """Read our JSON. Every field kept is checked against :mod:`.fields` first (types, shapes, ranges,
+    one entry per taxel), so whatever this returns every writer can write."""
     report = ImportReport(path)
     doc = read_json_doc(path)
     if not isinstance(doc, dict) or doc.get("format") != "vtcore-layout":
         raise FormatError("not a vtcore layout JSON (no \"format\": \"vtcore-layout\")", file=path)
-    if int(doc.get("version", 0)) > JSON_VERSION:
-        raise FormatError(f"layout JSON version {doc.get('version')} is newer than this reader "
+    top = validate(doc, DOCUMENT, file=path)
+    if (top["version"] or 0) > JSON_VERSION:
+        raise FormatError(f"layout JSON version {top['version']} is newer than this reader "
                           f"({JSON_VERSION})", file=path, key="version")
-    t = doc.get("taxels") or {}
-    for key in ("positions", "normals"):
-        if key not in t:
-            raise FormatError("missing", file=path, key=f"taxels.{key}")
-    try:
-        pos = np.asarray(t["positions"], dtype=np.float64)
-        nrm = np.asarray(t["normals"], dtype=np.float64)
-    except (TypeError, ValueError):
-        raise FormatError("positions and normals must be lists of 3 numbers", file=path, key="taxels") from None
-    for key, a in (("positions", pos), ("normals", nrm)):
-        if a.ndim != 2 or a.shape[1] != 3:
-            raise FormatError(f"must be a list of [x, y, z], got shape {a.shape}", file=path, key=f"taxels.{key}")
-        bad = ~np.isfinite(a).all(axis=1)
-        if bad.any():
-            raise FormatError(f"row {int(np.flatnonzero(bad)[0])} is not finite", file=path, key=f"taxels.{key}")
+    t = validate(doc.get("taxels"), TAXELS, file=path, prefix="taxels")
+    meta_in = doc.get("meta") if doc.get("meta") is not None else {}
+    meta = validate(meta_in, META, file=path, prefix="meta")
+    pos, nrm = t["positions"], t["normals"]
     n = len(pos)
-    transform = transform_of(doc["transform"], path, "transform") if doc.get("transform") is not None else np.eye(4)
-    flat = t.get("flat")
-    if flat is not None:
-        try:
-            flat = np.asarray(flat, dtype=np.float64).reshape(n, 2)
-        except (TypeError, ValueError, OverflowError):
-            raise FormatError(f"must be a list of {n} [u, v]", file=path, key="taxels.flat") from None
-        finite_rows(flat, path, "taxels.flat")
-    if doc.get("n_taxels") is not None and doc["n_taxels"] != n:
-        report.warn(f"n_taxels says {doc['n_taxels']} but there are {n} positions; using the list")
-    scale = units_scale(pos, units, report, doc.get("units"))
+    broken = relation_problems(t, meta, n)
+    if broken:
+        raise FormatError(broken[1], file=path, key=broken[0])
+    finite_rows(pos, path, "taxels.positions")
+    if top["n_taxels"] is not None and top["n_taxels"] != n:
+        report.warn(f"n_taxels says {top['n_taxels']} but there are {n} positions; using the list")
+    scale = units_scale(pos, units, report, top["units"])
     nrm, estimated = clean_normals(nrm, pos, report)
-    if t.get("normals_estimated") is not None:  # estimated when first read, kept through our JSON
-        estimated = estimated | np.asarray(t["normals_estimated"], dtype=bool).reshape(-1)[:n]
-    layout = Layout(pos * scale, nrm, t.get("taxel_ids", np.arange(n)),
-                    t.get("module_ids", np.zeros(n, int)),
-                    None if flat is None else flat * scale,
-                    t.get("roles"), doc.get("frame", "end_effector"), transform, dict(doc.get("meta") or {}),
-                    t.get("can_ids"), estimated, _name(doc.get("parent"), path))
+    if t["normals_estimated"] is not None:  # estimated when first read, kept through our JSON
+        estimated = estimated | np.asarray(t["normals_estimated"], dtype=bool)
+    flat = t["flat"]
+    # meta keeps what the file had, with the checked entries in their checked form (numbers, not strings)
+    kept = dict(meta_in)
+    kept.update({k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in meta.items() if v is not None})
+    layout = Layout(pos * scale, nrm, t["taxel_ids"] if t["taxel_ids"] is not None else np.arange(n),
+                    t["module_ids"] if t["module_ids"] is not None else np.zeros(n, int),
+                    None if flat is None else flat * scale, t["roles"], top["frame"],
+                    np.eye(4) if top["transform"] is None else top["transform"], kept,
+                    t["can_ids"], estimated, top["parent"] or None)
     return finish(layout, report, path, "json")
-
-
