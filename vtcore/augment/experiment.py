@@ -14,7 +14,7 @@ import numpy as np
 
 from ..errors import InputError, UnreachableTargetError
 from .cloud import two_cameras, visual_cloud
-from .compliance import ProbeModel, TactilePointCloud
+from .compliance import MIN_DISPLACEMENT, ProbeModel, TactilePointCloud
 from .objects import CompliantObject
 
 
@@ -57,7 +57,7 @@ def sample_touches(n_points: int, touches: int, rng) -> np.ndarray:
 
 def probe_object(obj: CompliantObject, touches: int, probe: ProbeModel | None = None, *, cameras=None,
                  n_points: int | None = 33676, rng=0, channels=("compliance",), probe_fn=None,
-                 cloud=None) -> ProbedObject:
+                 cloud=None, noise=None) -> ProbedObject:
     """Visual cloud + ``touches`` probes of ``obj`` (seed 000, Sects. 2.1 and 3).
 
     probe_fn : optional ``(points (n,3), normals (n,3)) -> (p_mean (n,), v_ss (n,3))``
@@ -66,6 +66,11 @@ def probe_object(obj: CompliantObject, touches: int, probe: ProbeModel | None = 
     PLY) used instead of the cameras; it must be in the object's frame, metres.
     channels : ``("compliance",)`` or ``("compliance", "friction")``: friction is
     read from the object's field with 5 % noise (a stand-in for a sliding probe).
+    noise : optional :class:`~vtcore.augment.probe_noise.ProbeNoise`, the position and
+    contact-detection error of each touch; a touch whose measured displacement is
+    non-physical is repeated, then rejected and replaced by another seeded point
+    (``meta["probes_repeated"]``, ``meta["probes_rejected"]`` count them). Never fatal
+    unless no valid touch can be found after five rounds of resampling.
     """
     rng = np.random.default_rng(rng)
     probe = probe or ProbeModel()
@@ -75,26 +80,29 @@ def probe_object(obj: CompliantObject, touches: int, probe: ProbeModel | None = 
     else:
         pts, nrm = (np.asarray(a, dtype=np.float64) for a in cloud)
     idx = sample_touches(len(pts), touches, rng)
-    v, n = pts[idx], nrm[idx]
     if probe_fn is None:
-        p_mean, v_ss = probe.probe(v, n, obj.stiffness(v), rng=rng)
-    else:
-        p_mean, v_ss = probe_fn(v, n)
-        # probes that could not reach the target (NaN) are replaced by other seeded samples of the cloud
-        for _ in range(5):
-            bad = ~np.isfinite(p_mean)
-            if not bad.any():
-                break
-            free = np.setdiff1d(np.arange(len(pts)), idx)
-            if len(free) < bad.sum():
-                break
-            idx[bad] = rng.choice(free, int(bad.sum()), replace=False)
-            v, n = pts[idx], nrm[idx]
-            p_mean[bad], v_ss[bad] = probe_fn(v[bad], n[bad])
-        if not np.all(np.isfinite(p_mean)):
-            raise UnreachableTargetError(f"{int((~np.isfinite(p_mean)).sum())} probes never reached the target "
-                                         "response even after resampling their contact points")
-        v, n = pts[idx], nrm[idx]
+        def probe_fn(vv, nn):
+            return probe.probe(vv, nn, obj.stiffness(vv), rng=rng)
+    p_mean, disp, stats = _touch(probe_fn, pts[idx], nrm[idx], noise, rng)
+    # touches that gave no valid Eq. 1 sample (the target was unreachable, or the measured
+    # displacement stayed non-physical after its repeats) are replaced by other seeded points
+    for _ in range(5):
+        bad = ~np.isfinite(disp)
+        if not bad.any():
+            break
+        free = np.setdiff1d(np.arange(len(pts)), idx)
+        if len(free) < bad.sum():
+            break
+        idx[bad] = rng.choice(free, int(bad.sum()), replace=False)
+        p_mean[bad], disp[bad], more = _touch(probe_fn, pts[idx[bad]], nrm[idx[bad]], noise, rng)
+        stats = {k: stats[k] + more[k] for k in stats}
+    if not np.all(np.isfinite(disp)):
+        raise UnreachableTargetError(f"{int((~np.isfinite(disp)).sum())} probes gave no valid sample (target "
+                                     "unreachable or displacement non-physical) even after resampling their "
+                                     "contact points")
+    v, n = pts[idx], nrm[idx]
+    unit = n / np.linalg.norm(n, axis=1, keepdims=True)
+    v_ss = v - disp[:, None] * unit
     tactile = TactilePointCloud.from_probes(v, v_ss, p_mean, direction=-n)
     for ch in channels[1:]:
         if ch != "friction":
@@ -102,7 +110,31 @@ def probe_object(obj: CompliantObject, touches: int, probe: ProbeModel | None = 
         mu = obj.friction(v) * (1.0 + 0.05 * rng.standard_normal(len(v)))
         tactile = tactile.with_channel("friction", mu)
     return ProbedObject(obj, pts, nrm, tactile, idx, true_field(obj, pts, probe),
-                        meta={"cameras": len(cams)})
+                        meta={"cameras": len(cams), **stats})
+
+
+def _touch(probe_fn, v, n, noise, rng):
+    """Probe at ``v``, ``n`` (m, 3) and measure each displacement: ``(p_mean (m,), disp (m,), counts)``.
+
+    disp is NaN where the target was unreachable, or where the measured displacement is
+    non-physical (at or below the smallest Eq. 1 accepts): with ``noise``
+    (:class:`~vtcore.augment.probe_noise.ProbeNoise`) such a touch is first repeated with
+    fresh detection and position errors. counts : ``probes_repeated`` and
+    ``probes_rejected``, in touches (the prober counts unreachable targets itself).
+    """
+    p_mean, v_ss = probe_fn(v, n)
+    p_mean = np.asarray(p_mean, dtype=np.float64).copy()
+    unit = n / np.linalg.norm(n, axis=1, keepdims=True)
+    disp = np.einsum("ij,ij->i", v - np.asarray(v_ss, float), unit)
+    reached = np.isfinite(p_mean) & np.isfinite(disp)
+    repeated = 0
+    if noise is not None and reached.any():
+        disp[reached], repeats, _ = noise.measure(disp[reached], p_mean[reached], rng)
+        repeated = int(np.sum(repeats > 0))
+    physical = np.isfinite(disp) & (disp > MIN_DISPLACEMENT) & (p_mean > 0)
+    rejected = int(np.sum(reached & ~physical))
+    disp[~physical] = np.nan
+    return p_mean, disp, {"probes_repeated": repeated, "probes_rejected": rejected}
 
 
 def _centre(obj) -> tuple:

@@ -39,8 +39,21 @@ PARAMS = Section({
     "counts_per_newton": Field("float", default=2000.0, gt=0, doc="series probe: mean response per newton"),
     "layer_stiffness": Field("float", default=5000.0, gt=0, unit="N/m",
                              doc="series probe: soft layer under the probe, in series with the object"),
-    "response_noise": Field("float", default=5.0, ge=0, doc="counts, std of the averaged steady-state p̄"),
-    "position_noise": Field("float", default=2e-5, ge=0, unit="m", doc="std of the measured v_ss"),
+    "response_noise": Field("float", default=5.0, ge=0, doc="series probe: counts, std of the averaged p̄"),
+    "probe_noise": Field("bool", default=True,
+                         doc="measure each touch's displacement as a robot does: position noise and late "
+                             "contact detection (vtcore.augment.probe_noise); a non-physical touch is "
+                             "repeated, then rejected and replaced, and counted"),
+    "position_noise": Field("float", default=5e-5, ge=0, unit="m",
+                            doc="std of each measured robot position (assumption: the order of a Franka "
+                                "Panda's 0.1 mm pose repeatability)"),
+    "approach_speed": Field("float", default=2e-3, gt=0, unit="m/s",
+                            doc="approach before contact; with the skin's 20 Hz frames it sets how late "
+                                "contact is detected (assumption)"),
+    "detect_k": Field("float", default=5.0, ge=0,
+                      doc="contact is detected when p̄ exceeds this many noise deviations of the module's "
+                          "10-taxel mean"),
+    "probe_retries": Field("int", default=2, ge=0, doc="repeats of a touch whose displacement is non-physical"),
     "cameras": Field("int", default=2, ge=1, le=2, doc="virtual D415s (the paper merges two)"),
     "depth_noise": Field("float", default=3e-4, ge=0, unit="m", doc="depth noise of the cameras"),
     "points": Field("int", default=33676, ge=1, doc="at most this many visual points (paper's bottle: 33,676)"),
@@ -85,6 +98,35 @@ def contact_prober(scene, ctx, obj):
                          press_kw=opts)
 
 
+#: the probe-noise keys every seed-000 task that probes shares (same meaning, same defaults)
+PROBE_NOISE_KEYS = ("probe_noise", "position_noise", "approach_speed", "detect_k", "probe_retries")
+
+
+def probe_noise(scene, ctx):
+    """The :class:`~vtcore.augment.probe_noise.ProbeNoise` of the scene's probes, or None.
+
+    The detection threshold uses the per-taxel noise of the scene's listed ``noise``
+    effect (the one p̄ is read through), else the measured skin noise
+    (:func:`~vtcore.augment.probe_noise.skin_noise`). Returns ``(noise, sigma, source)``.
+    """
+    from ...augment.probe_noise import ProbeNoise, SkinNoise, skin_noise
+
+    p = scene["task"]
+    listed = ctx.pipeline.get("noise")
+    skin = SkinNoise(float(listed.sigma), p["detect_k"], "the scene's [effects.noise]") if listed is not None \
+        else SkinNoise(skin_noise().sigma, p["detect_k"], skin_noise().source)
+    if not p["probe_noise"]:
+        return None, skin.sigma, skin.source
+    return (ProbeNoise.from_skin(skin, position_sigma=p["position_noise"], approach_speed=p["approach_speed"],
+                                 retries=p["probe_retries"]), skin.sigma, skin.source)
+
+
+def probe_model(p):
+    """The closed-form series probe of a task's parameters (position noise lives in ProbeNoise)."""
+    return ProbeModel(target=p["target_response"], counts_per_newton=p["counts_per_newton"],
+                      layer_stiffness=p["layer_stiffness"], response_noise=p["response_noise"], position_noise=0.0)
+
+
 def run(scene, ctx) -> TaskResult:
     p = scene["task"]
     if p["channels"][:1] != ["compliance"]:
@@ -92,9 +134,8 @@ def run(scene, ctx) -> TaskResult:
     if p["c_max"] <= p["c_min"]:
         raise scene.error("task.c_max", f"must be > c_min ({p['c_min']}), got {p['c_max']}")
     obj = make_seed000_object(p["object"], p["stiffness_scale"])
-    probe = ProbeModel(target=p["target_response"], counts_per_newton=p["counts_per_newton"],
-                       layer_stiffness=p["layer_stiffness"], response_noise=p["response_noise"],
-                       position_noise=p["position_noise"])
+    probe = probe_model(p)
+    noise, _, _ = probe_noise(scene, ctx)
     lo, hi = np.asarray(obj.mesh.bounds)
     cams = two_cameras(target=tuple((lo + hi) / 2), depth_noise=p["depth_noise"])[:p["cameras"]]
     rng = ctx.child_rng("augment")
@@ -109,7 +150,7 @@ def run(scene, ctx) -> TaskResult:
     recorded = bool(p["probes"])
     probed = probe_object(obj, 1 if recorded else p["touches"], probe, cameras=cams, n_points=p["points"], rng=rng,
                           channels=tuple(p["channels"]), probe_fn=None if recorded else prober,
-                          cloud=(pts, nrm) if p["cloud"] else None)
+                          cloud=(pts, nrm) if p["cloud"] else None, noise=noise)
     tactile = load_probes(p["probes"]) if p["probes"] else probed.tactile
     x, v, c = probed.points, tactile.points, tactile.values
     if prober is None:
@@ -152,6 +193,8 @@ def run(scene, ctx) -> TaskResult:
         "c_true_mean": float(np.mean(truth)),
         **({"probe_force_mean_n": float(np.mean([r.force for r in prober.results])),
             "probes_unreachable": len(prober.failures)} if prober else {}),
+        "probes_repeated": probed.meta["probes_repeated"],
+        "probes_rejected": probed.meta["probes_rejected"],
         "touches": len(v),
         "points": len(x),
         "displacement_mean_mm": float(np.mean(tactile.displacement)) * 1e3

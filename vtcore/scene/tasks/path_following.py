@@ -23,7 +23,8 @@ from ..registry import TaskSpec, register_task
 from ..runner import TaskResult
 from ..schema import Field, Section
 from ..sections.layer import build_layer, layer_options
-from .augment import contact_prober
+from .augment import PARAMS as AUGMENT
+from .augment import PROBE_NOISE_KEYS, contact_prober, probe_noise
 
 PARAMS = Section({
     "object": Field("str", default="empty_bottle", choices=("empty_bottle", "full_bottle")),
@@ -55,6 +56,7 @@ PARAMS = Section({
     "setpoint_period": Field("float", default=1e-2, gt=0, unit="s", doc="on-the-fly query period"),
     "c_min": Field("float", default=0.0),
     "c_max": Field("float", default=2.0e7, gt=0, doc="shared colour scale of the pictures, counts/m"),
+    **{k: AUGMENT.fields[k] for k in PROBE_NOISE_KEYS},
 })
 
 
@@ -67,7 +69,8 @@ def run(scene, ctx) -> TaskResult:
     prober = contact_prober(scene, ctx, obj) if p["probe"] == "contact" else None
     probed = probe_object(obj, p["touches"], probe, cameras=two_cameras(target=tuple((lo + hi) / 2),
                                                                           depth_noise=3e-4),
-                          n_points=p["points"], rng=ctx.child_rng("augment"), probe_fn=prober)
+                          n_points=p["points"], rng=ctx.child_rng("augment"), probe_fn=prober,
+                          noise=probe_noise(scene, ctx)[0])
     v, c = probed.tactile.points, probed.tactile.values
     z0, z1 = p["start_height"], p["start_height"] - p["length"]
     if z1 < 0 or z0 > BOTTLE["body_top"] + 0.02:

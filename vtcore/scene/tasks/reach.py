@@ -19,7 +19,8 @@ from ...plots import pyplot
 from ..registry import TaskSpec, register_task
 from ..runner import TaskResult
 from ..schema import Field, Section
-from .augment import contact_prober
+from .augment import PARAMS as AUGMENT
+from .augment import PROBE_NOISE_KEYS, contact_prober, probe_noise
 
 PARAMS = Section({
     "start": Field("vec", default=[0.0, 0.0], length=2, unit="m", doc="A, in the task plane"),
@@ -50,6 +51,7 @@ PARAMS = Section({
     "slow_force": Field("float", default=2.0, gt=0, unit="N", doc="speed halves at this contact force"),
     "dt": Field("float", default=0.01, gt=0, unit="s"),
     "c_max": Field("float", default=2.0e7, gt=0, doc="shared colour scale of the picture"),
+    **{k: AUGMENT.fields[k] for k in PROBE_NOISE_KEYS},
 })
 
 
@@ -88,7 +90,7 @@ def run(scene, ctx) -> TaskResult:
                 for s in (-1, 1)]
         prober = contact_prober(scene, ctx, obj) if p["probe"] == "contact" else None
         probed = probe_object(obj, p["touches"], probe, cameras=cams, n_points=6000, rng=ctx.child_rng(name),
-                              probe_fn=prober)
+                              probe_fn=prober, noise=probe_noise(scene, ctx)[0])
         est = (ClusterPropagation() if p["propagation"] == "cluster" else SmoothPropagation()).fit(
             probed.tactile.points, probed.tactile.values)
         pred = est.predict(probed.points)
