@@ -152,27 +152,60 @@ def _const(value):
     return f
 
 
+#: the nominal body (face, wall) stiffness of each object, N/m: our choices, the paper gives none
+BODY_STIFFNESS = {"empty_bottle": 400.0, "full_bottle": 2500.0, "tennis_ball": 15e3, "sponge_ball": 150.0,
+                  "cube_low_shore": 1500.0, "cube_high_shore": 5000.0}
+#: the same-shape pairs of seed 000 (Fig. 4): (softer, stiffer)
+PAIRS = {"bottle": ("empty_bottle", "full_bottle"), "ball": ("sponge_ball", "tennis_ball"),
+         "cube": ("cube_low_shore", "cube_high_shore")}
+#: the plastic cap and neck of both bottles, N/m (the same part on both: not scaled with the wall)
+BOTTLE_CAP_STIFFNESS = 60e3
+
+
+def contrast_scales(contrast: float) -> dict[str, float]:
+    """Stiffness scales that give every same-shape pair the body stiffness ratio ``contrast``.
+
+    The softer member of each pair keeps its stiffness; the stiffer one is scaled so that its
+    body is ``contrast`` times the softer one's (1: equal bodies; the bottles then still differ
+    at the shoulder and the bottom, where the liquid changes how much the curvature and the
+    stand matter). The paper gives no stiffness, so it gives no contrast either. Returns
+    ``{object: scale}`` for all six objects.
+    """
+    c = float(contrast)
+    if not (np.isfinite(c) and c > 0):
+        raise InputError(f"must be > 0, got {contrast}", key="contrast")
+    scales = {o: 1.0 for o in OBJECTS}
+    for soft, stiff in PAIRS.values():
+        scales[stiff] = c * BODY_STIFFNESS[soft] / BODY_STIFFNESS[stiff]
+    return scales
+
+
 def make_seed000_object(name: str, stiffness_scale: float = 1.0) -> CompliantObject:
-    """One of :data:`OBJECTS` with its stiffness field (scaled by ``stiffness_scale``)."""
+    """One of :data:`OBJECTS` with its stiffness field scaled by ``stiffness_scale``.
+
+    On the bottles the scale applies to the wall (body, shoulder, bottom), not to the plastic
+    cap and neck, which are the same part on both bottles.
+    """
     s = float(stiffness_scale)
     if not (np.isfinite(s) and s > 0):
         raise InputError(f"must be > 0, got {stiffness_scale}", key="stiffness_scale")
     if name in ("empty_bottle", "full_bottle"):
-        body = (400.0 if name == "empty_bottle" else 2500.0) * s
+        body = BODY_STIFFNESS[name] * s
         # the full bottle's liquid supports the wall, so the curvature matters less
         gains = dict(shoulder_gain=3.0, bottom_gain=1.5) if name == "empty_bottle" \
             else dict(shoulder_gain=1.2, bottom_gain=0.6)
-        return CompliantObject(name, bottle_mesh(), lambda p: bottle_stiffness(p, body, cap=60e3 * s, **gains),
-                               bottle_friction, dict(body_stiffness=body, cap_stiffness=60e3 * s, **gains))
+        cap = BOTTLE_CAP_STIFFNESS
+        return CompliantObject(name, bottle_mesh(), lambda p: bottle_stiffness(p, body, cap=cap, **gains),
+                               bottle_friction, dict(body_stiffness=body, cap_stiffness=cap, **gains))
     if name == "tennis_ball":
-        return CompliantObject(name, ball_mesh(0.0335), _const(15e3 * s), _const(0.7),
-                               dict(radius=0.0335, stiffness=15e3 * s))
+        return CompliantObject(name, ball_mesh(0.0335), _const(BODY_STIFFNESS[name] * s), _const(0.7),
+                               dict(radius=0.0335, stiffness=BODY_STIFFNESS[name] * s))
     if name == "sponge_ball":
-        return CompliantObject(name, ball_mesh(0.035), _const(150.0 * s), _const(0.9),
-                               dict(radius=0.035, stiffness=150.0 * s))
+        return CompliantObject(name, ball_mesh(0.035), _const(BODY_STIFFNESS[name] * s), _const(0.9),
+                               dict(radius=0.035, stiffness=BODY_STIFFNESS[name] * s))
     if name in ("cube_low_shore", "cube_high_shore"):
-        face, eg, vg = (1500.0, 0.8, 0.6) if name == "cube_low_shore" else (5000.0, 2.0, 1.5)
-        face *= s
+        eg, vg = (0.8, 0.6) if name == "cube_low_shore" else (2.0, 1.5)
+        face = BODY_STIFFNESS[name] * s
         return CompliantObject(name, cube_mesh(0.06), lambda p: cube_stiffness(p, 0.06, face, eg, vg),
                                _const(1.0 if name == "cube_low_shore" else 0.8),
                                dict(size=0.06, face_stiffness=face, edge_gain=eg, vertex_gain=vg))

@@ -15,8 +15,6 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-import numpy as np
-
 from .._bench import save_png, write_table
 from .datasets import ObjectScan, c_scale, make_dataset, object_subsamples
 from .experiment import PAPER_TABLE1, train_and_test

@@ -1,4 +1,4 @@
-"""PointNet (Qi et al. 2017) for seed 000's classification (Sect. 4.1), in PyTorch, CPU only.
+"""PointNet (Qi et al. 2017) for seed 000's classification (Sect. 4.1), in PyTorch, on CPU or a CUDA GPU.
 
 torch is an optional extra (``pip install vtcore[learn]``, pinned ``torch==2.13.0``): it is
 imported by :func:`require_torch` inside the functions here, never at ``import vtcore``, so
@@ -34,6 +34,33 @@ def require_torch():
         raise MissingTorchError(f"PointNet training needs PyTorch: pip install 'vtcore[learn]' "
                                 f"(pins {TORCH_PIN}, a CPU build)") from None
     return torch
+
+
+#: the values of ``task.device``
+DEVICES = ("cpu", "cuda", "auto")
+
+
+def resolve_device(device: str = "cpu") -> str:
+    """The torch device to train on: ``"cpu"``, ``"cuda"`` or ``"auto"`` -> ``"cpu"`` or ``"cuda"``.
+
+    ``auto`` takes CUDA when torch sees a usable GPU, else the CPU. ``cuda`` without one is an
+    InputError that says what torch reports (a CPU-only build, no driver, no device), never a
+    silent fall-back: a user who asked for the GPU must know the run did not use it.
+    """
+    torch = require_torch()
+    if device not in DEVICES:
+        raise InputError(f"unknown device {device!r}; valid: {', '.join(DEVICES)}", key="device")
+    if device == "cpu":
+        return "cpu"
+    available = bool(torch.cuda.is_available())
+    if device == "auto":
+        return "cuda" if available else "cpu"
+    if not available:
+        build = "a CPU-only torch build" if torch.version.cuda is None else \
+            f"torch built for CUDA {torch.version.cuda}, but no usable GPU or driver"
+        raise InputError(f"cuda was asked for but torch cannot use a GPU here ({build}); use cpu or auto",
+                         key="device")
+    return "cuda"
 
 
 def machine_cores() -> int:

@@ -32,7 +32,10 @@ class TrainConfig:
     norm's statistics from the training clouds at the current weights. With few optimisation
     steps (quick runs, tests: tens of batches) the running averages lag the weights and the
     network in evaluation mode gives one class for every input; this costs one forward pass
-    over the training set per epoch."""
+    over the training set per epoch. device : a torch device name (``"cpu"``, ``"cuda"``; see
+    :func:`vtcore.learn.pointnet.resolve_device`): the network and each batch live there; the
+    shuffling and augmentation draws stay on the CPU generator, so the same seed draws the same
+    batches and rotations on either device (the arithmetic's last bits may differ on a GPU)."""
 
     epochs: int = 20
     batch: int = 16
@@ -45,6 +48,7 @@ class TrainConfig:
     seed: int = 0
     threads: int | None = None
     recalibrate_bn: bool = False
+    device: str = "cpu"
 
 
 @dataclass
@@ -64,7 +68,7 @@ class TrainResult:
 
 
 def augment_batch(x, gen, cfg: TrainConfig):
-    """Random rotation about z and clipped Gaussian jitter on x, y, z of a (B, P, C) tensor."""
+    """Random rotation about z and clipped Gaussian jitter on x, y, z of a (B, P, C) CPU tensor."""
     torch = require_torch()
     x = x.clone()
     if cfg.rotate:
@@ -86,14 +90,21 @@ def _loss(torch, model, xb, yb, cfg):
     return loss, logits
 
 
+def model_device(model):
+    """The torch device a network's parameters live on."""
+    return next(model.parameters()).device
+
+
 def predict(model, x: np.ndarray, batch: int = 64) -> np.ndarray:
-    """Class scores (M, k) float32 of clouds ``x`` (M, P, C) in evaluation mode."""
+    """Class scores (M, k) float32 of clouds ``x`` (M, P, C) in evaluation mode, on the model's device."""
     torch = require_torch()
     model.eval()
+    dev = model_device(model)
     out = []
     with torch.no_grad():
         for i in range(0, len(x), batch):
-            out.append(model(torch.from_numpy(np.ascontiguousarray(x[i:i + batch])))[0].numpy())
+            xb = torch.from_numpy(np.ascontiguousarray(x[i:i + batch], dtype=np.float32)).to(dev)
+            out.append(model(xb)[0].cpu().numpy())
     return np.concatenate(out) if out else np.zeros((0, 0), np.float32)
 
 
@@ -127,8 +138,9 @@ def train(x_train: np.ndarray, y_train: np.ndarray, x_val: np.ndarray, y_val: np
     if not np.all(np.isfinite(x_train)):
         raise TrainingDivergedError("the training clouds hold NaN or inf: nothing to learn from")
     xt, yt = torch.from_numpy(x_train), torch.from_numpy(np.asarray(y_train, dtype=np.int64))
+    dev = torch.device(cfg.device)
     model = build_pointnet(x_train.shape[2], n_classes, input_transform=cfg.input_transform,
-                           feature_transform=cfg.feature_transform)
+                           feature_transform=cfg.feature_transform).to(dev)
     opt = torch.optim.Adam(model.parameters(), lr=cfg.lr)
     y_val = np.asarray(y_val, dtype=np.int64)
     curves = {k: [] for k in ("train_loss", "train_accuracy", "val_loss", "val_accuracy")}
@@ -142,7 +154,7 @@ def train(x_train: np.ndarray, y_train: np.ndarray, x_val: np.ndarray, y_val: np
             idx = order[i:i + cfg.batch]
             if len(idx) < 2:       # batch norm needs two samples; the one left over joins the next epoch
                 continue
-            xb, yb = augment_batch(xt[idx], gen, cfg), yt[idx]
+            xb, yb = augment_batch(xt[idx], gen, cfg).to(dev), yt[idx].to(dev)
             opt.zero_grad()
             loss, logits = _loss(torch, model, xb, yb, cfg)
             if not torch.isfinite(loss):
@@ -156,7 +168,7 @@ def train(x_train: np.ndarray, y_train: np.ndarray, x_val: np.ndarray, y_val: np
             seen += len(idx)
         if cfg.recalibrate_bn:
             # torch's own recalibration (cumulative averages over one pass, as for weight averaging)
-            torch.optim.swa_utils.update_bn([xt[i:i + 64] for i in range(0, len(xt), 64)], model)
+            torch.optim.swa_utils.update_bn([xt[i:i + 64] for i in range(0, len(xt), 64)], model, device=dev)
         vloss, vacc = _eval(torch, model, x_val, y_val)
         row = {"train_loss": tot / max(seen, 1), "train_accuracy": correct / max(seen, 1), "val_loss": vloss,
                "val_accuracy": vacc}

@@ -13,9 +13,10 @@ import time
 
 import numpy as np
 
-from ...augment import ProbeModel, make_seed000_object, two_cameras
+from ...augment import make_seed000_object, two_cameras
 from ...augment.experiment import probe_object
-from ...augment.objects import OBJECTS
+from ...augment.objects import OBJECTS, PAIRS, contrast_scales
+from ...errors import InputError
 from ...learn import datasets as D
 from ...learn.experiment import PAPER_TABLE1, active_vs_random, touches_to_reach, train_and_test, train_mixed
 from ...plots import png_writer
@@ -23,11 +24,11 @@ from ..registry import TaskSpec, register_task
 from ..runner import TaskResult
 from ..schema import Field, Section
 from .augment import PARAMS as AUGMENT
-from .augment import contact_prober
+from .augment import PROBE_NOISE_KEYS, contact_prober, probe_model, probe_noise
 
 #: probing keys shared with the augment task (same meaning, same defaults)
 SHARED = ("target_response", "probe", "counts_per_pa", "readings", "counts_per_newton", "layer_stiffness",
-          "response_noise", "position_noise", "cameras", "depth_noise", "beta")
+          "response_noise", *PROBE_NOISE_KEYS, "cameras", "depth_noise", "beta")
 
 PARAMS = Section({
     "objects": Field("list", default=list(OBJECTS), item=Field("str", choices=OBJECTS),
@@ -36,6 +37,11 @@ PARAMS = Section({
                               section=Section({o: Field("float", default=1.0, gt=0) for o in OBJECTS}),
                               doc="per object, multiplies its stiffness field (e.g. full_bottle = 0.2 makes the "
                                   "two bottles' bodies nearly alike: a harder problem)"),
+    "contrast": Field("float", default=0.0, ge=0,
+                      doc="body stiffness ratio of every same-shape pair (stiffer / softer: the full bottle, "
+                          "the tennis ball, the high-shore cube scaled to it); 0: the objects as defined in "
+                          "vtcore.augment.objects. The paper gives no stiffness, so no contrast either; "
+                          "applied on top of stiffness_scales"),
     "probes_bottle": Field("int", default=24, ge=1, doc="|T_o| of the bottles (paper: 24)"),
     "probes_other": Field("int", default=17, ge=1, doc="|T_o| of the balls and cubes (paper: 17)"),
     "points": Field("int", default=33676, ge=1, doc="points of each visual cloud V_o (paper's bottle: 33,676)"),
@@ -56,6 +62,9 @@ PARAMS = Section({
     "recalibrate_bn": Field("bool", default=False,
                             doc="recompute batch norm statistics from the training set before each validation "
                                 "(needed with few steps: the quick mode turns it on)"),
+    "device": Field("str", default="cpu", choices=("cpu", "cuda", "auto"),
+                    doc="where PointNet trains: cpu, cuda (an error if torch sees no CUDA GPU) or auto (cuda "
+                        "when available, else cpu); result.json says which ran"),
     "threads": Field("int", default=1, ge=0, doc="torch threads, capped at the cores this process may use "
                                                   "(0: all of them)"),
     "active": Field("bool", default=True, doc="compare active (farthest-point, coverage) and random touch selection"),
@@ -77,28 +86,32 @@ QUICK_ON = ("recalibrate_bn",)
 
 def scan_objects(scene, ctx, names, p) -> list[D.ObjectScan]:
     """Visual cloud and probes of every object (seeded per object, independent of the others)."""
-    probe = ProbeModel(target=p["target_response"], counts_per_newton=p["counts_per_newton"],
-                       layer_stiffness=p["layer_stiffness"], response_noise=p["response_noise"],
-                       position_noise=p["position_noise"])
+    probe = probe_model(p)
+    noise, _, _ = probe_noise(scene, ctx)
     scans = []
+    scales = dict(p["stiffness_scales"])
+    if p["contrast"] > 0:
+        scales = {o: scales[o] * f for o, f in contrast_scales(p["contrast"]).items()}
     for name in ctx.progress(names, desc="scanning and probing", total=len(names)):
-        obj = make_seed000_object(name, p["stiffness_scales"][name])
+        obj = make_seed000_object(name, scales[name])
         lo, hi = np.asarray(obj.mesh.bounds)
         cams = two_cameras(target=tuple((lo + hi) / 2), depth_noise=p["depth_noise"])[:p["cameras"]]
         n_touch = p["probes_bottle"] if "bottle" in name else p["probes_other"]
         prober = contact_prober(scene, ctx, obj) if p["probe"] == "contact" else None
         t0 = time.perf_counter()
         probed = probe_object(obj, n_touch, probe, cameras=cams, n_points=p["points"], rng=ctx.child_rng(f"scan.{name}"),
-                              probe_fn=prober)
+                              probe_fn=prober, noise=noise)
         c = probed.tactile.values
         scans.append(D.ObjectScan(name, probed.points, probed.tactile.points, c if c.ndim == 1 else c[:, 0],
                                   meta={"probe_seconds": time.perf_counter() - t0,
-                                        "probes_unreachable": len(prober.failures) if prober else 0}))
+                                        "probes_unreachable": len(prober.failures) if prober else 0,
+                                        "probes_repeated": probed.meta["probes_repeated"],
+                                        "probes_rejected": probed.meta["probes_rejected"]}))
     return scans
 
 
 def run(scene, ctx) -> TaskResult:
-    from ...learn.pointnet import require_torch
+    from ...learn.pointnet import require_torch, resolve_device
     from ...learn.train import TrainConfig
 
     p = dict(scene["task"])
@@ -118,6 +131,10 @@ def run(scene, ctx) -> TaskResult:
                                                  f"{'has' if len(few) == 1 else 'have'} fewer probes "
                                                  f"(probes_bottle / probes_other)")
     require_torch()                                   # before the scans: a missing extra fails in a second
+    try:
+        device = resolve_device(p["device"])          # ... and so does a GPU asked for and not there
+    except InputError as exc:
+        raise scene.error("task.device", exc.reason) from None
     log = (ctx.out / "training.log").open("w", encoding="utf-8")
 
     def say(text):
@@ -135,7 +152,8 @@ def run(scene, ctx) -> TaskResult:
                  for prop in p["propagations"] for g in p["touches"]]
     cfg = dict(epochs=p["epochs"], batch=p["batch"], lr=p["learning_rate"], input_transform=p["input_transform"],
                feature_transform=p["feature_transform"], threads=p["threads"] or None,
-               recalibrate_bn=p["recalibrate_bn"])
+               recalibrate_bn=p["recalibrate_bn"], device=device)
+    say(f"training on {device} (task.device = {p['device']})")
     results, metrics = {}, {}
     for i, ds in enumerate(versions):
         def progress(epoch, epochs, row, name=ds.name):
@@ -153,6 +171,8 @@ def run(scene, ctx) -> TaskResult:
         metrics[f"infer_ms_per_cloud_{ds.name}"] = r.infer_ms
         metrics[f"best_epoch_{ds.name}"] = r.best_epoch
     metrics["scan_seconds"] = t_scan
+    metrics["train_on_cuda"] = int(device.startswith("cuda"))
+    metrics.update(scan_metrics(scans, p))
     metrics["clouds_per_object"] = int(p["per_object"])
     metrics["epochs"] = int(p["epochs"])
 
@@ -220,7 +240,22 @@ def run(scene, ctx) -> TaskResult:
 
     write_json(ctx.out / "manifest.json", manifest)
     return TaskResult(metrics=metrics, arrays=arrays, figures=figures, sections=sections,
-                      files=["manifest.json", "training.log"], extra={"datasets": manifest["datasets"]})
+                      files=["manifest.json", "training.log"],
+                      extra={"datasets": manifest["datasets"], "device": device})
+
+
+def scan_metrics(scans, p) -> dict:
+    """What the probes measured: the contrast asked for, each same-shape pair's measured colour
+    contrast (median probed colour of the stiffer over the softer), repeated and rejected touches."""
+    by = {s.name: s for s in scans}
+    out = {"contrast": float(p["contrast"])}
+    for pair, (soft, stiff) in PAIRS.items():
+        if soft in by and stiff in by:
+            out[f"colour_contrast_{pair}"] = float(np.median(by[stiff].touch_values)
+                                                   / np.median(by[soft].touch_values))
+    for key in ("probes_repeated", "probes_rejected", "probes_unreachable"):
+        out[key] = int(sum(s.meta.get(key, 0) for s in scans))
+    return out
 
 
 def _table(results, versions, p) -> str:
