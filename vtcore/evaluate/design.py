@@ -20,6 +20,8 @@ from .samples import SurfaceSamples, cover_radius, sample_surface
 from .two_point import TwoPoint, two_point_discrimination
 
 _TABLES: dict = {}
+#: the neighbourhood of a point: taxels reading at least this fraction of k sigma at the largest force
+DETECTION_FRACTION = 0.05
 
 
 @dataclass
@@ -45,7 +47,7 @@ class Settings:
     two_point: bool = True
     two_point_spacing: float | None = None
     two_point_step: float = 1e-3
-    max_separation: float = 0.04
+    max_separation: float = 0.05
     two_point_directions: int = 4
     model: str = "finite_layer"
     spreading: str = "layer"
@@ -183,7 +185,10 @@ def evaluate_points(layout, points, normals, layer, settings: Settings | None = 
     alive = live_taxels(layout, settings.dead)
     pos, nrm = layout.positions[alive], layout.normals[alive]
     t0 = time.perf_counter()
-    nb = neighbours(pos, nrm, points, normals, table.reach, settings.probe.yaw, axis=settings.probe_axis)
+    # taxels farther than where the largest force still reads a twentieth of the detection level
+    # cannot decide a threshold (the log-log step below the crossing included): the neighbourhood
+    reach = table.radius(len(table.forces) - 1, DETECTION_FRACTION * noise.threshold_pa)
+    nb = neighbours(pos, nrm, points, normals, reach, settings.probe.yaw, axis=settings.probe_axis)
     det = detection_threshold(table, nb, noise)
     seconds["detection"] = time.perf_counter() - t0
     t0 = time.perf_counter()
@@ -203,7 +208,8 @@ def evaluate_points(layout, points, normals, layer, settings: Settings | None = 
             sub = two_point_discrimination(table, pos, nrm, adj, points[sel], normals[sel], noise,
                                            settings.reference_force, directions=settings.two_point_directions,
                                            step=settings.two_point_step, max_separation=settings.max_separation,
-                                           yaw=settings.probe.yaw, axis=settings.probe_axis)
+                                           yaw=settings.probe.yaw, axis=settings.probe_axis,
+                                           min_separation=settings.probe.width())
             tp = _spread(sub, sel, points)
         seconds["two_point"] = time.perf_counter() - t0
     blind = ~det.detectable | (det.threshold > settings.limit)
@@ -243,7 +249,7 @@ def evaluate(layout, mesh, layer, settings: Settings | None = None, noise: Senso
     if not alive.any():
         raise InputError("every taxel of the layout is dead or not a pressure taxel", key="dead")
     t0 = time.perf_counter()
-    samples = sample_surface(mesh, layout.positions[alive], spacing=spacing, margin=margin,
+    samples = sample_surface(mesh, layout.positions[alive], layout.normals[alive], spacing=spacing, margin=margin,
                              cover=cover_radius() if cover is None else cover)
     t_samples = time.perf_counter() - t0
     sel = None

@@ -1,10 +1,10 @@
 """The sensor's noise and gain as a design map needs them: counts per pascal, noise sigma, k.
 
-The values come from the shipped CySkin sensor profile (``vtcore.contact.profile.load_profile``)
-when this vtcore has it; otherwise from the measurement the profile is built on, named as the
-source: the median per-taxel noise of the untouched CySkin recordings (shared/data/cyskin_gesture,
-about 180 counts, interquartile range 90-310) and the five noise deviations a finger lights
-taxels above there.
+The values come from a sensor profile (``vtcore.contact.profile.load_profile``; the shipped
+``"cyskin"`` one by default: the median per-taxel noise of the idle CySkin recordings with their
+clipping at 0 accounted for, 191 counts, and its detection k, 5); the gain from the profile's fitted
+``[response]`` where it has one, else vtcore's default linear gain, named as an assumption. Every
+value can be given instead, and the report says where each came from.
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ import numpy as np
 
 from ..errors import InputError
 
-#: Fallbacks while no sensor profile is available (see the module docstring for their sources).
+#: Fallbacks where no profile is named (``profile=None``) or it lacks the value.
 MEASURED_SIGMA_COUNTS = 180.0
 MEASURED_SOURCE = ("median per-taxel noise of the untouched CySkin recordings "
                    "(shared/data/cyskin_gesture/README.md, 0_finger)")
@@ -59,32 +59,28 @@ class SensorNoise:
 
 def sensor_noise(sigma: float | None = None, k: float | None = None, counts_per_pa: float | None = None,
                  profile: str | None = "cyskin") -> SensorNoise:
-    """A :class:`SensorNoise` from the named sensor profile where this vtcore ships one, each value
-    overridable; what was not given and has no profile falls back to the measured numbers."""
-    prof, why = None, ""
-    if profile:
-        try:
-            from ..contact.profile import load_profile  # the sensor profile (issue 27)
-        except ImportError:
-            why = "no sensor profile module in this vtcore"
-        else:
-            prof = load_profile(profile)
+    """A :class:`SensorNoise` from sensor profile ``profile`` (a name of a shipped profile or a file;
+    None: none), each value overridable; what neither gives falls back to the numbers above."""
+    from ..contact.profile import load_profile
+
+    prof = load_profile(profile) if profile else None
+    name = getattr(prof, "name", profile)
+    response = getattr(prof, "response", None)
     parts = []
 
-    def pick(given, names, fallback, fallback_src, label):
+    def pick(given, value, what, fallback, fallback_src, label):
         if given is not None:
-            parts.append(f"{label}: given")
+            parts.append(f"{label} {float(given):g}: given")
             return float(given)
-        for name in names:
-            v = getattr(prof, name, None) if prof is not None else None
-            if v is not None:
-                parts.append(f"{label}: sensor profile {profile!r} ({name})")
-                return float(v)
-        parts.append(f"{label}: {fallback_src}" + (f" [{why}]" if why and prof is None else ""))
+        if value is not None:
+            parts.append(f"{label} {float(value):g}: sensor profile {name!r} ({what})")
+            return float(value)
+        parts.append(f"{label} {fallback:g}: {fallback_src}")
         return fallback
 
-    s = pick(sigma, ("noise_sigma", "noise_sigma_counts", "sigma"), MEASURED_SIGMA_COUNTS, MEASURED_SOURCE,
-             "noise sigma")
-    kk = pick(k, ("detection_k", "k"), DEFAULT_K, DEFAULT_K_SOURCE, "k")
-    g = pick(counts_per_pa, ("counts_per_pa", "gain"), DEFAULT_GAIN, DEFAULT_GAIN_SOURCE, "gain")
+    s = pick(sigma, getattr(prof, "noise_sigma", None), "median per-taxel noise, clipping accounted for",
+             MEASURED_SIGMA_COUNTS, MEASURED_SOURCE, "noise sigma (counts)")
+    kk = pick(k, getattr(prof, "detection_k", None), "detection k", DEFAULT_K, DEFAULT_K_SOURCE, "k")
+    g = pick(counts_per_pa, getattr(response, "counts_per_pa", None), "fitted response", DEFAULT_GAIN,
+             DEFAULT_GAIN_SOURCE, "gain (counts/Pa)")
     return SensorNoise(s, kk, g, "; ".join(parts))

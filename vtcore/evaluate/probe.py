@@ -28,12 +28,13 @@ import numpy as np
 
 from ..errors import InputError
 
-#: kind -> default dimensions (metres). "sphere": a fingertip-size ball (r 8 mm: the radius of a
-#: human index fingertip's cross-section is 7-10 mm; our assumption until the sensor profile's
-#: finger pad lands); "fingerpad": the contact package's finger-pad capsule when it exists.
+#: kind -> dimensions overriding vtcore.contact's defaults (metres). "fingerpad" (the standard probe):
+#: the contact package's finger pad, a capsule 16 mm wide and 40 mm long lying on the skin, the
+#: footprint the one-finger CySkin recordings show; "sphere": a fingertip-size ball (r 8 mm, the
+#: radius of an index fingertip's cross-section is 7-10 mm), round where the pad is elongated.
 PROBES = {
-    "sphere": {"radius": 0.008},
     "fingerpad": {},
+    "sphere": {"radius": 0.008, "subdivisions": 4},
 }
 
 #: The layer's base stress beyond this many thicknesses is below 1e-3 of its peak (bonded
@@ -46,7 +47,7 @@ class Probe:
     """The standard probe: ``kind`` of :data:`PROBES` with ``dims`` overriding its defaults (metres),
     turned by ``yaw`` radians about the surface normal from the sample's first tangent."""
 
-    kind: str = "sphere"
+    kind: str = "fingerpad"
     dims: dict = field(default_factory=dict)
     yaw: float = 0.0
 
@@ -60,14 +61,8 @@ class Probe:
     def mesh(self):
         """The probe as a closed trimesh resting on z = 0, pressed face up (vtcore.contact convention)."""
         from ..contact import make_object
-        from ..contact.objects import DEFAULTS
 
-        if self.kind == "fingerpad":
-            if "fingerpad" not in DEFAULTS:
-                raise InputError("this vtcore has no finger-pad indenter yet; use probe kind 'sphere'",
-                                 key="probe.kind")
-            return make_object("fingerpad", **self.dims)
-        return make_object("sphere", **{**PROBES["sphere"], **self.dims, "subdivisions": 4})
+        return make_object(self.kind, **{**PROBES[self.kind], **self.dims})
 
     def size(self) -> float:
         """Largest half-extent of the probe's footprint, metres (bounds the contact radius)."""
@@ -75,8 +70,17 @@ class Probe:
         ext = m.bounds[1] - m.bounds[0]
         return float(0.5 * max(ext[0], ext[1]))
 
+    def width(self) -> float:
+        """Width of the probe across its long axis (its y extent), metres: two probes side by side closer
+        than this overlap and are one wider object, not two touches."""
+        b = self.mesh().bounds
+        return float(b[1][1] - b[0][1])
+
     def describe(self) -> str:
-        dims = ", ".join(f"{k} {v * 1e3:g} mm" for k, v in sorted({**PROBES[self.kind], **self.dims}.items())
+        from ..contact.objects import DEFAULTS
+
+        full = {**DEFAULTS[self.kind], **PROBES[self.kind], **self.dims}
+        dims = ", ".join(f"{k} {v * 1e3:g} mm" for k, v in sorted(full.items())
                          if isinstance(v, (int, float)) and k not in ("subdivisions", "sections"))
         return f"{self.kind} ({dims})" if dims else self.kind
 
@@ -109,6 +113,14 @@ class ResponseTable:
     @property
     def peak(self) -> np.ndarray:
         return self.values.reshape(len(self.forces), -1).max(axis=1)
+
+    def radius(self, k: int, level: float) -> float:
+        """Largest offset (m) at which force row ``k`` reads at least ``level`` Pa (0 when nowhere): no
+        taxel farther from the probe can reach that level."""
+        X, Y = np.meshgrid(self.x, self.y, indexing="ij")
+        on = self.values[k] >= level
+        step = self.x[1] - self.x[0]
+        return float(np.hypot(X[on], Y[on]).max() + step) if on.any() else 0.0
 
     def index(self, force: float) -> int:
         """Row of ``force`` (it must be one of the tabulated forces)."""

@@ -16,7 +16,7 @@ from ..errors import UnreachableTargetError
 from .design import Settings, live_taxels
 from .maps import Localisation, frames, localise, neighbours
 from .noise import SensorNoise
-from .two_point import BLOB_FRACTION, count_blobs
+from .two_point import BAND_SPACINGS, BLOB_FRACTION, separations, split_blobs, taxel_spacing
 
 
 def probe_pose(mesh, point, normal, e1, e2, thickness: float, gap: float = 1e-4) -> np.ndarray:
@@ -31,12 +31,12 @@ def probe_pose(mesh, point, normal, e1, e2, thickness: float, gap: float = 1e-4)
     return pose
 
 
-def two_probes(mesh, separation: float, angle: float):
-    """One mesh of two copies of ``mesh`` at ``-+ separation / 2`` along ``angle`` (radians from the object's
-    x towards minus y, which :func:`probe_pose` turns into ``cos a e1 + sin a e2``)."""
+def two_probes(mesh, separation: float):
+    """One mesh of two copies of ``mesh`` side by side at ``-+ separation / 2`` along the object's y (across
+    a finger pad's long axis, x)."""
     import trimesh
 
-    d = 0.5 * separation * np.array([np.cos(angle), -np.sin(angle), 0.0])
+    d = np.array([0.0, 0.5 * separation, 0.0])
     a, b = mesh.copy(), mesh.copy()
     a.apply_translation(-d)
     b.apply_translation(d)
@@ -46,12 +46,14 @@ def two_probes(mesh, separation: float, angle: float):
 @dataclass
 class Reference:
     """Press-by-press values at M points: threshold (M,) N (nan where not computed), localisation,
-    readings (M, K) counts at the reference force, two_point (M,) m (nan where not computed), presses."""
+    two_point (M,) m (nan where not computed), presses (solves run), readings (M, K) counts: the mean
+    readings at the reference force of the neighbour taxels (:func:`maps.neighbours` order)."""
 
     threshold: np.ndarray
     localisation: Localisation
     two_point: np.ndarray
     presses: int
+    readings: np.ndarray
 
 
 def _press_kw(settings: Settings, grid_spacing: float, margin: float):
@@ -66,7 +68,8 @@ def reference_points(layout, points, normals, layer, settings: Settings, noise: 
                      grid_spacing: float = 5e-4, margin: float = 0.02, rel_tol: float = 0.01) -> Reference:
     """Press-by-press maps at ``points (M, 3)`` / ``normals (M, 3)``: localisation at every point, the
     detection threshold at ``threshold_points`` (indices; bisection on the force to ``rel_tol``), the
-    two-point distance at ``two_point_points`` along ``two_point_directions`` (radians, worst taken)."""
+    two-point distance at ``two_point_points`` for the pair's orientations ``two_point_directions``
+    (radians from the point's first tangent, worst taken)."""
     from ..contact import press
     from ..layout import skin_mesh
 
@@ -121,23 +124,28 @@ def reference_points(layout, points, normals, layer, settings: Settings, noise: 
     tp = np.full(len(points), np.nan)
     if len(two_point_points):
         adj = skin_mesh(live).adjacency
-        seps = np.arange(settings.two_point_step, settings.max_separation + settings.two_point_step / 2,
-                         settings.two_point_step)
+        band = BAND_SPACINGS * taxel_spacing(live.positions)
+        seps = separations(settings.probe.width(), settings.two_point_step, settings.max_separation)
         for i in two_point_points:
             worst = 0.0
             for a in two_point_directions:
                 found = settings.max_separation
+                e1 = np.cos(a) * e1s[i] + np.sin(a) * e2s[i]
+                e2 = np.cross(normals[i], e1)
                 for s in seps:
-                    pair = two_probes(mesh, s, a)
+                    pair = two_probes(mesh, s)
                     presses += 1
-                    pose = probe_pose(pair, points[i], normals[i], e1s[i], e2s[i], layer.thickness)
+                    pose = probe_pose(pair, points[i], normals[i], e1, e2, layer.thickness)
+                    # overlapping copies are no closed mesh; the press needs only the surface facing
+                    # the skin along the press direction (its lower envelope)
                     p = press(live, pair, pose, layer, force=2 * settings.reference_force, direction=-normals[i],
-                              **kw).pressure
+                              open_mesh="envelope", **kw).pressure
+                    rel = live.positions - points[i]
+                    p = np.where(np.abs(rel @ e1) <= band, p, 0.0)
                     level = max(need, BLOB_FRACTION * p.max())
-                    n = count_blobs((p > level)[None], np.arange(len(p))[None], adj)[0]
-                    if n >= 2:
+                    if split_blobs((p > level)[None], np.arange(len(p))[None], (rel @ e2)[None], adj)[0]:
                         found = s
                         break
                 worst = max(worst, found)
             tp[i] = worst
-    return Reference(thr, loc, tp, presses)
+    return Reference(thr, loc, tp, presses, mean)

@@ -17,6 +17,8 @@ import numpy as np
 from ..errors import InputError
 from ..layout.modules import PITCH
 
+#: cosine below which a taxel faces away from a surface point (about 105 degrees)
+FACING_AWAY = -0.25
 #: Points a sampling may spread before merging (memory: ~100 bytes each).
 MAX_POINTS = 8_000_000
 #: R2 low-discrepancy sequence constants (Roberts 2018): even cover of a face with few points.
@@ -67,13 +69,15 @@ def _face_points(tri: np.ndarray, counts: np.ndarray) -> tuple[np.ndarray, np.nd
     return t[:, 0] + u[:, None] * (t[:, 1] - t[:, 0]) + v[:, None] * (t[:, 2] - t[:, 0]), owner
 
 
-def sample_surface(mesh, taxels: np.ndarray, *, spacing: float = 2e-3, margin: float = 10e-3,
-                   cover: float | None = None) -> SurfaceSamples:
+def sample_surface(mesh, taxels: np.ndarray, taxel_normals: np.ndarray | None = None, *, spacing: float = 2e-3,
+                   margin: float = 10e-3, cover: float | None = None) -> SurfaceSamples:
     """Samples every ``spacing`` metres over the surface of ``mesh`` within ``cover + margin`` of a taxel.
 
     mesh : trimesh.Trimesh, metres (any triangulation: slivers, duplicates and non-manifold edges are
-    fine, degenerate faces are skipped). taxels : (N, 3) m, the live taxels' positions. cover : m,
-    default :func:`cover_radius`. Raises InputError when nothing of the mesh is near the skin or the
+    fine, degenerate faces are skipped). taxels, taxel_normals : (N, 3) m and unit, the live taxels.
+    cover : m, default :func:`cover_radius`. With normals, a point counts only near taxels that do not
+    face away from it (normals more than ~105 degrees apart): the margin runs round an edge onto a
+    link's side, not through a thin part onto its far face. Raises InputError when nothing of the mesh is near the skin or the
     spacing would spread more than :data:`MAX_POINTS` points.
     """
     from scipy.spatial import cKDTree
@@ -85,6 +89,7 @@ def sample_surface(mesh, taxels: np.ndarray, *, spacing: float = 2e-3, margin: f
         raise InputError(f"must be >= 0 m, got {margin}", key="margin")
     cover = cover_radius() if cover is None else float(cover)
     taxels = np.asarray(taxels, float).reshape(-1, 3)
+    taxel_normals = None if taxel_normals is None else np.asarray(taxel_normals, float).reshape(-1, 3)
     if not len(taxels):
         raise InputError("the skin has no live taxels", key="layout")
     V = np.asarray(mesh.vertices, float)
@@ -113,6 +118,16 @@ def sample_surface(mesh, taxels: np.ndarray, *, spacing: float = 2e-3, margin: f
     inside = d_pt <= reach
     pts, owner, w = pts[inside], owner[inside], w[inside]
     n_pt = nrm[owner]
+    if taxel_normals is not None and len(pts):
+        kk = min(16, len(taxels))
+        d_k, i_k = tree.query(pts, k=kk, distance_upper_bound=reach)
+        d_k, i_k = d_k.reshape(len(pts), kk), i_k.reshape(len(pts), kk)
+        ok = i_k < len(taxels)
+        facing = np.einsum("pkc,pc->pk", taxel_normals[np.where(ok, i_k, 0)], n_pt) > FACING_AWAY
+        keep_pt = (ok & facing).any(axis=1)
+        pts, owner, w, n_pt = pts[keep_pt], owner[keep_pt], w[keep_pt], n_pt[keep_pt]
+    if not len(pts):
+        raise InputError(f"no surface within {reach * 1e3:.3g} mm of a taxel faces the skin's side", key="mesh")
     # merge per voxel and per dominant normal direction (6 classes): opposite faces stay apart
     vox = np.floor(pts / spacing).astype(np.int64)
     ax = np.argmax(np.abs(n_pt), axis=1)
