@@ -12,7 +12,13 @@ from pathlib import Path
 
 
 class VtError(Exception):
-    """Base of all vtcore errors caused by input (files, scenes, arguments)."""
+    """Base of all vtcore errors caused by input (files, scenes, arguments).
+
+    ``details``: optional lines that say more than the one-line message (every problem of a scene,
+    the warnings of a run before it failed); the CLI shows them only when asked (``--details``).
+    """
+
+    details: list[str] = []
 
 
 class Cancelled(VtError):
@@ -63,12 +69,25 @@ class UnreachableTargetError(VtError, ValueError):
 
 
 class SceneErrors(SceneError):
-    """Several scene problems at once; the message has one line per problem."""
+    """Several scene problems at once. The message is one line (the first problems, then how many
+    more); ``details`` lists every problem, one per line (``vtcore run --details``)."""
+
+    #: problems written out in the one-line message; the rest are counted
+    SHOWN = 3
 
     def __init__(self, errors: list[SceneError]):
         self.errors = list(errors)
-        ValueError.__init__(self, "\n".join(str(e) for e in self.errors))
-        self.reason = str(self)
         self.file = errors[0].file if errors else None
         self.key = errors[0].key if errors else None
         self.line = None
+        self.details = [str(e) for e in self.errors]
+        if len(self.errors) == 1:
+            text = str(self.errors[0])
+        else:
+            parts = [_locate(None, e.key, e.line) + f": {e.reason}" if (e.key or e.line) else e.reason
+                     for e in self.errors[: self.SHOWN]]
+            more = len(self.errors) - self.SHOWN
+            text = (f"{self.file}: " if self.file else "") + f"{len(self.errors)} problems: " + "; ".join(parts) + (
+                f"; and {more} more (--details lists them all)" if more > 0 else "")
+        ValueError.__init__(self, text)
+        self.reason = text

@@ -40,9 +40,26 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _error_lines(text) -> str:
+    """``text`` as one line: line breaks (a message quoting a file's lines) become `` / ``, control
+    bytes are escaped (docs/inputs.md: an error is one line)."""
     from ..inputs import clean
 
-    return "\n".join(clean(line, 2000) for line in str(text).splitlines() or [""])
+    return " / ".join(clean(line.strip(), 2000) for line in str(text).splitlines() if line.strip()) or ""
+
+
+def error_text(exc) -> str:
+    """The one ``vtcore: error:`` line of an error."""
+    return f"vtcore: error: {_error_lines(exc)}"
+
+
+def print_error(exc, details: bool = False) -> None:
+    """Print ``exc`` as one line on stderr; with ``details``, its detail lines after it, indented."""
+    print(error_text(exc), file=sys.stderr)
+    if details:
+        from ..inputs import clean
+
+        for line in getattr(exc, "details", None) or []:
+            print(f"  {clean(line, 2000)}", file=sys.stderr)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -60,7 +77,7 @@ def main(argv: list[str] | None = None) -> int:
             check_terminated()  # a SIGTERM deferred (during an import) or swallowed still ends in 143
             return rc
     except VtError as exc:
-        print(f"vtcore: error: {_error_lines(exc)}", file=sys.stderr)
+        print_error(exc, details=bool(getattr(args, "details", False)))
         return 2
     except OSError as exc:
         if isinstance(exc, BrokenPipeError):

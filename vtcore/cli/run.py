@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 
@@ -22,6 +23,9 @@ def cmd_run(args) -> int:
         print(f"{args.scene}: valid scene ({scene.task}, {len(scene.effects)} effects); {out} can be written")
         return 0
     result = run_scene(args.scene, out, overrides=args.set)
+    for w in result.get("warnings", []):  # numpy's and our own warnings inside the run, one line each
+        count = f" ({w['count']} times)" if w["count"] > 1 else ""
+        print(f"vtcore: warning: {args.scene}: {w['key']}: {w['message']}{count}", file=sys.stderr)
     metrics = result["metrics"]
     shown = ", ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}" for k, v in list(metrics.items())[:6])
     print(f"{result['name']}: {result['seconds']:.2f} s -> {out}/result.json" + (f" ({shown})" if shown else ""))
@@ -46,6 +50,8 @@ def register(sub) -> None:
     p.add_argument("--out", help="output folder (default out/<scene name>)")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="override a scene value, e.g. --set layer.thickness=0.006 (repeatable)")
+    p.add_argument("--details", action="store_true",
+                   help="after the one error line, list every problem of the scene and the warnings of the run")
     p.add_argument("--check", action="store_true",
                    help="validate the scene, its overrides and the output folder, then stop (nothing is written)")
     p.set_defaults(func=cmd_run)

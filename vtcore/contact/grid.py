@@ -107,15 +107,37 @@ def digest(*arrays) -> int:
     return c
 
 
-def grid_cells(lo, hi, dx):
+#: Most cells of one contact grid (2000 x 2000: a 2 m patch at 1 mm); raise ``grid.spacing`` instead.
+MAX_GRID_CELLS = 4_000_000
+#: Live (mx, my) float64 arrays at the peak of a press on the grid (cell centres, surface, gap,
+#: pressure, stress, the (mx, my, 3) points, and the FFT solver's zero-padded 2x2 copies): a generous
+#: count, not a measurement, so the guard errs towards refusing early.
+GRID_COPIES = 48
+
+
+def grid_cells(lo, hi, dx, key: str = "grid.spacing", why: str = ""):
     """Cell centres ``X, Y`` (mx, my) metres of a grid of spacing ``dx`` covering [lo, hi] (2,).
 
     An even number of cells centred on the box: cell centres sit half a cell off the
     box's axes, so the edges of objects centred on the patch fall between cells.
+    The number of cells is counted in floating point first (a span of 1e9 m at 1 mm is 1e24
+    cells, which wraps round in int64) and held to :data:`MAX_GRID_CELLS` and the memory budget
+    (:func:`vtcore.inputs.need_memory`), before anything is allocated; the InputError names ``key``
+    (the setting that makes the grid so large) and says ``why`` the grid spans what it spans.
     """
-    mx, my = 2 * np.ceil((np.asarray(hi) - np.asarray(lo)) / (2 * dx)).astype(int)
-    if mx * my > 4_000_000:
-        raise InputError(f"grid of {mx} x {my} cells is too large; increase grid.spacing", key="grid.spacing")
+    from ..inputs import need_memory
+
+    with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+        span = np.asarray(hi, dtype=np.float64) - np.asarray(lo, dtype=np.float64)
+        cells = 2.0 * np.ceil(span / (2.0 * dx))
+    total = float(np.prod(cells)) if np.isfinite(cells).all() else float("inf")
+    what = (f"a contact grid of {cells[0]:.3g} x {cells[1]:.3g} cells ({span[0]:.3g} m x {span[1]:.3g} m at "
+            f"{dx:.3g} m){why}")
+    if not total <= MAX_GRID_CELLS:
+        raise InputError(f"{what} is more than the {MAX_GRID_CELLS:,} cells a grid may have; raise the grid "
+                         "spacing", key=key)
+    need_memory(8.0 * GRID_COPIES * total, key=key, what=what)
+    mx, my = (int(c) for c in cells)
     cx, cy = (np.asarray(lo) + np.asarray(hi)) / 2
     xs = cx + dx * (np.arange(mx) - (mx - 1) / 2)
     ys = cy + dx * (np.arange(my) - (my - 1) / 2)

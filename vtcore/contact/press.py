@@ -51,15 +51,41 @@ def _surface_height(xy, z, X, Y):
         return np.stack(cols[: 6 if len(z) >= 6 else (3 if len(z) >= 3 else 1)], axis=-1)
 
     A = design(xy[:, 0], xy[:, 1])
-    coef, *_ = np.linalg.lstsq(A, z, rcond=None)
-    base = design(X, Y) @ coef
-    res = z - A @ coef
+    try:
+        with np.errstate(all="ignore"):
+            coef, *_ = np.linalg.lstsq(A, z, rcond=None)
+            base = design(X, Y) @ coef
+            res = z - A @ coef
+        if not (np.isfinite(base).all() and np.isfinite(res).all()):
+            raise np.linalg.LinAlgError
+    except np.linalg.LinAlgError:
+        # again in units of the patch's own size (a power of two, exact): the x^2 terms of a patch a
+        # kilometre across, or heights far off its plane, overflow or stop the SVD converging
+        s = 2.0 ** np.round(np.log2(max(float(np.abs(xy).max(initial=0.0)), float(np.abs(z).max(initial=0.0)),
+                                        1e-300)))
+        As = design(xy[:, 0] / s, xy[:, 1] / s)
+        try:
+            coef, *_ = np.linalg.lstsq(As, z / s, rcond=None)
+        except np.linalg.LinAlgError:
+            raise InputError(f"the layer's outer surface over the taxels cannot be fitted (heights up to {s:.3g} m):"
+                             " check the layer's thickness and the layout's size", key="thickness") from None
+        base = s * (design(X / s, Y / s) @ coef)
+        res = z - s * (As @ coef)
     if len(z) >= 4 and np.ptp(xy[:, 0]) > 0 and np.ptp(xy[:, 1]) > 0 and np.abs(res).max() > 1e-12:
         try:
             base = base + CloughTocher2DInterpolator(xy, res, fill_value=0.0)(X, Y)
         except Exception:  # degenerate (collinear) taxels: keep the smooth fit
             pass
     return base
+
+
+def _grid_blame(rel, e1, e2, span, h) -> tuple[str, str]:
+    """The key a too-large grid names: ``thickness`` when the layer's outer surface spreads much wider
+    than the taxels themselves (a thick layer over a curved patch), else ``grid.spacing``."""
+    bare = np.ptp(np.column_stack([rel @ e1, rel @ e2]), axis=0) if len(rel) else np.zeros(2)
+    if h > 0 and np.max(span) > 4 * np.max(bare) + 0.1:
+        return "thickness", f", as the outer surface of a layer {h:g} m thick over a curved patch spreads that wide"
+    return "grid.spacing", ""
 
 
 _SKIN_CACHE: dict = {}
@@ -76,7 +102,11 @@ def _skin_grid(layout, h, layer_extent, direction, grid, taxel_radius):
     u, n, e1, e2 = press_frame(layout, direction)
     pos = np.asarray(layout.positions, float)
     nrm = np.asarray(layout.normals, float)
-    outer = pos + h * nrm
+    with np.errstate(over="ignore", invalid="ignore"):
+        outer = pos + h * nrm
+    if not np.isfinite(outer).all() or np.abs(outer).max() > 1e6:
+        raise InputError(f"a layer {h:g} m thick puts its outer surface beyond any skin ({np.abs(outer).max():.3g} m "
+                         "from the taxels' origin)", key="thickness")
     facing = nrm @ n > 0.1
     if not facing.any():
         raise InputError("no taxel faces the press direction", key="direction")
@@ -90,7 +120,7 @@ def _skin_grid(layout, h, layer_extent, direction, grid, taxel_radius):
     if extent is not None:
         lo = np.minimum(lo, -extent)
         hi = np.maximum(hi, extent)
-    X, Y = grid_cells(lo, hi, dx)
+    X, Y = grid_cells(lo, hi, dx, *_grid_blame(pos[facing] - origin, e1, e2, hi - lo, h))
     mx, my = X.shape
     S = _surface_height(xy, z, X, Y)
     skin = np.ones_like(X, dtype=bool)

@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InputError
+from ..inputs import need_memory
 
 MAX_COUNTS = 65535.0  # AD7147: 16-bit conversions (seed 001)
 RATE_HZ = 20.0        # CySkin read-out rate (seeds 001, 002)
@@ -87,7 +88,12 @@ def sample_clock(frames, timestamps, rate: float = RATE_HZ, phase: float = 0.0):
     if np.any(np.diff(t) < 0):
         raise InputError("timestamps must not decrease", key="timestamps")
     start = t[0] + phase
-    k = int(np.floor((t[-1] - start) * rate + 1e-9)) + 1
+    with np.errstate(over="ignore"):  # counted in floats: 1e308 Hz must not reach int()
+        ticks = np.floor((t[-1] - start) * rate + 1e-9) + 1
+    need_memory(8.0 * 3 * max(float(ticks), 0.0) * max(f.shape[1], 1), key="rate",
+                what=f"{ticks:.3g} samples ({t[-1] - t[0]:.3g} s at {rate:.3g} Hz) x {f.shape[1]} taxels",
+                remedy="lower the sampling rate")
+    k = int(ticks)
     clock = start + np.arange(max(k, 0)) / rate
     idx = np.searchsorted(t, clock + 1e-12, side="right") - 1
     return f[idx], clock

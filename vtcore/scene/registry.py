@@ -19,6 +19,8 @@ import time
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
+from ..errors import InputError
+from .notices import scene_key
 from .schema import Field, Section
 
 #: Stages in the order data passes through them.
@@ -113,7 +115,13 @@ class _Timed:
         def timed(*args, **kwargs):
             t0 = time.perf_counter()
             try:
-                return val(*args, **kwargs)
+                with scene_key(f"effects.{self._name}"):  # its warnings name the effect
+                    return val(*args, **kwargs)
+            except InputError as exc:
+                if exc.file is not None or exc.key not in EFFECTS[self._name].params.fields:
+                    raise
+                # a parameter of the effect ("rate") as the scene names it ("effects.sampling.rate")
+                raise InputError(exc.reason, key=f"effects.{self._name}.{exc.key}", line=exc.line) from None
             finally:
                 self._totals[self._name] += time.perf_counter() - t0
 

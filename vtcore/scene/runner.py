@@ -25,10 +25,12 @@ import numpy as np
 
 from .. import __version__
 from .._io import atomic_write, check_terminated, save_npz, write_json
+from ..errors import InputError
 from ..inputs import check_output_dir, os_error
 from .._progress import progress
 from . import registry
 from .loader import Scene, load_scene
+from .notices import Notices, warnings_of
 
 
 @dataclass
@@ -48,6 +50,9 @@ class TaskResult:
     sections: list[str] = field(default_factory=list)
     files: list[str] = field(default_factory=list)
     extra: dict[str, Any] = field(default_factory=dict)
+    #: name -> what NaN means in that array (documented where the task documents its arrays): any
+    #: other array holding NaN or infinity is reported as a warning of the run (:func:`nonfinite_arrays`)
+    nan_meaning: dict[str, str] = field(default_factory=dict)
 
 
 @dataclass
@@ -115,10 +120,47 @@ def single_threaded_blas():
     return threadpool_limits(limits=1, user_api="blas")
 
 
+#: Keys of the library functions a scene's values reach, as the scene names them: an error raised
+#: deep inside (``grid.spacing`` in vtcore.contact) names the value the user set.
+SCENE_KEYS = {"grid.spacing": "layer.grid_spacing", "thickness": "layer.thickness",
+              "samples_per_taxel": "layer.samples_per_taxel", "geometry": "layer.geometry"}
+
+
+def nonfinite_arrays(arrays: dict, documented: dict | None = None) -> dict[str, int]:
+    """``{name: count}`` of the float arrays in ``arrays`` holding NaN or infinity, except those whose
+    NaN is ``documented`` (name -> meaning)."""
+    out = {}
+    for name, a in arrays.items():
+        a = np.asarray(a)
+        if a.dtype.kind in "fc" and name not in (documented or {}):
+            bad = int(a.size - np.count_nonzero(np.isfinite(a)))
+            if bad:
+                out[name] = bad
+    return out
+
+
 def run_scene(scene: Scene | str | Path, out: str | Path, overrides: list[str] | None = None) -> dict:
-    """Run ``scene`` and write its results into ``out``; return the ``result.json`` object."""
+    """Run ``scene`` and write its results into ``out``; return the ``result.json`` object.
+
+    Warnings raised inside the run are collected (:mod:`.notices`), not printed: ``result["warnings"]``
+    lists them. An InputError raised without a file names the scene file and the scene's key.
+    """
     if not isinstance(scene, Scene):
         scene = load_scene(scene, overrides)
+    with warnings_of(scene.path) as notes:
+        try:
+            return _run_staged(scene, out, notes)
+        except InputError as exc:
+            err = exc
+            if exc.file is None:
+                err = scene.error(SCENE_KEYS.get(exc.key, exc.key) or "task", exc.reason)
+            err.details = notes.lines()  # shown by `vtcore run --details`
+            if err is exc:
+                raise
+            raise err from None
+
+
+def _run_staged(scene: Scene, out, notes) -> dict:
     final = check_output_dir(out)
     made = not final.exists()
     try:
@@ -129,7 +171,7 @@ def run_scene(scene: Scene | str | Path, out: str | Path, overrides: list[str] |
     except OSError as exc:
         raise os_error(exc, final, key="--out") from None
     try:
-        result = _run(scene, stage)
+        result = _run(scene, stage, notes)
         check_terminated()  # a SIGTERM swallowed by a C extension still stops the commit
         for f in sorted(stage.iterdir()):
             os.replace(f, final / f.name)
@@ -143,7 +185,7 @@ def run_scene(scene: Scene | str | Path, out: str | Path, overrides: list[str] |
     return result
 
 
-def _run(scene: Scene, out: Path) -> dict:
+def _run(scene: Scene, out: Path, notes: Notices | None = None) -> dict:
     t0 = time.perf_counter()
     ctx = RunContext(scene=scene, pipeline=None, out=out, rng=np.random.default_rng(scene.seed))
     ctx.pipeline = registry.Pipeline(scene.effects, ctx)
@@ -167,6 +209,10 @@ def _run(scene: Scene, out: Path) -> dict:
                     fig.savefig(fh, format="png", dpi=120, bbox_inches="tight")
                     plt.close(fig)
             figures.append(name)
+    notes = notes if notes is not None else Notices(scene.path)
+    for name, bad in nonfinite_arrays(res.arrays, res.nan_meaning).items():
+        notes.add(f"{bad} of its values are NaN or infinity (not a documented meaning of this array)",
+                  key=f"arrays.{name}")
     if scene["output"]["arrays"] and res.arrays:
         save_npz(out / "arrays.npz", res.arrays)
 
@@ -183,6 +229,7 @@ def _run(scene: Scene, out: Path) -> dict:
         "figures": figures,
         "files": sorted(res.files),
         **res.extra,
+        "warnings": [dict(w) for w in notes.items],
     }
     write_json(out / "result.json", result)
     with atomic_write(out / "report.md", "w", encoding="utf-8") as fh:
@@ -211,6 +258,11 @@ def render_report(scene: Scene, result: dict, res: TaskResult) -> str:
     else:
         lines.append("None listed: an ideal sensor, no soft layer, no noise.")
     lines.append("")
+    if result.get("warnings"):
+        lines += ["## Warnings", ""]
+        lines += [f"- `{w['key']}`: {w['message']}" + (f" ({w['count']} times)" if w["count"] > 1 else "")
+                  for w in result["warnings"]]
+        lines.append("")
     if result["figures"]:
         lines += ["## Plots", ""]
         lines += [f"![{f}]({f})" for f in result["figures"]]

@@ -1,0 +1,156 @@
+"""Issue 28: scene values at the extremes, one-line errors and warnings, NaN in outputs.
+
+Each test rebuilds one failure the issue lists: a scene value whose size reached numpy or a solver
+unchecked, a multi-line error, Python's own warning lines, a non-finite output array. The contract
+of docs/inputs.md: exit 2 with exactly one ``vtcore: error:`` line naming the file and key.
+"""
+
+from __future__ import annotations
+
+
+import numpy as np
+import pytest
+
+from test_inputs_extremes import SCENES, one_error, run
+
+# ----------------------------------------------------------------------------- scenes at the extremes
+def test_sampling_rate_of_1e308_is_one_error_naming_the_key(tmp_path):
+    """Found: ``--set effects.sampling.rate=1e308`` on the demo raised ValueError in sample_clock."""
+    rc, _, err = run("run", SCENES / "demo.toml", "--set", "effects.sampling.rate=1e308", "--out", tmp_path / "o")
+    one_error(rc, err, "demo.toml: effects.sampling.rate", "VTCORE_MEMORY_BUDGET")
+    assert not (tmp_path / "o").exists()
+
+
+def test_sample_clock_refuses_more_ticks_than_the_budget(monkeypatch):
+    from vtcore.contact.sensor import sample_clock
+    from vtcore.errors import InputError
+
+    f, t = np.zeros((3, 4)), np.array([0.0, 1.0, 2.0])
+    with pytest.raises(InputError, match="rate: .* samples"):
+        sample_clock(f, t, 1e308)
+    monkeypatch.setenv("VTCORE_MEMORY_BUDGET", "1M")
+    with pytest.raises(InputError, match="rate"):
+        sample_clock(f, t, 1e5)
+    frames, clock = sample_clock(f, t, 2.0)
+    assert frames.shape == (5, 4) and np.allclose(clock, [0, 0.5, 1, 1.5, 2])
+
+
+def test_layer_thickness_of_1e9_is_one_error_before_allocating(tmp_path):
+    """Found: ``--set layer.thickness=1e9`` asked numpy for 6.98 TiB in grid_cells; the budget was
+    not consulted there (and the cell count wrapped round in int64)."""
+    rc, _, err = run("run", SCENES / "demo.toml", "--set", "layer.thickness=1e9", "--out", tmp_path / "o")
+    one_error(rc, err, "demo.toml: layer.thickness")
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("span, dx", [(1e9, 1e-3), (0.1, 1e-320), (1e308, 1e-3), (0.1, 1e-6)])
+def test_grid_cells_are_counted_before_any_allocation(span, dx):
+    from vtcore.contact.grid import grid_cells
+    from vtcore.errors import InputError
+
+    with pytest.raises(InputError, match="grid.spacing: .*cells"):
+        grid_cells(np.array([-span, -span]), np.array([span, span]), dx)
+
+
+def test_grid_cells_follow_the_memory_budget(monkeypatch):
+    from vtcore.contact.grid import grid_cells
+    from vtcore.errors import InputError
+
+    lo, hi = np.array([-0.05, -0.05]), np.array([0.05, 0.05])
+    X, _ = grid_cells(lo, hi, 2e-4)  # 500 x 500
+    assert X.shape == (500, 500)
+    monkeypatch.setenv("VTCORE_MEMORY_BUDGET", "1M")
+    with pytest.raises(InputError, match="VTCORE_MEMORY_BUDGET"):
+        grid_cells(lo, hi, 2e-4)
+
+
+def test_reach_clutter_with_a_layer_of_1e308_is_one_error(tmp_path):
+    """Found: reach_clutter with the layer's thickness at 1e308 ended in LinAlgError "SVD did not
+    converge" in press.py _surface_height."""
+    rc, _, err = run("run", SCENES / "reach_clutter.toml", "--set", "layer.thickness=1e308",
+                     "--out", tmp_path / "o")
+    one_error(rc, err, "reach_clutter.toml: layer.thickness")
+
+
+def test_press_on_a_patch_a_kilometre_across_is_finite_or_one_error():
+    """The surface fit of the press solver at the far end of the coordinates a layout may have
+    (1 km): a clear error naming the key, never LinAlgError or NaN."""
+    import trimesh
+
+    from vtcore.contact import SoftLayer, press
+    from vtcore.errors import InputError
+    from vtcore.layout import Layout
+
+    g = np.linspace(-1, 1, 5)
+    xy = np.array([(x, y) for x in g for y in g]) * 1e3
+    pos = np.column_stack([xy, 1e-3 * (xy ** 2).sum(axis=1)])
+    lay = Layout(pos, np.tile([0, 0, 1.0], (25, 1)), np.arange(25), np.zeros(25, int))
+    ball = trimesh.creation.icosphere(2, radius=0.01)
+    pose = np.eye(4)
+    pose[2, 3] = 0.5
+    with pytest.raises(InputError) as exc:
+        press(lay, ball, pose, SoftLayer(thickness=3e-3), force=1.0)
+    assert exc.value.key, exc.value
+
+
+# ----------------------------------------------------------------------------- one line, warnings
+def test_a_scene_with_several_problems_is_one_error_line(tmp_path):
+    """Found: 76 scene errors printed several lines (one per problem) instead of one."""
+    rc, _, err = run("run", SCENES / "demo.toml", "--check", "--set", "layer.thickness=-1",
+                     "--set", "task.force=-2", "--set", "effects.noise.sigma=-3", "--set", "effects.nosie=1")
+    one_error(rc, err, "demo.toml: ", "layer.thickness", "task.force", "4 problems")
+
+
+def test_details_flag_lists_every_scene_problem(tmp_path):
+    rc, _, err = run("run", SCENES / "demo.toml", "--check", "--details", "--set", "layer.thickness=-1",
+                     "--set", "task.force=-2", "--set", "effects.noise.sigma=-3", "--set", "effects.nosie=1")
+    assert rc == 2
+    lines = err.rstrip("\n").split("\n")
+    assert lines[0].startswith("vtcore: error: ") and len(lines) == 5, err
+    assert all(ln.startswith("  ") for ln in lines[1:]), err
+
+
+def test_an_error_message_with_line_breaks_is_one_line():
+    from vtcore.cli import error_text
+    from vtcore.errors import InputError
+
+    text = error_text(InputError("first\nsecond\r\nthird\x1b[31m", key="k"))
+    assert text.startswith("vtcore: error: k: first") and "second" in text and "third" in text
+    assert "\n" not in text and "\r" not in text and "\x1b" not in text
+
+
+def test_warnings_inside_a_run_are_vtcore_warning_lines(tmp_path):
+    """Found: 5 runs printed Python's own ``RuntimeWarning`` lines. Every warning raised inside a
+    run becomes one ``vtcore: warning:`` line naming the scene file and the effect or task."""
+    import warnings
+
+    from vtcore.scene.notices import warnings_of
+
+    with warnings_of(SCENES / "demo.toml") as caught:
+        with caught.key("effects.noise"):
+            np.log(np.zeros(1))
+        warnings.warn("plain", UserWarning)
+    lines = caught.lines()
+    assert lines == [f"{SCENES / 'demo.toml'}: effects.noise: divide by zero encountered in log",
+                     f"{SCENES / 'demo.toml'}: task: plain"], lines
+
+
+# ----------------------------------------------------------------------------- NaN in outputs
+def test_undocumented_non_finite_output_arrays_are_reported(tmp_path):
+    from vtcore.scene.runner import nonfinite_arrays
+
+    arrays = {"frames": np.array([[1.0, np.nan]]), "force": np.array([1.0, 2.0]),
+              "mesh_distance_mm": np.array([np.nan, 1.0]), "edge": np.array([True])}
+    assert nonfinite_arrays(arrays, {"mesh_distance_mm": "each run's first tap"}) == {"frames": 1}
+    assert nonfinite_arrays(arrays) == {"frames": 1, "mesh_distance_mm": 1}
+
+
+def test_contour_documents_the_nan_of_its_distances():
+    """contour_mug_curved wrote NaN into image_distance_mm unmutated: the first tap of each run has no
+    distance (seed 002 does not count it) and the arrays stay aligned with the taps. That NaN is
+    meaningful; the task says so (TaskResult.nan_meaning, docs/filters.md, docs/inputs.md)."""
+    import inspect
+
+    from vtcore.scene.tasks import contour
+
+    assert "nan_meaning" in inspect.getsource(contour.run)
