@@ -32,7 +32,8 @@ class Settings:
     force tabulated (the threshold of undetectable points). blind_limit : N (None: reference_force).
     draws, seed : noise draws of the localisation map. two_point : compute it; two_point_spacing : m
     between its points (None: 2 x the sample spacing), step and max_separation of the separations,
-    directions over half a turn. model, spreading, table_spacing : the contact solve of the table.
+    directions over half a turn. model, spreading, table_spacing, table_forces : the contact solve of
+    the table (its cell, m, and how many forces from 0.02 N to force_max, log-spaced).
     dead : taxel ids that read nothing. probe_axis : (3,) the direction the probe's x (and the first
     two-point direction) follows on the surface (None: vtcore's default tangent). error_cap : m, the localisation error shown where nothing is
     detected.
@@ -52,6 +53,7 @@ class Settings:
     model: str = "finite_layer"
     spreading: str = "layer"
     table_spacing: float | None = None
+    table_forces: int = 9
     dead: tuple = ()
     error_cap: float = 0.02
     probe_axis: tuple | None = None
@@ -145,7 +147,7 @@ def live_taxels(layout, dead=()) -> np.ndarray:
 def table_for(settings: Settings, layer) -> ResponseTable:
     """The probe's response table for ``layer`` and ``settings`` (kept in memory: layouts compared on
     the same layer share it)."""
-    forces = default_forces(settings.reference_force, settings.force_max)
+    forces = default_forces(settings.reference_force, settings.force_max, settings.table_forces)
     key = (settings.probe.kind, tuple(sorted(settings.probe.dims.items())), settings.probe.yaw,
            layer.thickness, layer.young_modulus, layer.poisson, layer.base, settings.model, settings.spreading,
            settings.table_spacing, tuple(forces))

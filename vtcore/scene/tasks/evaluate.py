@@ -48,6 +48,9 @@ PARAMS = Section({
     "noise_sigma": Field("float", default=None, ge=0, doc="noise sigma in counts (default: the profile's)"),
     "k": Field("float", default=None, gt=0, doc="detection threshold in noise deviations (default: profile's)"),
     "counts_per_pa": Field("float", default=None, gt=0, doc="sensor gain (default: the profile's fit, else 0.1)"),
+    "table_spacing": Field("float", default=None, gt=0, unit="m",
+                           doc="cell of the probe's response table (default: thickness / 6, 0.2-1 mm)"),
+    "table_forces": Field("int", default=9, ge=2, le=64, doc="forces tabulated from 0.02 N to force_max"),
     "colour_by": Field("str", default="threshold", choices=("threshold", "localisation", "two_point"),
                        doc="the map whose colours maps.ply carries"),
 })
@@ -83,7 +86,7 @@ def settings_of(scene, layout, rng):
                   two_point=t["two_point"], two_point_spacing=t["two_point_spacing"],
                   two_point_step=t["two_point_step"], max_separation=t["max_separation"],
                   two_point_directions=t["directions"], model=layer.get("model", "finite_layer"),
-                  dead=tuple(sorted(set(dead))),
+                  dead=tuple(sorted(set(dead))), table_spacing=t["table_spacing"], table_forces=t["table_forces"],
                   probe_axis=None if t["probe_axis"] is None else tuple(t["probe_axis"]))
     return st, noise
 
