@@ -24,5 +24,8 @@ def register():
 
 
 def unregister():
+    from . import live
+
+    live.stop()
     if on_frame_change in bpy.app.handlers.frame_change_pre:
         bpy.app.handlers.frame_change_pre.remove(on_frame_change)

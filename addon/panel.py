@@ -101,6 +101,30 @@ class VTSKIN_PT_contact(_Panel, bpy.types.Panel):
         ob = _skin(context)
         if ob is not None and ob.vtskin.cache is not None:
             col.label(text=f"Baked frames {ob.vtskin.bake_start}..{ob.vtskin.bake_end}")
+        row = col.row(align=True)
+        row.prop(s, "live_touch", toggle=True, icon="HAND")
+        row.prop(s, "live_model", text="")
+        if s.live_touch and s.live_note:
+            col.label(text=s.live_note[:120], icon="INFO")
+
+
+class VTSKIN_PT_evaluate(_Panel, bpy.types.Panel):
+    bl_idname = "VTSKIN_PT_evaluate"
+    bl_label = "Design maps"
+    props = ("map_reference_force", "map_probe", "map_spacing", "map_margin", "map_two_point")
+
+    def draw_more(self, col, s, context):
+        row = col.row(align=True)
+        _button(row, "vtskin.evaluate_skin", "SHADING_RENDERED")
+        _button(row, "vtskin.clear_map", "TRASH")
+        col.prop(s, "map_show")
+        ob = _skin(context)
+        ee = ob.vtskin.end_effector if ob is not None else None
+        if ee is not None and ee.vtskin.map_legend:
+            box = col.box()
+            for line in ee.vtskin.map_legend.splitlines():
+                box.label(text=line)
+            _button(box, "vtskin.map_legend", "COLOR")
 
 
 class VTSKIN_PT_replay(_Panel, bpy.types.Panel):
@@ -163,6 +187,7 @@ class VTSKIN_PT_scene(_Panel, bpy.types.Panel):
     button = ("vtskin.run_scene", "PLAY")
 
 
-CLASSES = (VTSKIN_PT_layout, VTSKIN_PT_layer, VTSKIN_PT_contact, VTSKIN_PT_replay, VTSKIN_PT_filters,
+CLASSES = (VTSKIN_PT_layout, VTSKIN_PT_layer, VTSKIN_PT_contact, VTSKIN_PT_evaluate, VTSKIN_PT_replay,
+           VTSKIN_PT_filters,
            VTSKIN_PT_augment,
            VTSKIN_PT_export, VTSKIN_PT_scene)

@@ -67,6 +67,8 @@ class VTSKIN_PG_object(bpy.types.PropertyGroup):
     lost_samples: IntProperty(name="Lost samples", default=0)
     lost_frames: IntProperty(name="Lost frames", default=0,
                              description="Frames that show a held (last good) value for a lost sample")
+    map_legend: StringProperty(name="Map legend", default="",
+                               description="The design map's legend and summary, one line each (Evaluate Skin)")
     replay_report: StringProperty(name="Replay report", default="",
                                   description="The mismatch report and the decoder's summary, one finding a line")
 
@@ -101,6 +103,18 @@ def _codecs():
 _CODECS = _codecs()
 _MATERIALS = _materials()
 _FORMATS = _formats()
+
+
+def _live_touch_changed(settings, context):
+    from . import live
+
+    live.toggle(context.scene, settings.live_touch)
+
+
+def _map_show_changed(settings, context):
+    from . import ops_evaluate
+
+    ops_evaluate.show_map(context.scene, settings.map_show)
 
 
 def _mesh_poll(self, ob):
@@ -189,6 +203,31 @@ class VTSKIN_PG_scene(bpy.types.PropertyGroup):
                                description="A vtcore scene (TOML) to run")
     out_dir: StringProperty(name="Output folder", subtype="DIR_PATH",
                             description="Where scene runs write their results (empty: a temporary folder)")
+
+    # Design maps and live touch (addon/ops_evaluate.py, addon/live.py; docs/evaluate.md)
+    live_touch: BoolProperty(name="Live touch", default=False, update=_live_touch_changed,
+                             description="Move the indenter (or drag it) and the skin's pressure, response and "
+                                         "edges follow without baking (solved on a background thread)")
+    live_model: EnumProperty(name="Layer model", default="local", items=[
+        ("local", "Local", "Winkler layer: fastest, no spreading between neighbouring points"),
+        ("finite_layer", "Finite layer", "The layer on its rigid base (the Simulate button's model)")])
+    live_note: StringProperty(name="Live touch", default="", description="Why the last live frame read zero")
+    map_reference_force: FloatProperty(name="Reference force (N)", default=5.0, min=1e-3,
+                                       description="Force of the localisation and two-point maps; blind where "
+                                                   "a touch of this force goes unnoticed")
+    map_spacing: FloatProperty(name="Spacing", default=0.002, min=2e-4, subtype="DISTANCE", unit="LENGTH",
+                               description="Distance between evaluated points")
+    map_margin: FloatProperty(name="Margin", default=0.01, min=0.0, subtype="DISTANCE", unit="LENGTH",
+                              description="Surface evaluated beyond the part the skin covers")
+    map_probe: EnumProperty(name="Probe", default="fingerpad", items=[
+        ("fingerpad", "Finger pad", "A capsule 16 mm wide, 40 mm long: the footprint of a finger on CySkin"),
+        ("sphere", "Fingertip", "A ball of radius 8 mm")])
+    map_two_point: BoolProperty(name="Two-point map", default=True,
+                                description="Also map the two-point discrimination distance (slower)")
+    map_show: EnumProperty(name="Show", default="threshold", update=_map_show_changed, items=[
+        ("threshold", "Detection threshold", "Smallest force felt (N)"),
+        ("localisation", "Localisation error", "Expected error of the contact position (mm)"),
+        ("two_point", "Two-point distance", "Separation at which two fingers are told apart (mm)")])
 
 
 CLASSES = (VTSKIN_PG_object, VTSKIN_PG_scene)

@@ -40,30 +40,46 @@ def soft_layer(thickness: float, material: str = "ecoflex_00_20"):
     return SoftLayer(thickness=float(thickness), material=material)
 
 
-def _response(pressure, counts_per_pa):
+def sensor_response(pressure, counts_per_pa):
+    """Counts (same shape) of taxel pressures (Pa): the linear gain, then the 16-bit clip."""
     from ...contact import sensor
 
     return sensor.saturate(sensor.gain(pressure, counts_per_pa))
 
 
-def _edges(layout, triangles, response, edge_fraction):
-    from ...filters import edge_filter, relative_threshold, threshold
-    from ...layout import mesh_from_triangles
+class SkinEdges:
+    """Eq. 6 (edge response) and Eq. 7 (edge flags) of seed 002 on one skin mesh, built once.
 
-    tri = np.asarray(triangles, np.int64).reshape(-1, 3)
-    if len(tri) == 0:
-        z = np.zeros_like(response, dtype=np.float64)
-        return z, np.zeros(response.shape, bool)
-    mesh = mesh_from_triangles(layout.positions, layout.normals, tri)
-    er = edge_filter(mesh, response)
-    # A frame without contact has no edge: the floor keeps rounding residue out.
-    eps = relative_threshold(er, edge_fraction, floor=1e-9)
-    return er, threshold(er, eps)
+    layout : the skin; triangles : (F, 3) its skin mesh. ``edges(response (N,) or (T, N), edge_fraction)``
+    returns ``(edge_response, edge)``: a frame's edges are the taxels above ``edge_fraction`` of its
+    strongest edge response (a frame without contact has none).
+    """
+
+    def __init__(self, layout: Layout, triangles):
+        from ...filters import EdgeFilter
+        from ...layout import mesh_from_triangles
+
+        tri = np.asarray(triangles, np.int64).reshape(-1, 3)
+        self.filter = EdgeFilter(mesh_from_triangles(layout.positions, layout.normals, tri)) if len(tri) else None
+
+    def edges(self, response, edge_fraction: float):
+        from ...filters import relative_threshold, threshold
+
+        if self.filter is None:
+            return np.zeros_like(response, dtype=np.float64), np.zeros(np.shape(response), bool)
+        er = self.filter(response)
+        # A frame without contact has no edge: the floor keeps rounding residue out.
+        eps = relative_threshold(er, edge_fraction, floor=1e-9)
+        return er, threshold(er, eps)
+
+
+def _edges(layout, triangles, response, edge_fraction):
+    return SkinEdges(layout, triangles).edges(response, edge_fraction)
 
 
 def simulate(layout: Layout, triangles, indenter_vertices, indenter_triangles, pose, *, thickness: float,
              material: str = "ecoflex_00_20", force: float | None = 5.0, counts_per_pa: float = 0.1,
-             edge_fraction: float = 0.3, geometry: str = "plane") -> Contact:
+             edge_fraction: float = 0.3, geometry: str = "plane", model: str = "finite_layer") -> Contact:
     """Press an indenter onto the skin at a target force and read taxels and edges.
 
     layout : the skin (skin frame, metres); triangles : (F, 3) its skin mesh.
@@ -74,7 +90,7 @@ def simulate(layout: Layout, triangles, indenter_vertices, indenter_triangles, p
     counts_per_pa : sensor gain. edge_fraction : edge threshold as a fraction of
     the frame's largest edge response (Eq. 7 with a relative epsilon). geometry : "plane"
     or "unrolled" (solved on the layout's flat coordinates: curved patches; see
-    :func:`vtcore.contact.press`).
+    :func:`vtcore.contact.press`). model : the layer's contact model (vtcore.contact.MODELS).
     """
     from ...contact import press
 
@@ -82,8 +98,9 @@ def simulate(layout: Layout, triangles, indenter_vertices, indenter_triangles, p
         raise InputError("the skin has no taxels", key="layout")
     layer = soft_layer(thickness, material)
     mesh = as_trimesh(indenter_vertices, indenter_triangles, SIZE_RANGE_M)
-    res = press(layout, mesh, np.asarray(pose, float), layer, force=force if force else None, geometry=geometry)
-    response = _response(res.pressure, counts_per_pa)
+    res = press(layout, mesh, np.asarray(pose, float), layer, force=force if force else None, geometry=geometry,
+                model=model)
+    response = sensor_response(res.pressure, counts_per_pa)
     er, edge = _edges(layout, triangles, response, edge_fraction)
     return Contact(res.pressure, response, er, edge, float(res.force), float(res.indentation),
                    float(res.contact_area))
@@ -126,7 +143,7 @@ def bake(layout: Layout, triangles, indenter_vertices, indenter_triangles, poses
             pressure[i], force[i], prev = res.pressure, res.force, res
         if callback is not None:
             callback(i, t)
-    response = _response(pressure, counts_per_pa)
+    response = sensor_response(pressure, counts_per_pa)
     er, edge = _edges(layout, triangles, response, edge_fraction)
     return {"pressure": pressure, "response": response, "edge_response": er, "edge": edge, "force": force}
 

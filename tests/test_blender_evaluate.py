@@ -1,0 +1,127 @@
+"""Design maps and live touch in the add-on, headless (both bpy lanes): Evaluate Skin writes the maps on
+the end-effector mesh as vtcore computes them; moving the indenter with live touch on updates the
+skin as a press at that pose does."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy")
+sys.path.insert(0, str(Path(__file__).parent / "blender"))
+from bl_helpers import addon_fixtures, build_scene, scene_state  # noqa: E402
+
+pytestmark = [pytest.mark.blender, pytest.mark.filterwarnings("ignore::UserWarning")]
+
+addon, factory = addon_fixtures()
+
+
+def attr(ob, name):
+    from addon import bridge
+
+    return bridge.get_attribute(ob.data, name)
+
+
+@pytest.fixture
+def skinned():
+    ee, ind, centre = build_scene()
+    bpy.context.scene.cursor.location = centre
+    bpy.context.view_layer.objects.active = ee
+    assert bpy.ops.vtskin.lay_patch() == {"FINISHED"}
+    ob = next(o for o in bpy.data.objects if o.vtskin.role == "TAXELS")
+    s = bpy.context.scene.vtskin
+    s.indenter, s.thickness = ind, 0.003
+    return ee, ind, ob
+
+
+def fast_maps(s):
+    s.map_spacing, s.map_margin, s.map_two_point = 0.004, 0.005, False
+
+
+def test_evaluate_skin_writes_the_maps_vtcore_computes(skinned, tmp_path):
+    from vtcore.scene import interactive
+
+    from addon import ops_evaluate, skin
+
+    ee, _, ob = skinned
+    s = bpy.context.scene.vtskin
+    fast_maps(s)
+    bpy.context.view_layer.objects.active = ob
+    assert bpy.ops.vtskin.evaluate_skin() == {"FINISHED"}
+    n = len(ee.data.vertices)
+    thr = attr(ee, "threshold_n")
+    assert thr.shape == (n,) and np.all(np.isfinite(thr)) and thr.min() > 0
+    ev = attr(ee, "evaluated")
+    assert ev.any() and not ev.all()
+    verts, tri = ops_evaluate.mesh_in_skin_frame(ee, ob)
+    ref = interactive.evaluate_skin(skin.read_layout(ob), verts, tri, thickness=0.003, spacing=0.004, margin=0.005,
+                                    two_point=False, counts_per_pa=s.counts_per_pa)
+    np.testing.assert_allclose(thr, ref.values["threshold_n"], rtol=1e-6)
+    np.testing.assert_allclose(attr(ee, "localisation_mm"), ref.values["localisation_mm"], rtol=1e-6)
+    me = ee.data
+    assert me.color_attributes.active_color.name == "vtskin_map_threshold"
+    assert all(slot.material.name == ops_evaluate.MATERIAL for slot in ee.material_slots)
+    assert "Detection threshold (N" in ee.vtskin.map_legend and "red:" in ee.vtskin.map_legend
+    s.map_show = "localisation"
+    assert me.color_attributes.active_color.name == "vtskin_map_localisation"
+    assert bpy.ops.vtskin.map_legend() == {"FINISHED"}
+    texts = [o.data.body for o in bpy.data.collections[ops_evaluate.LEGEND].objects if o.type == "FONT"]
+    assert any("Localisation error (mm)" in t for t in texts) and any(t.startswith("red:") for t in texts)
+    # saved and reloaded, the maps are still there
+    path = str(tmp_path / "maps.blend")
+    bpy.ops.wm.save_mainfile(filepath=path)
+    bpy.ops.wm.open_mainfile(filepath=path)
+    ee2 = bpy.data.objects["end_effector"]
+    np.testing.assert_array_equal(attr(ee2, "threshold_n"), thr)
+    bpy.context.view_layer.objects.active = ee2
+    assert bpy.ops.vtskin.clear_map() == {"FINISHED"}
+    assert "threshold_n" not in ee2.data.attributes
+
+
+def test_evaluate_skin_bad_input_changes_nothing(skinned):
+    ee, _, ob = skinned
+    s = bpy.context.scene.vtskin
+    s.thickness = 0.0
+    bpy.context.view_layer.objects.active = ob
+    before = scene_state()
+    with pytest.raises(RuntimeError, match="zero thickness"):
+        bpy.ops.vtskin.evaluate_skin()
+    assert scene_state() == before
+
+
+@pytest.mark.parametrize("model", ["local", "finite_layer"])
+def test_live_touch_follows_the_indenter(skinned, model):
+    from vtcore.scene import interactive
+
+    from addon import bridge, skin
+
+    ee, ind, ob = skinned
+    s = bpy.context.scene.vtskin
+    s.live_model, s.force, s.use_force = model, 2.0, True
+    s.live_touch = True
+    try:
+        layout, tri = skin.read_layout(ob), skin.triangles(ob)
+        world, faces = bridge.read_mesh(ind)
+        m_ind = bridge.rigid(bridge.matrix(ind))
+        verts = world @ np.linalg.inv(m_ind)[:3, :3].T + np.linalg.inv(m_ind)[:3, 3]
+        seen = []
+        for dx in (0.0, 0.004, -0.006):
+            ind.location.x += dx
+            bpy.context.view_layer.update()
+            pose = np.linalg.inv(bridge.matrix(ob)) @ bridge.rigid(bridge.matrix(ind))
+            ref = interactive.simulate(layout, tri, verts, faces, pose, thickness=0.003, force=2.0, model=model,
+                                       counts_per_pa=s.counts_per_pa, edge_fraction=s.edge_fraction)
+            p = attr(ob, "pressure")
+            np.testing.assert_allclose(p, ref.pressure, rtol=1e-5, atol=1e-6 * ref.pressure.max())
+            np.testing.assert_array_equal(attr(ob, "edge"), ref.edge)
+            assert ob.vtskin.force == pytest.approx(2.0, rel=1e-6)
+            seen.append(p.copy())
+        assert not np.allclose(seen[0], seen[1]) and not np.allclose(seen[1], seen[2])
+    finally:
+        s.live_touch = False
+    ind.location.x += 0.003
+    bpy.context.view_layer.update()
+    np.testing.assert_array_equal(attr(ob, "pressure"), seen[-1])  # off: nothing follows any more
