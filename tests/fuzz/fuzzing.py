@@ -23,12 +23,14 @@ appends the number of inputs each reader was given to FILE as JSON lines.
 from __future__ import annotations
 
 import contextlib
+import copy
 import io
 import json
 import os
 import re
 import warnings
 from collections import Counter, defaultdict
+from pathlib import Path
 
 from hypothesis import HealthCheck, settings
 from hypothesis import strategies as st
@@ -198,15 +200,39 @@ def assert_clean_exit(rc: int, out: str, err: str, *, lines: int | None = 1) -> 
 
 
 def fuzz(config, strategy, body) -> None:
-    """Run ``body(example)`` on ``examples(config)`` draws of ``strategy`` (hypothesis shrinks a failure)."""
-    from hypothesis import given
+    """Run ``body(example)`` on ``examples(config)`` draws of ``strategy`` (hypothesis shrinks a failure).
 
-    @fuzz_settings(config)
+    ``VTCORE_FUZZ_KEEP_GOING=FILE``: a failing example does not stop the run; it is appended to FILE
+    (JSON lines: the exception, where it was raised, the input's start) and the run goes on without
+    shrinking, so a long run counts every failure; the test fails at the end if there was any.
+    """
+    from hypothesis import Phase, given
+
+    keep = os.environ.get("VTCORE_FUZZ_KEEP_GOING")
+    failures = []
+    base = fuzz_settings(config)
+    conf = settings(base, phases=[Phase.generate]) if keep else base
+
+    @conf
     @given(strategy)
     def check(example):
-        body(example)
+        if not keep:
+            body(example)
+            return
+        try:
+            body(example)
+        except Exception as exc:  # noqa: BLE001  (recorded, then raised as one failure at the end)
+            import traceback
+
+            frames = traceback.extract_tb(exc.__traceback__)
+            where = [f"{Path(f.filename).name}:{f.lineno} {f.name}" for f in frames[-4:]]
+            failures.append(1)
+            with open(keep, "a", encoding="utf-8") as fh:
+                fh.write(json.dumps({"error": f"{type(exc).__name__}: {str(exc)[:600]}", "where": where,
+                                     "input": repr(example)[:3000]}) + "\n")
 
     check()
+    assert not failures, f"{len(failures)} failing inputs, listed in {keep}"
 
 
 def record_counts() -> None:
@@ -214,3 +240,78 @@ def record_counts() -> None:
     if path and COUNTS:
         with open(path, "a", encoding="utf-8") as fh:
             fh.write(json.dumps(dict(COUNTS)) + "\n")
+
+
+# ----------------------------------------------------------------------------- structured (JSON / TOML) values
+#: Values a field is set to: the extremes of issue 28 (0, negative, 1e-320, 1e308, NaN, strings) and
+#: the wrong shapes a hand-edited file has (null, lists, objects, huge integers, control bytes).
+EXTREME_VALUES = [0, 0.0, -1, -1.0, -1e308, 1e-320, 4.9e-324, 1e308, float("nan"), float("inf"), float("-inf"),
+                  10 ** 9, 2 ** 63 - 1, -(2 ** 63), 10 ** 30, -(10 ** 30), 0.5, 1e-9, 1e9, True, False, None,
+                  "", " ", "x", "1e308", "nan", "0x1F", "a,b", "a\nb", "\x1b[31m", "pressure", "thermal", "mm", "m",
+                  [], [1], [[1]], [0, 1], [1e308, 0, 0], [0, 0, 0], [float("nan")] * 3, {}, {"a": 1}]
+
+
+def _paths(obj, prefix=(), depth=0, out=None, rng=None):
+    """Every (path, value) of a nested dict/list document, long lists sampled (first, last, a few)."""
+    out = [] if out is None else out
+    out.append((prefix, obj))
+    if depth > 6:
+        return out
+    if isinstance(obj, dict):
+        for k, v in obj.items():
+            _paths(v, prefix + (k,), depth + 1, out)
+    elif isinstance(obj, list) and obj:
+        idx = sorted({0, len(obj) - 1, len(obj) // 2, min(2, len(obj) - 1)})
+        for i in idx:
+            _paths(obj[i], prefix + (i,), depth + 1, out)
+    return out
+
+
+def _set(doc, path, value):
+    node = doc
+    for p in path[:-1]:
+        node = node[p]
+    node[path[-1]] = value
+
+
+@st.composite
+def doc_mutation(draw, doc, names=()):
+    """One structural edit of the decoded document ``doc`` (edited in place): a value replaced by an
+    extreme, scaled, copied from elsewhere in the file, deleted or duplicated, or a known key
+    (``names``: dotted paths such as ``meta.pitch_m``) added with an extreme value."""
+    paths = [p for p in _paths(doc) if p[0]]
+    kind = draw(st.sampled_from(["extreme", "extreme", "extreme", "scale", "copy", "delete", "dup", "add"]))
+    if kind == "add" and names:
+        name = draw(st.sampled_from(sorted(names))).split(".")
+        node = doc
+        for p in name[:-1]:
+            if not isinstance(node.get(p), dict):
+                node[p] = {}
+            node = node[p]
+        node[name[-1]] = draw(st.sampled_from(EXTREME_VALUES))
+        return
+    if not paths:
+        return
+    path, value = paths[draw(st.integers(0, len(paths) - 1))]
+    if kind == "extreme" or kind == "add":
+        _set(doc, path, draw(st.sampled_from(EXTREME_VALUES)))
+    elif kind == "scale" and isinstance(value, (int, float)) and not isinstance(value, bool):
+        _set(doc, path, value * draw(st.sampled_from([1e3, 1e-3, -1, 1e12, 1e-12, 0.5])))
+    elif kind == "copy":
+        _set(doc, path, copy.deepcopy(paths[draw(st.integers(0, len(paths) - 1))][1]))
+    elif kind == "delete":
+        parent = doc
+        for p in path[:-1]:
+            parent = parent[p]
+        del parent[path[-1]]
+    elif kind == "dup" and isinstance(value, list) and value:
+        value.append(value[draw(st.integers(0, len(value) - 1))])
+
+
+@st.composite
+def mutated_doc(draw, seeds: list[dict], names=()) -> dict:
+    """A deep copy of one of ``seeds`` after one to three :func:`doc_mutation` edits."""
+    doc = json.loads(json.dumps(draw(st.sampled_from(seeds))))
+    for _ in range(draw(st.integers(1, 3))):
+        draw(doc_mutation(doc, names))
+    return doc

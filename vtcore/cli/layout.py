@@ -16,6 +16,7 @@ All lengths are metres.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import sys
 import warnings
@@ -83,6 +84,22 @@ def _print_warnings(caught):
         print(f"vtcore: warning: {w.message}", file=sys.stderr)
 
 
+@contextlib.contextmanager
+def _warnings_if_done():
+    """The warnings of the block as ``vtcore: warning:`` lines once it has succeeded; if it fails,
+    the command's output is its one error line (the warnings become the error's details)."""
+    from ..errors import VtError
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            yield
+        except VtError as exc:
+            exc.details = [str(w.message) for w in caught] + list(getattr(exc, "details", None) or [])
+            raise
+    _print_warnings(caught)
+
+
 def cmd_place(args) -> int:
     from ..layout import fill, get_module, place, save
     from ..layout.meshinput import load_mesh
@@ -117,11 +134,9 @@ def cmd_place(args) -> int:
 def cmd_import(args) -> int:
     from ..layout import load, save
 
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
+    with _warnings_if_done():
         layout = load(args.file, args.format, units=args.units)
-    _print_warnings(caught)
-    save(layout, args.out)
+        save(layout, args.out)
     print(f"{args.out}: {len(layout)} taxels in {layout.n_modules} modules (from {layout.meta.get('source_format')})")
     return 0
 
@@ -175,15 +190,10 @@ def cmd_export(args) -> int:
     from ..layout import load, save
 
     options = _export_options(args)
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
+    with _warnings_if_done():
         layout = load(args.layout)
-    _print_warnings(caught)
-    transform = _read_transform(args.transform) if args.transform else None
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
+        transform = _read_transform(args.transform) if args.transform else None
         save(layout, args.out, args.format, transform=transform, **options)
-    _print_warnings(caught)
     print(f"{args.out}: {len(layout)} taxels as {args.format}")
     return 0
 

@@ -20,7 +20,7 @@ import numpy as np
 
 from ..._io import atomic_write
 from ...errors import FormatError, InputError
-from ...inputs import finite_json
+from ...inputs import clean, finite_json
 from ..model import Layout
 from ..uids import cyskin_modules
 from .common import (ImportReport, array_digest, check_repeats, clean_normals, default_faces, finish, parse_number,
@@ -31,8 +31,12 @@ SUFFIXES = (".json",)
 
 
 def read(path, units: str | None = None) -> Layout:
+    return parse(read_json_doc(path), path, units)
+
+
+def parse(doc, path, units: str | None = None) -> Layout:
+    """The Layout of a decoded CySkin document ``doc`` (``path`` names it in messages)."""
     report = ImportReport(path)
-    doc = read_json_doc(path)
     if not isinstance(doc, dict):
         raise FormatError("the top level must be an object with 'skin' and/or 'tactile_maps'", file=path)
     info = doc.get("info") or {}
@@ -151,25 +155,31 @@ def read(path, units: str | None = None) -> Layout:
 
 
 def doc_problem(doc: dict) -> str | None:
-    """Why ``doc`` (a layout's ``meta["cyskin_doc"]``, the document as read) cannot be written back
-    by :func:`write`, or None: the parts the writer walks must have the shapes a CySkin file has."""
-    skin, maps, info = doc.get("skin"), doc.get("tactile_maps"), doc.get("info")
-    if info is not None and not isinstance(info, dict):
-        return "info must be an object"
-    if skin is not None:
-        if not isinstance(skin, dict):
-            return "skin must be an object"
-        if not isinstance(skin.get("taxels", []), list):
-            return "skin.taxels must be a list"
-        parents = skin.get("parent_frames")
-        if parents is not None and (not isinstance(parents, list) or not all(isinstance(p, dict) for p in parents)):
-            return "skin.parent_frames must be a list of objects"
-    if maps is not None and not isinstance(maps, (dict, list)):
-        return "tactile_maps must be an object or a list of objects"
+    """Why ``doc`` (a layout's ``meta["cyskin_doc"]``, the document as read) cannot be written back by
+    :func:`write` and read again, or None: it must be a document this reader accepts, and finite."""
+    import warnings
+
+    from ...errors import VtError
+    from ..mesh import LayoutWarning
+
     try:
         finite_json(doc)
     except InputError as exc:
         return f"{exc.key}: {exc.reason}"
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", LayoutWarning)
+            with np.errstate(all="ignore"):
+                lay = parse(doc, "cyskin_doc")
+        from .fields import MAX_COORDINATE_M, check_layout  # (fields reads this module's checks)
+
+        if np.abs(lay.positions).max() > MAX_COORDINATE_M:
+            return f"holds taxels beyond +-{MAX_COORDINATE_M:g} m"
+        check_layout(lay, "cyskin_doc")
+    except VtError as exc:
+        return f"is not a CySkin document this reader accepts ({getattr(exc, 'reason', exc)})"
+    except (ValueError, TypeError, KeyError, IndexError, AttributeError, OverflowError, RecursionError) as exc:
+        return f"is not a CySkin document this reader accepts ({type(exc).__name__}: {clean(exc)})"
     return None
 
 
