@@ -173,3 +173,19 @@ def test_shortcut_matches_press_by_press_on_the_hexagon(hexagon):
     # sits on that edge may flip by the readings' 1 % (the benchmark counts how often)
     agree = np.abs(pm.two_point.distance[:3] - ref.two_point[:3]) <= st.two_point_step + 1e-9
     assert agree.sum() >= 2, (pm.two_point.distance[:3], ref.two_point[:3])
+
+
+def test_turned_finger_pad_reads_as_pressed(hexagon):
+    """probe yaw turns the pad on the surface once: the map's readings are those of a press of the pad
+    turned by that yaw (the table stays in the pad's own frame)."""
+    from vtcore.evaluate.maps import neighbours, readings
+
+    pts = np.array([[0.003, 0.001, 0.0], [-0.006, 0.004, 0.0], [0.01, -0.008, 0.0]])
+    nrm = np.tile(UP, (3, 1))
+    st = Settings(probe=Probe(yaw=np.pi / 3), draws=4, two_point=False)
+    noise = sensor_noise()
+    pm = evaluate_points(hexagon, pts, nrm, LAYER, st, noise)
+    ref = reference_points(hexagon, pts, nrm, LAYER, st, noise)
+    nb = neighbours(hexagon.positions, hexagon.normals, pts, nrm, pm.table.reach, st.probe.yaw)
+    mine = noise.counts_per_pa * readings(pm.table, pm.table.index(st.reference_force), nb)
+    assert np.all(np.abs(mine - ref.readings).max(axis=1) <= 0.02 * ref.readings.max(axis=1))

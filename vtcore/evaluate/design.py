@@ -40,8 +40,8 @@ class Settings:
     """
 
     probe: Probe = field(default_factory=Probe)
-    reference_force: float = 1.0
-    force_max: float = 10.0
+    reference_force: float = 5.0
+    force_max: float = 20.0
     blind_limit: float | None = None
     draws: int = 32
     seed: int = 0
@@ -158,6 +158,10 @@ def table_for(settings: Settings, layer) -> ResponseTable:
         if len(_TABLES) > 8:
             _TABLES.clear()
         _TABLES[key] = hit
+    if hit.bottomed_at is not None and hit.bottomed_at <= settings.reference_force:
+        raise InputError(f"the {settings.probe.describe()} bottoms out through the {layer.thickness * 1e3:g} mm layer "
+                         f"at {hit.bottomed_at:.3g} N, below the reference force {settings.reference_force:g} N: use a "
+                         "lower reference force, a thicker or stiffer layer or a larger probe", key="reference_force")
     return hit
 
 

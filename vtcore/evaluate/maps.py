@@ -33,6 +33,8 @@ from .probe import ResponseTable
 
 #: a taxel counts for a probe whose normal differs from its own by less than this (cos 60 degrees)
 NORMAL_AGREEMENT = 0.5
+#: taxels whose mean reading lies this many noise deviations below the gate are left out of the draws
+PRUNE_SIGMAS = 5.0
 #: (points x taxels x draws) values one chunk of the noise draws may hold
 CHUNK_VALUES = 4_000_000
 
@@ -203,9 +205,19 @@ def localise(mean: np.ndarray, nb: Neighbours, noise: SensorNoise, *, draws: int
     shapes and seed)."""
     if int(draws) < 1:
         raise InputError(f"must be >= 1, got {draws}", key="draws")
-    m, kk = mean.shape
     gate = noise.threshold_counts
     nf_err, nf_det = centroid_error(mean, nb.dx, nb.dy, gate)
+    # a taxel whose mean is more than PRUNE_SIGMAS deviations below the gate passes it in a draw with
+    # odds below 3e-7: the draws keep only the others (the same columns for the same readings)
+    keep = (nb.index >= 0) & (mean >= gate - PRUNE_SIGMAS * noise.sigma)
+    kk = max(int(keep.sum(axis=1).max(initial=0)), 1) if mean.shape[1] else 0
+    cols = np.argsort(~keep, axis=1, kind="stable")[:, :kk]
+    mean = np.take_along_axis(mean, cols, axis=1)
+    ok = np.take_along_axis(keep, cols, axis=1)
+    nb = Neighbours(np.where(ok, np.take_along_axis(nb.index, cols, axis=1), -1),
+                    np.where(ok, np.take_along_axis(nb.dx, cols, axis=1), np.inf),
+                    np.where(ok, np.take_along_axis(nb.dy, cols, axis=1), np.inf))
+    m = mean.shape[0]
     err = np.zeros(m)
     rate = np.zeros(m)
     if kk and noise.sigma > 0:

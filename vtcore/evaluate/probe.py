@@ -143,6 +143,24 @@ class ResponseTable:
         return out.reshape(dx.shape)
 
 
+def disc_means(field: np.ndarray, offsets: np.ndarray, spacing: float) -> np.ndarray:
+    """The mean of a cell-centred ``field`` (mx, my) over ``offsets`` (S, 2) m around every cell centre,
+    each read bilinearly (0 beyond the grid): one correlation with the offsets' bilinear weights, the
+    same numbers as :func:`vtcore.contact.grid.sample_bilinear` at every cell and offset, in one pass."""
+    from scipy.ndimage import correlate
+
+    f = np.asarray(offsets, float) / spacing
+    i0 = np.floor(f).astype(int)
+    t = f - i0
+    r = int(np.abs(i0).max()) + 1
+    kern = np.zeros((2 * r + 1, 2 * r + 1))
+    for (ix, iy), (tx, ty) in zip(i0, t):
+        for dx, wx in ((0, 1 - tx), (1, tx)):
+            for dy, wy in ((0, 1 - ty), (1, ty)):
+                kern[r + ix + dx, r + iy + dy] += wx * wy  # a few offsets: the loop builds a tiny kernel
+    return correlate(field, kern / len(f), mode="constant", cval=0.0)
+
+
 def default_forces(reference: float, force_max: float, n: int = 9, force_min: float = 0.02) -> np.ndarray:
     """(F,) N: ``n`` forces spaced evenly in log from ``force_min`` to ``force_max``, plus ``reference``."""
     if not (0 < force_min < force_max) or not np.isfinite(force_max):
@@ -167,7 +185,7 @@ def response_table(probe: Probe, layer, *, forces, spacing: float | None = None,
     import time
 
     from ..contact import ContactGrid, SoftLayer, placement_pose, press
-    from ..contact.grid import TAXEL_RADIUS, disc_offsets, sample_bilinear
+    from ..contact.grid import TAXEL_RADIUS, disc_offsets
     from ..errors import UnreachableTargetError
     from ..layout import Layout
 
@@ -186,22 +204,22 @@ def response_table(probe: Probe, layer, *, forces, spacing: float | None = None,
                      material=layer.material)
     one = Layout(np.zeros((1, 3)), [[0.0, 0.0, 1.0]], [0], [0])
     grid = ContactGrid(spacing=spacing, margin=0.0, extent=reach)
-    yaw_pose = placement_pose(mesh, xy=(0.0, 0.0), yaw=probe.yaw, top=h, gap=1e-4)
+    # the table is in the probe's own frame (its long axis along x); the yaw turns the frame the
+    # offsets are measured in (maps.frames), not the table
+    pose0 = placement_pose(mesh, xy=(0.0, 0.0), top=h, gap=1e-4)
     forces = np.asarray(forces, float)
     t0 = time.perf_counter()
     rows, kept, radius, prev, bottomed = [], [], [], None, None
     offs = disc_offsets(disc_samples, taxel_radius)
     for f in forces:
         try:
-            res = press(one, mesh, yaw_pose, flat, force=float(f), grid=grid, model=model, spreading=spreading,
+            res = press(one, mesh, pose0, flat, force=float(f), grid=grid, model=model, spreading=spreading,
                         samples_per_taxel=1, warm_start=prev)
         except UnreachableTargetError:
             bottomed = float(f)
             break
         fld = res.field
-        X, Y = np.meshgrid(fld.x, fld.y, indexing="ij")
-        pts = np.stack([X, Y], axis=-1)[:, :, None, :] + offs[None, None]
-        rows.append(sample_bilinear(pts, fld.stress, fld.x, fld.y).mean(axis=2))
+        rows.append(disc_means(fld.stress, offs, spacing))
         kept.append(f)
         radius.append(float(np.sqrt(res.contact_area / np.pi)))
         xs, ys, prev = fld.x, fld.y, res

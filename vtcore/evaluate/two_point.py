@@ -41,8 +41,10 @@ from .probe import ResponseTable
 BLOB_FRACTION = 0.5
 #: half-width of the strip across a pair, in median taxel spacings (one lattice row in any orientation)
 BAND_SPACINGS = np.sqrt(3) / 2
-#: (configurations x taxels) readings one chunk may hold
-CHUNK_VALUES = 6_000_000
+#: (points x orientations x taxels) one chunk may hold
+CHUNK_VALUES = 2_000_000
+#: separations tried at once before the (point, orientation)s already split are dropped
+SEPARATION_BLOCK = 6
 
 
 @dataclass
@@ -136,32 +138,50 @@ def two_point_discrimination(table: ResponseTable, taxels: np.ndarray, taxel_nor
     if kk == 0:  # no taxel near any point: nothing is told apart
         return TwoPoint(np.full(m, float(max_separation)), np.zeros(m, bool), per, ang, seps, float(max_separation))
     gate = noise.threshold_pa
-    n_cfg = len(ang) * len(seps)
-    chunk = max(1, CHUNK_VALUES // max(1, n_cfg * max(kk, 1)))
-    half = seps / 2
+    n_ang = len(ang)
+    chunk = max(1, CHUNK_VALUES // max(1, n_ang * kk))
+    ca, sa = np.cos(ang)[None, :, None], np.sin(ang)[None, :, None]
     for s0 in range(0, m, chunk):
         sl = slice(s0, min(s0 + chunk, m))
         p = sl.stop - sl.start
-        idx = np.broadcast_to(nb.index[sl][:, None, None, :], (p, len(ang), len(seps), kk))
-        valid = idx >= 0
-        dx = np.where(valid, nb.dx[sl][:, None, None, :], 1e9)
-        dy = np.where(valid, nb.dy[sl][:, None, None, :], 1e9)
+        valid = (nb.index[sl] >= 0)[:, None, :]
+        dx = np.where(valid, nb.dx[sl][:, None, :], 1e9)
+        dy = np.where(valid, nb.dy[sl][:, None, :], 1e9)
         # in the pair's frame: x along the probes' axis (angle a), y across it, probes at y = -+ sep / 2
-        ca, sa = np.cos(ang)[None, :, None, None], np.sin(ang)[None, :, None, None]
-        x = dx * ca + dy * sa
+        x = dx * ca + dy * sa                                   # (p, A, K)
         y = -dx * sa + dy * ca
-        hy = half[None, None, :, None]
-        v = table.lookup(k, x, y - hy) + table.lookup(k, x, y + hy)
-        v = np.where(valid & (np.abs(x) <= band), v, 0.0)
-        level = np.maximum(gate, BLOB_FRACTION * v.max(axis=-1, keepdims=True, initial=0.0))
-        active = v > level
-        side = np.broadcast_to(y, v.shape)
-        two = split_blobs(active.reshape(-1, kk), np.ascontiguousarray(idx).reshape(-1, kk),
-                          np.ascontiguousarray(side).reshape(-1, kk), adjacency).reshape(p, len(ang), len(seps))
-        any_two = two.any(axis=-1)
-        first = np.argmax(two, axis=-1)
-        per[sl] = np.where(any_two, seps[first], max_separation)
-        found_dir[sl] = any_two
+        inband = valid & (np.abs(x) <= band)
+        # only the band's taxels can light a blob: keep those columns of each (point, orientation)
+        kb = max(int(inband.sum(axis=-1).max(initial=0)), 1)
+        cols = np.argsort(~inband, axis=-1, kind="stable")[..., :kb]
+        take = lambda a: np.take_along_axis(a, cols, axis=-1).reshape(p * n_ang, kb)  # noqa: E731
+        bx, by, bm = take(x), take(y), take(inband)
+        bidx = np.where(bm, take(np.broadcast_to(nb.index[sl][:, None, :], x.shape)), -1)
+        result = np.full(p * n_ang, np.inf)
+        pending = np.flatnonzero(bm.any(axis=1))
+        # smallest separations first; a (point, orientation) stops at its first split
+        block = max(1, min(len(seps), SEPARATION_BLOCK))
+        for b0 in range(0, len(seps), block):
+            if not len(pending):
+                break
+            ss = seps[b0:b0 + block]
+            hy = (ss / 2)[None, :, None]
+            px, py, pm = bx[pending][:, None, :], by[pending][:, None, :], bm[pending][:, None, :]
+            v = table.lookup(k, np.broadcast_to(px, (len(pending), len(ss), kb)), py - hy) \
+                + table.lookup(k, np.broadcast_to(px, (len(pending), len(ss), kb)), py + hy)
+            v = np.where(pm, v, 0.0)
+            level = np.maximum(gate, BLOB_FRACTION * v.max(axis=-1, keepdims=True, initial=0.0))
+            cfg = len(pending) * len(ss)
+            two = split_blobs((v > level).reshape(cfg, kb),
+                              np.ascontiguousarray(np.broadcast_to(bidx[pending][:, None, :], v.shape)).reshape(cfg, kb),
+                              np.ascontiguousarray(np.broadcast_to(py, v.shape)).reshape(cfg, kb),
+                              adjacency).reshape(len(pending), len(ss))
+            hit = two.any(axis=1)
+            result[pending[hit]] = ss[np.argmax(two[hit], axis=1)]
+            pending = pending[~hit]
+        res = result.reshape(p, n_ang)
+        found_dir[sl] = np.isfinite(res)
+        per[sl] = np.where(np.isfinite(res), res, max_separation)
     found = found_dir.all(axis=1)
     dist = np.where(found, per.max(axis=1), max_separation)
     return TwoPoint(dist, found, per, ang, seps, float(max_separation))
