@@ -1,34 +1,52 @@
 """Reaching in clutter with the augmented point cloud (seed 000, Sect. 4.3, Eqs. 6-7, Fig. 10).
 
-A skin-covered link (a disc of radius ``r_link`` in the trajectory plane)
-moves from A to B between obstacles it cannot all avoid. With the augmented
-cloud, each obstacle ``i`` of tactile colour ``c_i`` gets an influence radius
+A skin-covered link (:class:`~vtcore.control.link_skin.LinkSkin`, a disc of radius ``r``
+in the trajectory plane) moves from A to B between obstacles it cannot all avoid. Three
+controllers, as the paper compares them, on the same robot and skin:
 
-    eps_i = c_i r_max / c_max                                             (Eq. 6)
+- ``augmented`` (the paper's method): the reactive controller below, with each obstacle's
+  Eq. 6 radius ``eps_i = c_i r_max / c_max`` and, while the link's centre is closer than
+  ``eps_i`` to obstacle ``i``'s centroid, the Eq. 7 deviation, tangent to the obstacle, in
+  the plane, proportional to its tactile colour:
 
-and while the link is closer than ``eps_i`` to its centroid the motion is
-deviated tangentially, in the plane, proportionally to the colour:
+      x_dev = gamma c_i (x_ee - x_i) / ||x_ee - x_i|| x e_z                       (Eq. 7)
 
-    x_dev = gamma c_i (x_ee - x_i) / ||x_ee - x_i|| x e_z                 (Eq. 7)
+  Eq. 7 changes the **direction** of motion only: the commanded velocity is the goal
+  direction at nominal speed plus the deviations (``gamma c_i`` in m/s), renormalised to the
+  nominal speed (a normalised velocity). It never speeds the robot up. The sense of ``e_z``
+  is the one whose tangent makes progress towards B.
+- ``reactive`` (the paper's baseline, its reference [39], which is also the "underlying
+  control scheme" of the augmented run): the seed text names [39] but its reference list is
+  not in our copy, so this is our model of a reactive tactile controller, stated: it moves
+  towards B at nominal speed; when the skin's last frame (20 Hz) shows a contact whose peak
+  taxel exceeds a threshold (a pressure limit: lighter contact is accepted), it removes the
+  velocity component into the touched side and backs away from it at a speed proportional to
+  the excess (``v_nom`` at ``react_full``), the total capped at the nominal speed. It learns
+  about an obstacle only by touching it. The thresholds of [39] are not in our copy either; the
+  default is the soft layer's linear-elastic limit, 30 % compression (the bound the contact
+  package warns at), and nominal retreat at 60 % (:meth:`LinkSkin.compression_counts`).
+- ``impedance`` (the paper's other baseline, "joint impedance control with very low
+  gains"): the reference moves along the straight line at nominal speed regardless of
+  contact; the robot is a soft spring (``k_low``) to it and is pushed aside by obstacles.
 
-so stiff obstacles are skirted widely and soft ones barely (the link pushes
-through them). The sense of ``e_z`` (which way round) is the one whose tangent
-makes progress towards B. The "straight" baseline follows the minimum-distance
-line. Both run on the same compliant robot: the link's actual position is the
-commanded one displaced by the contact forces against a Cartesian impedance
-``k_robot``; contact forces are penetration times the series stiffness of
-the obstacle and the robot, and the commanded speed drops while in contact
-(``v = v_nom / (1 + F / f_slow)``), a safety scaling common to both runs.
+The robot is quasi-static: the link's position is the equilibrium between a Cartesian
+spring to the commanded reference (``k_robot``, or ``k_low`` for the impedance run) and the
+obstacles' contact forces (:class:`~vtcore.control.link_skin.ContactLaw`: the skin's soft
+layer in series with the obstacle's stiffness). Nothing slows the robot but its controller:
+a reactive run is slower only because backing away and sliding cost progress.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..errors import InputError
 from ..tolerances import EPS, LENGTH_TOL
+from .link_skin import CORNER_RADIUS, LinkSkin
+
+CONTROLLERS = ("augmented", "reactive", "impedance")
 
 
 @dataclass
@@ -48,13 +66,16 @@ class Obstacle:
     colour: float | None = None
 
     def penetration(self, x, r_link):
-        """(depth m, outward unit normal (2,)) of a disc of radius r_link at x (2,)."""
+        """(depth m, outward unit normal (2,), local radius of curvature m) of a disc of radius r_link at x (2,).
+
+        The radius is the circle's, ``inf`` on a box face, :data:`CORNER_RADIUS` at a box corner.
+        """
         c = np.asarray(self.centre, float)
         if self.kind == "circle":
             d = x - c
             dist = float(np.hypot(*d))
             n = d / dist if dist > EPS else np.array([0.0, 1.0])
-            return float(self.size) + r_link - dist, n
+            return float(self.size) + r_link - dist, n, float(self.size)
         if self.kind == "box":
             h = np.asarray(self.size, float)
             q = x - c
@@ -62,30 +83,48 @@ class Obstacle:
             d = q - closest
             dist = float(np.hypot(*d))
             if dist > EPS:
-                return r_link - dist, d / dist
+                corner = bool(np.all(np.abs(q) > h))
+                return r_link - dist, d / dist, CORNER_RADIUS if corner else np.inf
             # centre inside the box: push out through the nearest face
             gaps = h - np.abs(q)
             k = int(np.argmin(gaps))
             n = np.zeros(2)
             n[k] = 1.0 if q[k] >= 0 else -1.0
-            return r_link + float(gaps[k]), n
+            return r_link + float(gaps[k]), n, np.inf
         raise InputError(f"unknown obstacle kind {self.kind!r}; use circle or box", key="kind")
 
 
 @dataclass
 class ReachResult:
-    """time (T,) s; position (T, 2) m of the link; force (T,) N of all contacts; per_obstacle (T, O) N."""
+    """One run. time (T,) s; position (T, 2) m of the link; reference (T, 2) m commanded;
+    force (T,) N of all contacts; per_obstacle (T, O) N; frame_time (K,) s and intensity (K,)
+    counts of the skin frames (20 Hz); speed_cmd (T,) m/s of the commanded motion."""
 
+    controller: str
     time: np.ndarray
     position: np.ndarray
+    reference: np.ndarray
     force: np.ndarray
     per_obstacle: np.ndarray
+    frame_time: np.ndarray
+    intensity: np.ndarray
+    speed_cmd: np.ndarray
     reached: bool
     time_to_target: float
+    layer_bottomed: bool = False
+    meta: dict = field(default_factory=dict)
 
     def mean_contact_intensity(self) -> float:
+        """Mean over the run's skin frames of the contact intensity (counts): the paper's measure."""
+        return float(np.mean(self.intensity)) if len(self.intensity) else 0.0
+
+    def mean_force(self) -> float:
         """Time-averaged total contact force over the run, N."""
-        return float(np.mean(self.force))
+        return float(np.mean(self.force)) if len(self.force) else 0.0
+
+    def path_length(self) -> float:
+        """Length (m) of the path the link's centre travelled."""
+        return float(np.sum(np.hypot(*np.diff(self.position, axis=0).T))) if len(self.position) > 1 else 0.0
 
 
 def influence_radii(colours, r_max: float = 0.07) -> np.ndarray:
@@ -98,74 +137,150 @@ def influence_radii(colours, r_max: float = 0.07) -> np.ndarray:
     return c * (r_max / c.max())
 
 
-def reach(start, goal, obstacles: list[Obstacle], *, use_colours: bool, r_max: float = 0.07,
-          gamma: float | None = None, speed: float = 0.02, r_link: float = 0.025, k_robot: float = 800.0,
-          f_slow: float = 2.0, dt: float = 0.01, tolerance: float = 0.003, max_time: float = 120.0) -> ReachResult:
-    """Move the link from ``start`` to ``goal`` (2,) metres among ``obstacles``.
+def eq7_direction(x, goal, obstacles, eps, colours, gamma: float, speed: float) -> np.ndarray:
+    """Unit direction (2,) of the augmented motion at ``x``: the goal direction at ``speed`` plus
+    each Eq. 7 deviation ``gamma c_i t_i`` (m/s) of the obstacles whose radius ``eps_i`` holds
+    ``x``, normalised. ``t_i`` = (x - x_i)/|x - x_i| x e_z, its sense the one towards ``goal``."""
+    to_goal = np.asarray(goal, float) - x
+    dist = float(np.hypot(*to_goal))
+    v = speed * to_goal / dist if dist > EPS else np.zeros(2)
+    for o, e, c in zip(obstacles, eps, colours):
+        r = x - np.asarray(o.centre, float)
+        rn = float(np.hypot(*r))
+        if 0 < rn < e:
+            tangent = np.array([r[1], -r[0]]) / rn             # (r / |r|) x e_z, e_z = +z
+            if tangent @ to_goal < 0:
+                tangent = -tangent
+            v = v + gamma * c * tangent
+    n = float(np.hypot(*v))
+    return v / n if n > EPS else np.zeros(2)
 
-    use_colours : apply Eqs. 6-7 with the obstacles' ``colour``; False is the
-    minimum-distance (straight) baseline. gamma : m/s per colour unit; default
-    ``2 speed / c_max`` (the stiffest obstacle deviates at twice the nominal speed).
+
+def react(v, frame, skin: LinkSkin, speed: float, threshold: float, full: float) -> np.ndarray:
+    """The reactive controller's answer to a skin frame. For each contact the frame shows whose
+    peak taxel reads more than ``threshold`` counts: remove the velocity into the touched side and
+    back away from it at ``speed * (peak - threshold) / (full - threshold)`` (at most ``speed``).
+    Lighter contacts are accepted. The total is capped at ``speed``."""
+    hard = [(n, peak) for n, _, peak in skin.contacts(frame) if peak > threshold]
+    for n, _ in hard:
+        v = v - max(float(v @ n), 0.0) * n
+    for n, peak in hard:
+        v = v - speed * min((peak - threshold) / max(full - threshold, EPS), 1.0) * n
+    s = float(np.hypot(*v))
+    return v * (speed / s) if s > speed else v
+
+
+def reach(start, goal, obstacles: list[Obstacle], *, controller: str = "augmented", skin: LinkSkin | None = None,
+          r_max: float = 0.07, gamma: float | None = None, speed: float = 0.02, k_robot: float = 3000.0,
+          k_low: float = 300.0, react_threshold: float = 10000.0, react_full: float = 40000.0, dt: float = 0.01, tolerance: float = 0.003,
+          max_time: float = 120.0, rng=None) -> ReachResult:
+    """Move the link from ``start`` to ``goal`` (2,) metres among ``obstacles`` with ``controller``.
+
+    skin : the link's skin (its radius is the link's). gamma : m/s per colour unit of Eq. 7;
+    default ``speed / c_max`` (the stiffest obstacle's deviation weighs as much as the goal).
+    k_robot, k_low : N/m, the robot's stiffness to its reference (reactive/augmented; impedance).
+    react_threshold, react_full : peak taxel counts above which the reactive controller reacts to a
+    contact, and at which it backs away at nominal speed (:func:`react`). rng : seed of the skin's read noise.
     """
+    if controller not in CONTROLLERS:
+        raise InputError(f"unknown controller {controller!r}; valid: {', '.join(CONTROLLERS)}", key="controller")
+    if not (speed > 0 and dt > 0 and k_robot > 0 and k_low > 0 and 0 <= react_threshold < react_full):
+        raise InputError("speed, dt, k_robot and k_low must be > 0 and 0 <= react_threshold < react_full",
+                         key="speed")
+    skin = skin or LinkSkin()
+    rng = np.random.default_rng(rng)
     a, b = np.asarray(start, float), np.asarray(goal, float)
-    if use_colours:
+    if controller == "augmented":
         if any(o.colour is None for o in obstacles):
             raise InputError("every obstacle needs a tactile colour to reach with the augmented cloud", key="colour")
         cols = np.array([o.colour for o in obstacles], float)
         eps = influence_radii(cols, r_max)
-        g = gamma if gamma is not None else 2.0 * speed / cols.max()
-    steps = int(max_time / dt)
-    ref = a.copy()                                # the commanded (reference) position
-    x = a.copy()                                  # the link's actual position
-    pos, frc, per = [], [], []
-    reached, t_hit = False, float("nan")
-    f_total = 0.0
-    for i in range(steps):                       # a controller: sequential in time
+        g = gamma if gamma is not None else speed / cols.max()
+    laws = _laws(obstacles, skin)
+    k = k_low if controller == "impedance" else k_robot
+    every = max(1, int(round(1.0 / (skin.rate * dt))))          # control steps per skin frame
+    x, frame = a.copy(), skin.read(np.zeros(len(skin.angles)), rng)
+    rec = {key: [] for key in ("x", "ref", "f", "per", "speed")}
+    ft, inten = [], []
+    reached, t_hit, bottomed = False, float("nan"), False
+    length = float(np.hypot(*(b - a)))
+    for i in range(int(max_time / dt)):                         # a controller: sequential in time
         if float(np.hypot(*(b - x))) < tolerance:
             reached, t_hit = True, i * dt
             break
-        to_goal = b - ref
-        dist = float(np.hypot(*to_goal))
-        vel = np.zeros(2) if dist < EPS else min(speed / (1.0 + f_total / f_slow), dist / dt) * to_goal / dist
-        if use_colours:
-            for o, e, c in zip(obstacles, eps, cols):
-                r = x - np.asarray(o.centre, float)
-                rn = float(np.hypot(*r))
-                if 0 < rn < e:
-                    tangent = np.array([r[1], -r[0]]) / rn        # (r / |r|) x e_z, e_z = +z
-                    if tangent @ (b - x) < 0:
-                        tangent = -tangent                          # the sense that progresses towards B
-                    vel = vel + g * c * tangent
-        ref = ref + vel * dt
-        x, forces = _equilibrium(ref, x, obstacles, r_link, k_robot)
-        f_total = float(forces.sum())
-        pos.append(x.copy())
-        frc.append(f_total)
-        per.append(forces)
-    t = np.arange(len(pos)) * dt
-    return ReachResult(time=t, position=np.array(pos).reshape(-1, 2), force=np.array(frc),
-                       per_obstacle=np.array(per).reshape(len(pos), len(obstacles)), reached=reached,
-                       time_to_target=t_hit)
+        if controller == "impedance":                           # the straight reference, whatever happens
+            ref = a + min(speed * (i + 1) * dt, length) * (b - a) / max(length, EPS)
+            v = (ref - (rec["ref"][-1] if rec["ref"] else a)) / dt
+        else:
+            d = float(np.hypot(*(b - x)))
+            v = speed * (b - x) / d if d > EPS else np.zeros(2)
+            if controller == "augmented":
+                v = speed * eq7_direction(x, b, obstacles, eps, cols, g, speed)
+            v = react(v, frame, skin, speed, react_threshold, react_full)
+            v = v * min(1.0, d / (speed * dt))                   # no overshoot of B within a step
+            ref = (rec["ref"][-1] if rec["ref"] else a) + v * dt  # the commanded velocity, integrated
+        x, forces, contacts, bad = _equilibrium(ref, x, obstacles, laws, skin.radius, k)
+        bottomed |= bad
+        if i % every == every - 1:                               # the skin's 20 Hz frames
+            frame = skin.read(skin.counts(contacts), rng)
+            ft.append((i + 1) * dt)
+            inten.append(skin.intensity(frame))
+        for key, val in (("x", x.copy()), ("ref", ref.copy()), ("f", float(forces.sum())), ("per", forces),
+                         ("speed", float(np.hypot(*v)))):
+            rec[key].append(val)
+    n = len(rec["x"])
+    return ReachResult(controller=controller, time=np.arange(n) * dt, position=np.array(rec["x"]).reshape(-1, 2),
+                       reference=np.array(rec["ref"]).reshape(-1, 2), force=np.array(rec["f"]),
+                       per_obstacle=np.array(rec["per"]).reshape(n, len(obstacles)), frame_time=np.array(ft),
+                       intensity=np.array(inten), speed_cmd=np.array(rec["speed"]), reached=reached,
+                       time_to_target=t_hit, layer_bottomed=bottomed,
+                       meta={"k_robot": k, "gamma": g if controller == "augmented" else None})
 
 
-def _equilibrium(ref, x0, obstacles, r_link, k_robot, iterations: int = 12):
-    """Quasi-static position of the link: minimise the robot's impedance energy plus the obstacles'.
+def _laws(obstacles, skin):
+    """Per obstacle, its contact laws by local radius (a box has a face law and a corner law)."""
+    out = []
+    for o in obstacles:
+        radii = (float(o.size),) if o.kind == "circle" else (np.inf, CORNER_RADIUS)
+        out.append({r: skin.law(o.stiffness, r) for r in radii})
+    return out
 
-    E(x) = k_robot/2 |x - ref|^2 + sum_j k_j/2 max(pen_j(x), 0)^2, by Newton steps in the
-    plane (piecewise quadratic, so a few steps converge). Returns (x (2,), forces (O,) N).
+
+def _equilibrium(ref, x0, obstacles, laws, r_link, k_robot, iterations: int = 20):
+    """Quasi-static position of the link: minimise the robot's spring energy plus the contacts'.
+
+    E(x) = k_robot/2 |x - ref|^2 + sum_j W_j(pen_j(x)), with dW/dpen = F_j the contact law, by
+    Newton steps in the plane. Returns (x (2,), forces (O,) N, contacts for the skin
+    [(angle on the link rad, layer compression m, r_eff m)], layer bottomed out (bool)).
     """
+    x = np.array(ref, float)
+    if all(o.penetration(x, r_link)[0] <= 0 for o in obstacles):
+        return x, np.zeros(len(obstacles)), [], False           # free: the link is where it is commanded
     x = np.array(x0, float)
     for _ in range(iterations):
         grad = k_robot * (x - ref)
         hess = k_robot * np.eye(2)
-        for o in obstacles:
-            pen, n = o.penetration(x, r_link)
+        for o, law in zip(obstacles, laws):
+            pen, n, r = o.penetration(x, r_link)
             if pen > 0:
-                grad -= o.stiffness * pen * n
-                hess += o.stiffness * np.outer(n, n)
+                cl = law[r]
+                f = cl.force(pen)
+                if not np.isfinite(f):                           # past the table: the stiffest slope
+                    f = cl.f[-1] + (pen - cl.pen[-1]) * (cl.f[-1] - cl.f[-2]) / (cl.pen[-1] - cl.pen[-2])
+                grad -= f * n
+                hess += cl.stiffness(min(pen, cl.pen[-1])) * np.outer(n, n)
         step = np.linalg.solve(hess, grad)
         x = x - step
         if float(np.hypot(*step)) < LENGTH_TOL:
             break
-    forces = np.array([o.stiffness * max(o.penetration(x, r_link)[0], 0.0) for o in obstacles])
-    return x, forces
+    forces, contacts, bottomed = np.zeros(len(obstacles)), [], False
+    for j, (o, law) in enumerate(zip(obstacles, laws)):
+        pen, n, r = o.penetration(x, r_link)
+        if pen > 0:
+            cl = law[r]
+            f = cl.force(pen)
+            if not np.isfinite(f):
+                bottomed, f = True, float(cl.f[-1])
+            forces[j] = f
+            contacts.append((float(np.arctan2(-n[1], -n[0])), cl.compression(pen), cl.r_eff))
+    return x, forces, contacts, bottomed
