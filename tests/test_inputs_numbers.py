@@ -43,7 +43,8 @@ OPTIONS = {
     "--scale": (lambda d, v: _place(d, "--scale", v), "o.json", set(NASTY)),
     "--offset": (lambda d, v: _place(d, "--offset", v), "o.json", {"-1", "nan", "inf", "1e300"}),
     "--subdivide": (lambda d, v: _place(d, "--subdivide", v), "o.json", set(NASTY)),
-    "--at": (lambda d, v: _place(d, at=(v, "0", "0.01")), "o.json", {"nan", "inf", "1e300"}),
+    # -1: a metre off a 60 mm box, refused as a placement nobody meant (issue 26)
+    "--at": (lambda d, v: _place(d, at=(v, "0", "0.01")), "o.json", {"nan", "inf", "1e300", "-1"}),
     "--direction": (lambda d, v: _place(d, "--direction", v, v, "0"), "o.json", {"0", "nan", "inf"}),
     "--radius": (lambda d, v: _place(d, "--radius", v, patch="fill"), "o.json", {"0", "-1", "nan", "inf", "1e-300"}),
     "--site-radius": (lambda d, v: ["layout", "export", LAYOUT, "--format", "mjcf", "--out", d / "o.xml",
@@ -67,7 +68,7 @@ OPTIONS = {
 }
 
 
-NAMES = {"--radius": "--radius|region: no whole module fits", "--transform": "transform", "--transform(t)": "transform"}
+NAMES = {"--at": "--at|'at' is [0-9.]+ mm off the surface", "--radius": "--radius|region: (no whole .*module fits|the widest part)", "--transform": "transform", "--transform(t)": "transform"}
 
 
 def _finite(path):
@@ -150,7 +151,10 @@ def test_a_placement_at_the_lower_size_edge_is_finite(files):
     s = SURFACE_SIZE_M[0] / max(BOX)  # the box scaled to exactly 1 mm across
     with warnings.catch_warnings():
         warnings.simplefilter("error", RuntimeWarning)
+        # a 22 mm module on a 1 mm part: refused (its taxels fall off, issue 26), then forced
         rc, _, err = cli(*_place(files, "--scale", repr(s), at=("0", "0", repr(0.01 * s))))
+        one_error_line(rc, err, "taxels fall off the surface")
+        rc, _, err = cli(*_place(files, "--scale", repr(s), "--force", at=("0", "0", repr(0.01 * s))))
     assert rc == 0 and "encountered" not in err, err
     assert _finite(files / "o.json")
 

@@ -267,14 +267,19 @@ def test_fill_tries_rotations_and_shifts():
 
     plane = _grid()
     band = np.abs(plane.triangles_center[:, 0]) < 0.013
-    with pytest.raises(InputError, match="no whole module"):
-        quiet(fill, plane, (0, 0, 0), (1, 0, 0), region=band, angles=(0.0,), offsets=2, refine_offsets=0)
+    try:  # one angle: none, or only the module the fill centres on its start when no tiling fits
+        one = quiet(fill, plane, (0, 0, 0), (1, 0, 0), region=band, angles=(0.0,), offsets=2, refine_offsets=0,
+                    seeds=1)[0].n_modules
+    except InputError as exc:
+        assert "no whole cyskin10 module fits in the region" in str(exc)
+        one = 0
     lay, rep = quiet(fill, plane, (0, 0, 0), (1, 0, 0), region=band)
-    assert lay.n_modules >= 2 and rep.coverage > 0.3
-    assert np.abs(lay.positions[:, 0]).max() < 0.013
+    assert lay.n_modules >= max(2, one) and rep.coverage > 0.3
+    on_band = plane.submesh([np.flatnonzero(band)], append=True)
+    assert trimesh.proximity.closest_point(on_band, lay.positions)[1].max() < 1e-6  # every taxel on the band
     assert not find_overlaps(lay.positions, lay.module_ids, OVERLAP_FRACTION * PITCH)
-    tries = lay.meta["fill_tilings"]
-    assert len(tries) > 20 and max(t["modules"] for t in tries) == lay.n_modules > tries[0]["modules"]
+    tries = [t for t in lay.meta["fill_tilings"] if t["seed"] == 0]  # the first growth's tilings
+    assert len(tries) > 20 and lay.n_modules >= max(t["modules"] for t in tries) > tries[0]["modules"]
     assert any("tilings tried" in n for n in rep.notes)
     lay2, _ = quiet(fill, plane, (0, 0, 0), (1, 0, 0), region=band)
     assert np.array_equal(lay.positions, lay2.positions)

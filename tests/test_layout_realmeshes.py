@@ -78,8 +78,12 @@ def test_full_cylinder_wrapped_by_fill(cylinder20):
     # all the way round: the widest empty arc in the middle is at most two pitches
     assert seam_gap(lay, 0.02, 0.02) <= 2 * PITCH
     sm = skin_mesh(lay)
-    mid = lay.positions[sm.edges].mean(axis=1)
-    assert np.abs(np.hypot(mid[:, 0], mid[:, 1]) - 0.02).max() < 1e-3
+    # neighbours at about the pitch follow the surface (a module a further seed laid in the seam
+    # joins the others by longer edges, whose chords cut deeper into a 20 mm tube)
+    ends = lay.positions[sm.edges]
+    near = np.linalg.norm(ends[:, 0] - ends[:, 1], axis=1) <= 1.5 * PITCH
+    mid = ends[near].mean(axis=1)
+    assert near.mean() > 0.95 and np.abs(np.hypot(mid[:, 0], mid[:, 1]) - 0.02).max() < 1e-3
 
 
 @pytest.mark.parametrize("n", [6])
@@ -141,8 +145,9 @@ def test_two_disconnected_islands_are_both_filled():
 
 def test_region_smaller_than_a_module_says_why():
     plate = trimesh.creation.box(extents=[0.012, 0.012, 0.002]).subdivide_to_size(0.002)
-    with pytest.raises(InputError, match="no whole module"):
+    with pytest.raises(InputError, match=r"12\.0 mm across .* cyskin10 module needs 19\.5 mm") as err:
         quiet(fill, plate, (0, 0, 0.001), (1, 0, 0))
+    assert len(str(err.value).splitlines()[0]) < 250  # one line, then the detail
 
 
 def test_millimetres_given_as_metres_warn_and_stay_sane():

@@ -1,7 +1,8 @@
 """``vtcore layout place|import|export|info``: design, convert and inspect skin layouts.
 
 - ``vtcore layout place MESH --patch {triangle,hexagon,strip:N,fill} --at X Y Z [--direction DX DY DZ]
-  [--module NAME] [--mirror] [--offset METRES] --out LAYOUT``
+  [--module NAME] [--mirror] [--offset METRES] [--max-strain F] [--force] --out LAYOUT``; fill's region:
+  ``[--radius M] [--facing DX DY DZ --within DEG] [--faces FILE] [--islands each|one] [--crease-angle DEG]``
 - ``vtcore layout import FILE [--format icub|cyskin|csv|json|ply] --out LAYOUT``
 - ``vtcore layout export LAYOUT --format icub|cyskin|csv|json|ply|mjcf|urdf --out FILE [--transform FILE_OR_16_NUMBERS]``
   MJCF: ``[--model ROBOT.xml --body BODY] [--footprint taxel|tile] [--pad|--no-pad] [--site-radius M]``;
@@ -66,6 +67,12 @@ def _check_place_numbers(args) -> None:
     to_float(args.offset, key="--offset")
     if args.radius is not None:
         to_float(args.radius, gt=0.0, key="--radius")
+    if args.max_strain is not None:
+        to_float(args.max_strain, gt=0.0, key="--max-strain")
+    to_float(args.crease_angle, gt=0.0, hi=180.0, key="--crease-angle")
+    to_float(args.within, gt=0.0, hi=180.0, key="--within")
+    if args.patch != "fill" and (args.facing or args.faces or args.radius is not None):
+        raise InputError("--facing, --faces and --radius choose the region of --patch fill", key="--patch")
     if args.subdivide is not None:
         to_float(args.subdivide, lo=SUBDIVIDE_M[0], hi=SUBDIVIDE_M[1], key="--subdivide")
 
@@ -77,6 +84,24 @@ def _check_offset(offset: float, mesh) -> None:
     if abs(offset) > size:
         raise InputError(f"must be within +-{size:.3g} m (the mesh's size), got {offset:g}", key="--offset")
 
+
+
+def _region(args, mesh):
+    """--facing/--within and --faces as one (F,) face mask of ``mesh`` (both: the faces in the file
+    that face that way), or None (every face)."""
+    from ..layout.regions import facing_region, read_face_indices
+
+    region = None
+    if args.faces:
+        region = read_face_indices(args.faces, len(mesh.faces))
+    if args.facing:
+        cone = facing_region(mesh, args.facing, args.within)
+        region = cone if region is None else region & cone
+        if not region.any():
+            raise InputError(f"no face of the mesh faces ({' '.join(f'{v:g}' for v in args.facing)}) within "
+                             f"{args.within:g} deg" + (" among the faces of --faces" if args.faces else ""),
+                             key="--facing")
+    return region
 
 
 def _print_warnings(caught):
@@ -103,6 +128,7 @@ def _warnings_if_done():
 def cmd_place(args) -> int:
     from ..layout import fill, get_module, place, save
     from ..layout.meshinput import load_mesh
+    from ..layout.report import DEFAULT_MAX_STRAIN, PLACE_MAX_STRAIN, check_trust
 
     _check_place_numbers(args)
     mesh = load_mesh(args.mesh, args.scale, key=None, scale_key="--scale")
@@ -114,13 +140,26 @@ def cmd_place(args) -> int:
     module = get_module(args.module, mirror=args.mirror)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        if args.patch == "fill":
-            layout, report = fill(mesh, args.at, args.direction, module=module, radius=args.radius,
-                                  offset=args.offset)
-        else:
-            layout, report = place(mesh, args.patch, args.at, args.direction, module=module,
-                                   offset=args.offset, method=args.method)
+        try:
+            if args.patch == "fill":
+                layout, report = fill(mesh, args.at, args.direction, module=module, radius=args.radius,
+                                      region=_region(args, mesh), offset=args.offset,
+                                      max_strain=args.max_strain or DEFAULT_MAX_STRAIN,
+                                      crease_angle=args.crease_angle, islands=args.islands)
+            else:
+                layout, report = place(mesh, args.patch, args.at, args.direction, module=module,
+                                       offset=args.offset, method=args.method)
+            limit = args.max_strain or (DEFAULT_MAX_STRAIN if args.patch == "fill" else PLACE_MAX_STRAIN)
+            kept = check_trust(report, max_strain=limit, force=args.force, what=args.patch)
+        except InputError as exc:
+            if args.verbose:  # the refusal or the error says the main problem; the rest on request
+                _print_warnings(caught)
+                for line in getattr(exc, "detail", []):
+                    print(f"vtcore: detail: {line}", file=sys.stderr)
+            raise
     _print_warnings(caught)
+    for line in kept:
+        print(f"vtcore: warning: kept with --force: {line}", file=sys.stderr)
     layout.meta["mesh"] = str(args.mesh)
     save(layout, args.out, args.format)
     from ..layout.summary import report_lines
@@ -332,7 +371,28 @@ def register(sub) -> None:
                     help="mirror-image modules (skinGui's mirror column: x negated in the module frame)")
     pl.add_argument("--offset", type=float, default=0.0, metavar="METRES", help="distance along the normal")
     pl.add_argument("--method", default="logmap", choices=("logmap", "project"), help="placement method")
-    pl.add_argument("--radius", type=float, help="fill: geodesic radius of the region (metres)")
+    pl.add_argument("--radius", type=float, help="fill: geodesic radius of the region round --at (metres)")
+    pl.add_argument("--facing", type=float, nargs=3, metavar=("DX", "DY", "DZ"),
+                    help="fill: the region is the faces whose normal is within --within degrees of this direction")
+    pl.add_argument("--within", type=float, default=45.0, metavar="DEG", help="fill: the cone of --facing (default 45)")
+    pl.add_argument("--faces", metavar="FILE",
+                    help="fill: the region is the faces listed in FILE (0-based indices of the mesh as read; "
+                         "spaces, commas or lines, # comments, or a JSON list)")
+    pl.add_argument("--islands", choices=("each", "one"), default="each",
+                    help="fill: give each island of the region its own lattice (default), or one lattice to "
+                         "islands within two pitches of each other")
+    pl.add_argument("--max-strain", type=float, metavar="FRACTION",
+                    help="largest stretch of a module edge: fill leaves out modules straining more (default 0.05), "
+                         "place refuses a patch straining more (default 0.10: a hexagon on a 40 mm sphere strains "
+                         "7 %%); a flexible PCB bends freely, stretched edges put taxels where the layout does not say")
+    pl.add_argument("--crease-angle", type=float, default=40.0, metavar="DEG",
+                    help="fill: no module crosses an edge where the faces turn more than this (a design crease; "
+                         "default 40); raise it when a coarse mesh's facets are not creases of the part")
+    pl.add_argument("--force", action="store_true",
+                    help="keep a placement with taxels off the surface, over-strained modules or --at far off "
+                         "the surface (refused by default, exit 2)")
+    pl.add_argument("--verbose", action="store_true",
+                    help="with an error: every warning, and why no module fits, island by island")
     pl.add_argument("--scale", type=float, default=1.0, help="mesh unit to metres (0.001 for a mesh in mm)")
     pl.add_argument("--subdivide", type=float, metavar="METRES",
                     help="first split mesh edges longer than this (coarse CAD or collision meshes)")

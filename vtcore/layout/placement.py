@@ -125,11 +125,13 @@ def finish(p: Patch, pos, nrm, found, surf_mesh, *, method, notes, info, offset,
     if len(off):
         notes.append(f"{len(off)} taxels fall outside the mapped surface (off an open boundary, or past "
                      "the cut locus of a closed one where the log map is unreliable)")
+    at_distance = float(snap(surf_mesh, at)[2][0])
     report = PlacementReport(strain, mstrain, overlaps, off, coverage, float(dist.max()) if len(dist) else 0.0,
                              method, time.perf_counter() - t0, notes + info, ex_overlaps, charts=int(charts),
                              seam_modules=int(seam_modules),
                              normal_outliers=np.flatnonzero(dev > NORMAL_DEVIATION_DEG),
-                             normal_deviation_max=float(dev.max()) if len(dev) else 0.0)
+                             normal_deviation_max=float(dev.max()) if len(dev) else 0.0,
+                             at_distance=at_distance, n_taxels=len(layout), module_radius=p.module.radius)
     layout.meta["placement"] = report.as_dict()
     for msg in notes:
         warnings.warn(f"{kind}: {msg}", LayoutWarning, stacklevel=3)

@@ -20,6 +20,32 @@ from .patches import Patch
 
 NORMAL_DEVIATION_DEG = 5.0  #: a taxel normal further than this from its face's is listed in the report
 OVERLAP_FRACTION = 0.75  #: taxels of different modules closer than this many pitches overlap
+#: fill's limit on module-edge stretch (fraction): modules straining more are left out (bending is
+#: free for a flexible PCB; a stretched edge means its taxels are not where the layout says)
+DEFAULT_MAX_STRAIN = 0.05
+#: the stretch beyond which a placed patch (place: laid whole, as a person lays it) is refused unless
+#: forced: a hexagon on a 40 mm sphere strains 7 % at its rim and passes; 29 % or 196 % do not
+PLACE_MAX_STRAIN = 0.10
+
+
+class PlacementRefused(InputError):
+    """A placement the front ends refuse unless forced (taxels off the surface, over-strained,
+    'at' far off the surface): the message is the first reason, ``reasons`` all of them."""
+
+    def __init__(self, reasons: list, what: str = "placement"):
+        self.reasons = list(reasons)
+        more = f" (and {len(reasons) - 1} more problem{'s' if len(reasons) > 2 else ''})" if len(reasons) > 1 else ""
+        super().__init__(f"{what} refused: {reasons[0]}{more}; force it to keep it anyway", key=None)
+
+
+def check_trust(report: "PlacementReport", *, max_strain: float = DEFAULT_MAX_STRAIN, force: bool = False,
+                what: str = "placement") -> list[str]:
+    """The report's :meth:`PlacementReport.problems`; raises :class:`PlacementRefused` when there
+    are any, unless ``force`` (then they are returned, for the caller to show as warnings)."""
+    problems = report.problems(max_strain)
+    if problems and not force:
+        raise PlacementRefused(problems, what)
+    return problems
 
 
 @dataclass
@@ -42,6 +68,9 @@ class PlacementReport:
     seam_modules : modules the seam pass of ``fill`` added where growth fronts met.
     normal_outliers : (K,) int, taxels whose normal is more than ``NORMAL_DEVIATION_DEG`` off the
         normal of the face they lie on; normal_deviation_max : degrees, the largest such angle.
+    at_distance : metres from the requested ``at`` to the surface the patch was laid on.
+    n_taxels : taxels placed. module_radius : metres, the module's outline radius (the tolerance
+        of :meth:`problems` for ``at``).
     """
 
     strain: np.ndarray
@@ -58,6 +87,29 @@ class PlacementReport:
     seam_modules: int = 0
     normal_outliers: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     normal_deviation_max: float = 0.0
+    at_distance: float = 0.0
+    n_taxels: int = 0
+    module_radius: float = 0.0
+
+    def problems(self, max_strain: float = DEFAULT_MAX_STRAIN, at_tolerance: float | None = None) -> list[str]:
+        """One line per reason not to trust this placement (empty when there is none): taxels off
+        the surface, module edges stretched more than ``max_strain`` (a fraction), ``at`` farther
+        from the surface than ``at_tolerance`` metres (default: the module's outline radius, so
+        that the patch would not even touch the point asked for). Each line says what to do."""
+        out = []
+        tol = self.module_radius if at_tolerance is None else float(at_tolerance)
+        if tol > 0 and self.at_distance > tol:
+            out.append(f"'at' is {1e3 * self.at_distance:.1f} mm off the surface (more than {1e3 * tol:.1f} mm): "
+                       "put it on the mesh (in Blender: the 3D cursor on the surface)")
+        if len(self.off_boundary):
+            of = f" of {self.n_taxels}" if self.n_taxels else ""
+            out.append(f"{len(self.off_boundary)}{of} taxels fall off the surface (past an open edge, or past where "
+                       "the surface's map can be trusted): move the patch, or lay fewer modules (triangle, fill)")
+        if self.strain_max > max_strain:
+            out.append(f"module edges stretch up to {100 * self.strain_max:.1f} % (limit {100 * max_strain:g} %): "
+                       "the surface is too curved for this patch there; lay fewer modules (triangle, fill), "
+                       "or raise the strain limit")
+        return out
 
     @property
     def strain_max(self) -> float:
@@ -80,6 +132,7 @@ class PlacementReport:
                 "charts": int(self.charts), "seam_modules": int(self.seam_modules),
                 "normal_outliers": [int(i) for i in self.normal_outliers],
                 "normal_deviation_max_deg": float(self.normal_deviation_max),
+                "at_distance_m": float(self.at_distance),
                 "notes": list(self.notes)}
 
 

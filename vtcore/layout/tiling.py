@@ -14,14 +14,15 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from ..errors import InputError
-from ..geometry import closest_point_on_triangles
 from .grow import Chart, close_seam, grow, map_modules, module_frames, module_strain, taxel_index
 from .logmap import LogMap, PreparedSurface
 from .model import Layout
 from .patches import Patch, fill_patch, patch_from_poses, tile_poses
 from .placement import finish, place
-from .repair import clean_mesh, edge_keys, face_pairs, face_submesh, source_faces
-from .surface import snap
+from .regions import central_point, crop_mask, face_islands, feature_distance, free_width, module_width, \
+    too_narrow_message
+from .repair import clean_mesh, edge_keys, face_submesh, source_faces
+from .surface import at_notes, closest_points, snap
 from .report import OVERLAP_FRACTION, PlacementReport, find_overlaps, find_overlaps_between, layout_strain, \
     points_in_outlines
 
@@ -157,6 +158,149 @@ def fill_one_chart(mesh, at, direction=None, *, module: str = "cyskin10", region
     return layout, report
 
 
+CREASE_ANGLE = 40.0  #: degrees: no module covers an edge where the faces turn more than this (a design crease)
+
+
+class NoModuleFits(InputError):
+    """No whole module fits in the region: the message is one line (why, and what to do);
+    ``detail`` is a list of lines, one per island (``vtcore layout place --verbose`` and the
+    add-on's report box show them)."""
+
+    def __init__(self, reason: str, detail=(), *, key: str = "region"):
+        self.detail = [str(d) for d in detail]
+        super().__init__(reason, key=key)
+
+
+def island_groups(prepared, plabel, parts, clean, samples, mod, at, islands):
+    """The islands to fill and where each starts: ``(groups, skipped, widths)``.
+
+    plabel : (F,) the island of each face of ``prepared.mesh`` (-1 outside the region); parts :
+    the islands (face indices of ``clean``). An island smaller than the hull of a module's taxels,
+    or narrower than a module between the edges no module may straddle (:func:`free_width`), is
+    skipped (``skipped``: {island: why}). ``groups``: list of ``(islands, start (3,), own)``, the
+    group holding the island nearest ``at`` first, started from ``at`` (``own`` True), the others
+    from the most central point of their largest island; with ``islands="one"`` the islands
+    connected on the solve surface (within two pitches of each other) form one group.
+    ``widths``: (K,) metres, the free width of each island; ``fdist`` (V,) metres from each
+    vertex of ``prepared.mesh`` to the nearest edge no module may straddle (:func:`feature_distance`).
+    """
+    from scipy.spatial import ConvexHull
+
+    hull = ConvexHull(mod.taxels).volume  # 2-D: the area of the taxels' hull
+    F = np.asarray(prepared.mesh.faces)
+    pairs = samples[0]
+    fdist = feature_distance(prepared.path_graph(), pairs.ravel())
+    need = module_width(mod)
+    pitch_res = mod.pitch  # the solve mesh's vertices are at most a pitch apart: widths are that coarse
+    area = np.asarray(clean.area_faces)
+    widths, skipped = np.zeros(len(parts)), {}
+    for k, f in enumerate(parts):
+        widths[k] = free_width(F[plabel == k].ravel(), fdist)
+        a = float(area[f].sum())
+        if a < hull:
+            skipped[k] = f"{1e6 * a:.0f} mm^2, smaller than a module ({1e6 * hull:.0f} mm^2)"
+        elif widths[k] + pitch_res < need:
+            skipped[k] = f"{1e3 * widths[k]:.1f} mm across, narrower than a module ({1e3 * need:.1f} mm)"
+    live = [k for k in range(len(parts)) if k not in skipped]
+    if not live:  # nothing can fit: try the widest anyway, so that the error says what was found there
+        live = [int(np.argmax(widths))]
+        skipped.pop(live[0], None)
+    cen = np.asarray(clean.triangles_center)
+    nearest = min(live, key=lambda k: float(np.linalg.norm(cen[parts[k]] - at, axis=1).min()))
+    if islands == "one":
+        import trimesh
+
+        comp = np.full(len(prepared.mesh.vertices), -1, np.int64)
+        for c, vs in enumerate(trimesh.graph.connected_components(prepared.mesh.face_adjacency_edges,
+                                                                  nodes=np.arange(len(prepared.mesh.vertices)))):
+            comp[np.asarray(vs, np.int64)] = c
+        where = {k: int(comp[F[np.flatnonzero(plabel == k)[0], 0]]) for k in live}
+        buckets = {}
+        for k in live:
+            buckets.setdefault(where[k], []).append(k)
+        sets = sorted(buckets.values(), key=lambda ks: (nearest not in ks, ks[0]))
+    else:
+        sets = [[nearest]] + [[k] for k in live if k != nearest]
+    groups = []
+    for ks in sets:
+        if nearest in ks:
+            groups.append((ks, at, True))
+        else:
+            groups.append((ks, central_point(clean.submesh([parts[ks[0]]], append=True, repair=False)), False))
+    return groups, skipped, widths, fdist
+
+
+def next_seed(prepared, mask, fdist, placed, tried, mod):
+    """(3,) where the next growth of an island starts, or None: the vertex of ``mask``'s faces
+    (of ``prepared.mesh``) farthest from the edges no module may straddle (``fdist`` (V,)), among
+    those with room for a module: half a module's width from those edges, half a width and half a
+    pitch from every ``placed`` taxel (P, 3), a module's width from every start ``tried``."""
+    F = np.asarray(prepared.mesh.faces)
+    V = np.asarray(prepared.mesh.vertices)
+    verts = np.unique(F[mask])
+    if not len(verts):
+        return None
+    half = module_width(mod) / 2
+    score = np.minimum(fdist[verts], 1e3)
+    ok = score >= half - 0.5 * mod.pitch  # vertices are up to a pitch apart: the middle may lie between
+    if placed is not None and len(placed):
+        d = cKDTree(placed).query(V[verts], distance_upper_bound=4 * mod.radius)[0]
+        ok &= d >= half + 0.5 * mod.pitch
+        score = np.minimum(score, d)
+    if len(tried):
+        ok &= cKDTree(np.asarray(tried)).query(V[verts])[0] >= 2 * half
+    if not ok.any():
+        return None
+    i = np.flatnonzero(ok)
+    return V[verts[i[np.argmax(score[i])]]].copy()
+
+
+def islands_note(parts, groups, reports, group_of, skipped) -> str:
+    """One note on how the islands of a region were filled (``group_of``: the group of each report)."""
+    got = {}
+    for g, (ks, _, _) in enumerate(groups):
+        n = sum(r.n_modules for r, h in zip(reports, group_of) if h == g)
+        for k in ks:
+            got[k] = n if len(ks) == 1 else None
+    shown = [f"#{k}: {len(f)} faces, " + (f"{got[k]} modules" if got.get(k) is not None else
+                                          "shares a lattice" if k in got else "left out")
+             for k, f in enumerate(parts[:12])]
+    more = f", and {len(parts) - 12} more" if len(parts) > 12 else ""
+    small = f"; {len(skipped)} left out as smaller than a module" if skipped else ""
+    shared = "; islands within two pitches of each other share one lattice" if any(len(g[0]) > 1 for g in groups) \
+        else "; each was filled from its own start"
+    return f"the region has {len(parts)} islands ({', '.join(shown)}{more}){small}{shared}"
+
+
+def no_module_fits(reports, parts, skipped, widths, mod, existing, crease_angle, max_strain) -> NoModuleFits:
+    """The one-line error when no module fits anywhere in the region, with a detail line per island."""
+    where = "the region" if len(parts) == 1 else f"the region ({len(parts)} islands)"
+    width = float(np.max(widths)) if len(widths) else float("inf")
+    detail = [r.why for r in reports if r.why] + [f"island #{k}: {why}" for k, why in sorted(skipped.items())][:20]
+    line = too_narrow_message(width, mod, f"the widest part of {where}")
+    if line is None:
+        beside = " beside the modules already on the skin" if existing is not None and len(existing) else ""
+        counts = {}
+        for r in reports:
+            for k, n in r.reasons.items():
+                counts[k] = counts.get(k, 0) + n
+        main = max(counts, key=counts.get) if any(counts.values()) else None
+        advice = {"off": "modules would run off the region or off an open edge of the mesh: select more faces "
+                       "round it (or smooth a coarse mesh: --smooth)",
+                  "rules": f"modules would cross an open edge, a region border or a crease sharper than "
+                           f"{crease_angle:g} deg: raise --crease-angle if those creases are facets of a "
+                           "curved part, or smooth it (--smooth)",
+                  "strain": f"modules would stretch more than --max-strain {max_strain:g}: the part is too "
+                            "curved there; raise --max-strain or smooth a faceted mesh (--smooth)",
+                  "overlap": "modules would overlap each other", "existing": "remove or move modules already there",
+                  None: "give a larger region"}[main]
+        across = "no edge, crease or border bounds it" if not np.isfinite(width) else \
+            f"{1e3 * width:.1f} mm across at its widest"
+        line = (f"no whole {mod.name} module fits in {where}{beside} ({across}; a {mod.name} needs "
+                f"{1e3 * module_width(mod):.1f} mm): {advice}")
+    return NoModuleFits(line, detail)
+
+
 MAX_CANDIDATES = 2_000_000  #: lattice modules a fill may consider (each ~10 taxels): ~1 GB of work arrays
 SEAM_SHIFTS = ((0.5, 0.0), (0.0, 0.5), (0.5, 0.5), (0.25, 0.0), (0.75, 0.0), (0.25, 0.5), (0.75, 0.5))
 
@@ -164,21 +308,28 @@ SEAM_SHIFTS = ((0.5, 0.0), (0.0, 0.5), (0.5, 0.5), (0.25, 0.0), (0.75, 0.0), (0.
 def fill(mesh, at, direction=None, *, module: str = "cyskin10", region=None, radius: float | None = None,
          offset: float = 0.0, max_strain: float = 0.05, max_faces: int | str | None = "auto",
          existing: Layout | None = None, angles=tuple(np.radians(np.arange(0, 180, 30))), offsets: int = 2,
-         refine_offsets: int = 4, crease_angle: float = 40.0, seam: bool = True,
-         progress=None) -> tuple[Layout, PlacementReport]:
+         refine_offsets: int = 4, crease_angle: float = CREASE_ANGLE, seam: bool = True, islands: str = "each",
+         seeds: int = 8, progress=None) -> tuple[Layout, PlacementReport]:
     """Tile a region of ``mesh`` with whole modules on one lattice grown chart by chart.
 
     mesh : trimesh.Trimesh, metres. at : (3,) metres, where growth starts. direction : (3,) the
         lattice x axis at ``at`` (default world x projected).
-    region : (F,) bool face mask of ``mesh`` (default: every face). Every island (connected part)
-        of the region is filled: the one holding ``at`` from ``at``, the others from their most
-        central point. radius : metres, limit to this geodesic radius around ``at``.
+    region : (F,) bool face mask of ``mesh`` (default: every face; see :mod:`.regions` for
+        selections by normal cone or face-index file). radius : metres, limit to this geodesic
+        radius around ``at``.
+    islands : ``"each"`` (default): every island (connected part) of the region gets its own
+        lattice, the one nearest ``at`` grown from ``at``, the others from their most central
+        point; ``"one"``: islands within two pitches of each other (across unselected faces)
+        share one lattice, grown from one start, so the modules line up across the gaps. Islands
+        smaller than a module (by area, or narrower than it between their edges) are left out
+        and named in the notes.
     max_faces : solve the log maps on a copy of the (cropped) mesh simplified to about this many
         faces when it has more (taxels still land on the full mesh); ``"auto"``: the faces of
         triangles with edges of about 0.75 module pitch over the region, 4,000 to 20,000
         (:func:`solve_faces`); None: never simplify.
-    max_strain : modules straining more are left out. crease_angle : degrees; no module covers an
-        edge sharper than this, nor an open edge of the mesh or of the region.
+    max_strain : modules straining more are left out (0.05: 5 % stretch of a module edge, more
+        than a flexible PCB takes). crease_angle : degrees (default :data:`CREASE_ANGLE`); no module
+        covers an edge sharper than this, nor an open edge of the mesh or of the region.
     angles, offsets, refine_offsets : the lattice is tried at each angle and ``offsets x offsets``
         shifts in the first chart, then at the best angle with ``refine_offsets x refine_offsets``
         shifts; the one keeping most modules there is grown (ties: the first);
@@ -187,11 +338,16 @@ def fill(mesh, at, direction=None, *, module: str = "cyskin10", region=None, rad
         ``"modules"`` the upper bound it reached).
     existing : the skin already there (same frame); no module overlaps it.
     seam : run the seam pass (lattice shifts where growth fronts meet).
+    seeds : growths per island at most: after the growth from the start, where room for a module
+        is left (away from placed modules, creases and the border: :func:`next_seed`) a new lattice
+        is grown from the middle of that room, with its own tiling, and so on (1: one growth). With
+        ``islands="one"`` a group gets a further seed only while it has no module.
     progress : None or ``progress(fraction) -> bool`` (0..1) called as growth proceeds; False
         stops the fill (``vtcore.errors.Cancelled``), nothing is returned.
 
     Returns ``(layout, report)``; the report carries ``charts`` and ``seam_modules``; its notes
-    say which tiling won and what was left out.
+    say which tiling won and what was left out. Raises :class:`NoModuleFits` (an InputError: one
+    line saying why and what to do, then one line per island) when no module fits.
     """
     import time
 
@@ -199,6 +355,8 @@ def fill(mesh, at, direction=None, *, module: str = "cyskin10", region=None, rad
 
     t0 = time.perf_counter()
     mod = get_module(module)
+    if islands not in ("each", "one"):
+        raise InputError(f"must be 'each' or 'one', got {islands!r}", key="islands")
     at = np.asarray(at, dtype=np.float64).reshape(-1)
     if at.shape != (3,) or not np.isfinite(at).all():
         raise InputError(f"'at' must be 3 finite numbers, got {at.tolist()}", key="at")
@@ -212,15 +370,13 @@ def fill(mesh, at, direction=None, *, module: str = "cyskin10", region=None, rad
         creg = region[source_faces(clean, mesh)]
     else:
         creg = np.ones(len(clean.faces), bool)
+    cp, f0, d0, spread = snap(clean, at)
+    notes += at_notes(cp[0], float(d0[0]), spread)
     if radius is not None:
-        cp, f0, _, _ = snap(clean, at)
         creg &= crop_mask(clean, cp[0], int(f0[0]), float(radius) + 2 * mod.radius)
     if not creg.any():
         raise InputError("the region selects no face within the radius", key="region")
-    islands = face_islands(clean, creg)
-    # the island nearest 'at' grows from 'at'; the others from their own most central point
-    first = int(np.argmin([np.linalg.norm(clean.triangles_center[f] - at, axis=1).min() for f in islands]))
-    islands.insert(0, islands.pop(first))
+    parts = face_islands(clean, creg)
     # the log map is solved on the region and the surface round it, not on the region alone: a
     # narrow band gives the heat method no room (14 mm of error 20 mm along a 26 mm band); a wider
     # margin gives geodesics shortcuts off the region (across the cap of a cylinder whose side is
@@ -234,22 +390,40 @@ def fill(mesh, at, direction=None, *, module: str = "cyskin10", region=None, rad
             raise InputError(f"max_faces must be a number, None or 'auto', got {max_faces!r}", key="max_faces")
         max_faces = solve_faces(float(sub.area), mod.pitch)
     prepared = PreparedSurface(sub, resolution=mod.pitch, max_faces=max_faces)
-    cen_tree = cKDTree(cen)  # also maps the surface's faces for the coverage below
-    _, near = cen_tree.query(np.asarray(prepared.mesh.triangles_center))
-    preg = creg[near]  # the region on the faces the log maps are solved on
+    # each face the log maps are solved on, and each face taxels land on, belongs to the clean face
+    # it lies on (closest point: a CAD needle's pieces are far from its centre, nearer another's)
+    label = np.full(len(clean.faces), -1, np.int64)
+    for k, f in enumerate(parts):
+        label[f] = k
+    plabel = label[closest_points(clean, np.asarray(prepared.mesh.triangles_center))[1]]
+    preg = plabel >= 0  # the region on the faces the log maps are solved on
     samples = feature_samples(prepared.mesh, crease_angle, preg)
-    reports = []
-    avoid = None if existing is None or not len(existing) else np.asarray(existing.positions, float)
-    for k, faces in enumerate(islands):
-        start = at if k == 0 else central_point(clean.submesh([faces], append=True, repair=False))
-        reports.append(_fill_island(prepared, preg, samples, start, direction if k == 0 else None, mod,
-                                    radius if k == 0 else None, max_strain, avoid, angles, offsets,
-                                    refine_offsets, crease_angle, seam, progress, island=k, n_faces=len(faces)))
-        if reports[-1].n_modules:  # later islands keep clear of this one's modules
-            prev = reports[-1].pos
-            avoid = prev if avoid is None else np.concatenate([avoid, prev])
+    groups, skipped, widths, fdist = island_groups(prepared, plabel, parts, clean, samples, mod, at, islands)
+    reports, avoid = [], None if existing is None or not len(existing) else np.asarray(existing.positions, float)
+    group_of = []
+    for k, (members, start, own) in enumerate(groups):
+        mask = np.isin(plabel, members)
+        tried = []
+        for j in range(max(int(seeds), 1)):
+            r = _fill_island(prepared, mask, samples, start, direction if own and not j else None, mod,
+                             radius if own and not j else None, max_strain, avoid, angles, offsets,
+                             refine_offsets, crease_angle, seam, progress, island=k,
+                             n_faces=int(sum(len(parts[i]) for i in members)), seed=j)
+            reports.append(r)
+            group_of.append(k)
+            tried.append(r.start)
+            if r.n_modules:  # later seeds and islands keep clear of these modules
+                avoid = r.pos if avoid is None else np.concatenate([avoid, r.pos])
+            if not j and radius is not None and own:
+                # further seeds stay within the radius (along the surface) of the first
+                mask = mask & (r.dist0[np.asarray(prepared.mesh.faces)] <= radius).all(axis=1)
+            if islands == "one" and any(q.n_modules for q, h in zip(reports, group_of) if h == k):
+                break  # one lattice per group: a further seed would start another
+            start = next_seed(prepared, mask, fdist, avoid, tried, mod)
+            if start is None:
+                break
     if not any(r.n_modules for r in reports):
-        raise InputError("no whole module fits in the region: " + "; ".join(r.why for r in reports), key="region")
+        raise no_module_fits(reports, parts, skipped, widths, mod, existing, crease_angle, max_strain)
     chosen = [r for r in reports if r.n_modules]
     # the islands' own patches side by side (re-building one from all poses would drop taxels that
     # coincide in the flat domain across islands, whose flat frames differ, and leave pos longer)
@@ -264,8 +438,7 @@ def fill(mesh, at, direction=None, *, module: str = "cyskin10", region=None, rad
     surf = prepared.surface
     # coverage: the region's area (on the subdivided surface) under some module's outline
     sc = np.asarray(surf.triangles_center)
-    _, near = cen_tree.query(sc, workers=-1)
-    sel = creg[near]
+    sel = creg[closest_points(clean, sc)[1]]
     if radius is not None:  # the disc of the radius (geodesic; measured in 3-D, a little wider)
         sel &= np.linalg.norm(sc - reports[0].start, axis=1) <= radius
     frames = np.concatenate([r.frames for r in chosen])
@@ -273,10 +446,8 @@ def fill(mesh, at, direction=None, *, module: str = "cyskin10", region=None, rad
     cov = coverage_by_frames(sc[sel], np.asarray(surf.area_faces)[sel], frames, p.poses[:, 0], mod) / cov_den \
         if cov_den > 0 else float("nan")
     notes = notes + [n for r in reports for n in r.notes]
-    if len(islands) > 1:
-        notes.append(f"the region has {len(islands)} islands (" + ", ".join(
-            f"#{i}: {len(f)} faces, {r.patch.n_modules if r.n_modules else 0} modules" for i, (f, r) in
-            enumerate(zip(islands, reports))) + "); each was filled from its own start")
+    if len(parts) > 1:
+        notes.append(islands_note(parts, groups, reports, group_of, skipped))
     layout, report = finish(p, pos, nrm, found, surf, method="logmap", notes=notes,
                             info=[n for r in reports for n in r.info], offset=offset, at=at,
                             direction=direction, existing=existing, coverage=cov, t0=t0,
@@ -312,6 +483,8 @@ class IslandFill:
     start: np.ndarray = None
     chart_of: np.ndarray = None
     is_seam: np.ndarray = None
+    reasons: dict = field(default_factory=dict)
+    dist0: np.ndarray = None  #: (V,) metres along the solve mesh from the start
 
     @property
     def n_modules(self) -> int:
@@ -329,40 +502,6 @@ def solve_faces(area: float, pitch: float) -> int:
     """
     equilateral = np.sqrt(3) / 4 * (0.75 * pitch) ** 2
     return int(np.clip(area / max(equilateral, 1e-300), 4_000, 20_000))
-
-
-def crop_mask(mesh, point: np.ndarray, face: int, radius: float) -> np.ndarray:
-    """(F,) bool: faces of ``mesh`` with a point within ``radius`` metres of ``point`` (3,)."""
-    tri = np.asarray(mesh.triangles)
-    near = closest_point_on_triangles(tri, np.broadcast_to(point, (len(tri), 3)).copy())
-    keep = np.linalg.norm(near - point, axis=1) <= radius
-    keep[face] = True
-    return keep
-
-
-def face_islands(mesh, mask: np.ndarray) -> list:
-    """Connected parts (by shared edges) of the faces where ``mask`` (F,) is true, largest first."""
-    import trimesh
-
-    idx = np.flatnonzero(mask)
-    adj = face_pairs(mesh)
-    both = mask[adj].all(axis=1) if len(adj) else np.zeros(0, bool)
-    comps = trimesh.graph.connected_components(adj[both], nodes=idx, min_len=1)
-    return sorted((np.sort(np.asarray(c, np.int64)) for c in comps), key=lambda c: -len(c))
-
-
-def central_point(mesh) -> np.ndarray:
-    """A start for an island: the face centre nearest the island's area-weighted centre (3,)."""
-    c = np.asarray(mesh.triangles_center)
-    w = np.asarray(mesh.area_faces)
-    g = (c * w[:, None]).sum(axis=0) / max(w.sum(), 1e-300)
-    return c[int(np.argmin(np.linalg.norm(c - g, axis=1)))]
-
-
-def _concat_meshes(meshes):
-    import trimesh
-
-    return trimesh.util.concatenate(meshes)
 
 
 def feature_samples(mesh, crease_angle: float, region: np.ndarray | None = None):
@@ -494,10 +633,11 @@ def lattice_patch(mod, angle: float, shift, centre, rad: float, limit: float | N
 
 
 def _fill_island(prepared, preg, samples, start, direction, mod, radius, max_strain, avoid, angles,
-                 offsets, refine_offsets, crease_angle, seam, progress, island=0, n_faces=0) -> IslandFill:
-    notes = list(prepared.notes) if island == 0 else []
+                 offsets, refine_offsets, crease_angle, seam, progress, island=0, n_faces=0, seed=0) -> IslandFill:
+    notes = list(prepared.notes) if island == 0 and seed == 0 else []
     lm0 = LogMap(None, start, direction, prepared=prepared)
-    tag = f"island #{island}: " if island else ""
+    tag = (f"island #{island}" if island else "") + (f" seed {seed}" if seed else "")
+    tag = f"{tag.strip()}: " if tag else ""
     R0 = lm0.trusted_radius(faces=preg)
     pairs, w, n_open, n_sharp = samples
 
@@ -512,10 +652,15 @@ def _fill_island(prepared, preg, samples, start, direction, mod, radius, max_str
         uv = uv[np.linalg.norm(uv, axis=1) <= chart.radius + mod.radius]
         return on_region & ~modules_covering(uv, patch, modules, chart.origin)
 
-    reach_uv = float(np.linalg.norm(lm0.uv[lm0.reachable], axis=1).max()) if lm0.reachable.any() else 0.0
-    # one lattice for the whole island: a disc larger than the farthest point (geodesic distance),
-    # with room for curvature (charts on a non-developable surface use more lattice per area)
-    extent = 1.5 * reach_uv + 2 * mod.radius
+    # one lattice for the whole island: a disc larger than its farthest point, with room for
+    # curvature (charts on a non-developable surface use more lattice per area). The distance is the
+    # path along the surface (at most ~10 % over the geodesic), over the island's own vertices: the
+    # log map's own distances are garbage past the cut locus (0.48 m on a 0.14 m forearm), and
+    # other islands' are not this lattice's business
+    own = np.unique(np.asarray(prepared.mesh.faces)[preg])
+    far = lm0.edge_distance()[own]
+    far = far[np.isfinite(far)]
+    extent = 1.5 * (float(far.max()) if len(far) else 0.0) + 2 * mod.radius
     if radius is not None:
         extent = min(extent, float(radius) + mod.radius)
     # the tiling (angle, shift) that keeps most modules in the first chart wins (ties: the first)
@@ -571,10 +716,20 @@ def _fill_island(prepared, preg, samples, start, direction, mod, radius, max_str
         for ang, sh in stage():
             n, exact = first_chart(ang, sh, None if best is None else best[0])
             tilings.append({"angle_deg": float(np.degrees(ang)), "shift_cells": [float(sh[0]), float(sh[1])],
-                            "modules": n, "exact": exact, "island": island})
+                            "modules": n, "exact": exact, "island": island, "seed": seed})
             if best is None or n > best[0]:
                 best = (n, ang, sh)
-    _, ang, sh = best
+    n_best, ang, sh = best
+    if not n_best:
+        # no tiling keeps a module in the first chart: shift the lattice so that a module sits on
+        # the start, which the growth always tries (its reasons then say what is wrong there)
+        near = lattice_patch(mod, ang, (0.0, 0.0), np.zeros(2), 4 * mod.radius)
+        if near.n_modules:
+            p0 = near.poses[int(np.argmin(np.linalg.norm(near.poses[:, 1:], axis=1))), 1:]
+            c, s_ = np.cos(ang), np.sin(ang)
+            frac = np.linalg.solve(np.column_stack([mod.strip_period, mod.fill_row]),
+                                   -np.array([[c, s_], [-s_, c]]) @ p0)
+            sh = (float(frac[0]), float(frac[1]))
     latt = lattice_patch(mod, ang, sh, np.zeros(2), extent, radius)
     g = grow(prepared, lm0.at, direction, latt, check=check, max_strain=max_strain, first=lm0, avoid=avoid,
              progress=progress, faces=preg, min_gain=2)
@@ -588,12 +743,11 @@ def _fill_island(prepared, preg, samples, start, direction, mod, radius, max_str
         poses, chart_of = np.concatenate([poses, sp]), np.concatenate([chart_of, sc])
     p = patch_from_poses(mod, poses, "fill")
     if not p.n_modules:
-        why = (f"{tag}{n_faces} faces; {g.reasons_text()}; {n_open} open and {n_sharp} sharp "
-               f"(> {crease_angle:g} deg) edges; module radius {1e3 * mod.radius:.1f} mm")
-        if g.reasons.get("off", 0) and n_faces < 1000:
-            why += "; the mesh may be too coarse for the log map: subdivide it (--subdivide) and retry"
+        why = f"island #{island}{f' seed {seed}' if seed else ''}: {n_faces} faces; candidate modules left out: " \
+              f"{g.reasons_text()}"
         return IslandFill(p, np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0, bool), None, 0.0, 0.0, notes,
-                          len(g.charts), 0, tilings, why, frames=np.zeros((0, 3, 3)))
+                          len(g.charts), 0, tilings, why, frames=np.zeros((0, 3, 3)), reasons=dict(g.reasons),
+                          start=lm0.at, dist0=lm0.edge_distance())
     pos, nrm, face, found = map_modules(g.charts, p, chart_of)
     frames = module_frames(g.charts, p, chart_of)
     if g.reasons.get("existing"):
@@ -606,4 +760,5 @@ def _fill_island(prepared, preg, samples, start, direction, mod, radius, max_str
                  f"{len(kept)} modules, {n_seam} more closing the seam; left out: {g.reasons_text()}"]
     return IslandFill(p, pos, nrm, found, None, 0.0, 0.0, notes, len(g.charts), n_seam,
                       tilings, info=(prepared.info if island == 0 else []) + info, frames=frames, start=lm0.at,
+                      reasons=dict(g.reasons), dist0=lm0.edge_distance(),
                       chart_of=chart_of, is_seam=np.arange(p.n_modules) >= len(kept))
