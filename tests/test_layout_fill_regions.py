@@ -118,7 +118,7 @@ def test_a_part_narrower_than_a_module_says_so_in_one_line():
     assert "\n" not in msg and len(msg) < 300
     assert "16.0 mm across" in msg and "cyskin10 module needs 19.5 mm" in msg
     assert "the smallest module, icub10, needs 17.0 mm" in msg
-    assert err.value.detail  # the per-island detail block, for --verbose and the add-on
+    assert err.value.details  # the per-island detail block, for --details and the add-on
     # a 18 mm pad fits an icub10 but no cyskin10: the line names the module that fits
     tip = trimesh.creation.box(extents=[0.018, 0.03, 0.008]).subdivide_to_size(0.002)
     with pytest.raises(InputError, match=r"18\.0 mm across.*modules that fit: icub10 \(17\.0 mm\)"):

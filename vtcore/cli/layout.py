@@ -152,10 +152,9 @@ def cmd_place(args) -> int:
             limit = args.max_strain or (DEFAULT_MAX_STRAIN if args.patch == "fill" else PLACE_MAX_STRAIN)
             kept = check_trust(report, max_strain=limit, force=args.force, what=args.patch)
         except InputError as exc:
-            if args.verbose:  # the refusal or the error says the main problem; the rest on request
-                _print_warnings(caught)
-                for line in getattr(exc, "detail", []):
-                    print(f"vtcore: detail: {line}", file=sys.stderr)
+            # the one error line says the main problem; the warnings and the per-island detail
+            # follow it with --details
+            exc.details = [str(w.message) for w in caught] + list(getattr(exc, "details", None) or [])
             raise
     _print_warnings(caught)
     for line in kept:
@@ -391,8 +390,8 @@ def register(sub) -> None:
     pl.add_argument("--force", action="store_true",
                     help="keep a placement with taxels off the surface, over-strained modules or --at far off "
                          "the surface (refused by default, exit 2)")
-    pl.add_argument("--verbose", action="store_true",
-                    help="with an error: every warning, and why no module fits, island by island")
+    pl.add_argument("--details", action="store_true",
+                    help="with an error: every warning after it, and why no module fits, island by island")
     pl.add_argument("--scale", type=float, default=1.0, help="mesh unit to metres (0.001 for a mesh in mm)")
     pl.add_argument("--subdivide", type=float, metavar="METRES",
                     help="first split mesh edges longer than this (coarse CAD or collision meshes)")

@@ -163,12 +163,12 @@ CREASE_ANGLE = 40.0  #: degrees: no module covers an edge where the faces turn m
 
 class NoModuleFits(InputError):
     """No whole module fits in the region: the message is one line (why, and what to do);
-    ``detail`` is a list of lines, one per island (``vtcore layout place --verbose`` and the
+    ``details`` is a list of lines, one per island (``vtcore layout place --details`` and the
     add-on's report box show them)."""
 
-    def __init__(self, reason: str, detail=(), *, key: str = "region"):
-        self.detail = [str(d) for d in detail]
+    def __init__(self, reason: str, details=(), *, key: str = "region"):
         super().__init__(reason, key=key)
+        self.details = [str(d) for d in details]
 
 
 def island_groups(prepared, plabel, parts, clean, samples, mod, at, islands):
