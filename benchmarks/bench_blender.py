@@ -8,6 +8,8 @@ writing a 4,000-taxel frame to attributes <= 20 ms; laying a hexagonal patch on 
 50k-face mesh <= 0.5 s; playback of a baked 1,000-frame contact >= 60 frames/s.
 Issue 19: a 4,000-taxel, 1,000-row recording loaded (``vtskin.load_recording``) and
 played back at >= 60 frames/s (``--only replay`` runs just those rows).
+Issue 29: live touch on a 1,000-taxel skin, >= 30 updates/s with the local layer and >= 10 with
+the finite layer (``--only live``).
 Measured, not asserted.
 """
 
@@ -132,6 +134,69 @@ def bench_playback(n, frames, with_display):
              "short": f"play {frames} frames, {n} taxels" + (", discs" if with_display else "")}]
 
 
+def live_skin(modules=100):
+    """A flat skin of ``modules`` whole CySkin modules (10 taxels each) and its skin mesh."""
+    from vtcore.layout import fill_patch, skin_mesh
+
+    side = 0.03 * np.sqrt(modules)
+    p = fill_patch("cyskin10", lambda xy: np.ones(len(xy), bool), [-side, -side], [side, side], angles=(0.0,),
+                   offsets=1)
+    keep = np.argsort(np.linalg.norm(p.poses[:, 1:], axis=1))[:modules]
+    p = p.select_modules(np.isin(np.arange(p.n_modules), keep))
+    lay = p.flat_layout()
+    return lay, skin_mesh(lay).triangles
+
+
+def bench_live_touch(model, moves, modules=100):
+    """Live touch, headless: the indenter moved ``moves`` times over a 1,000-taxel skin, the view layer
+    updated after each move (background mode solves and writes in the handler), against the goal
+    (>= 30 updates/s with the local layer, >= 10 with the finite layer); the last frame checked against
+    vtcore.scene.interactive.simulate at that pose."""
+    import bpy
+
+    from addon import bridge, skin
+    from vtcore.contact import make_object, placement_pose
+    from vtcore.scene import interactive
+
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    lay, tri = live_skin(modules)
+    ob = skin.new_object(bpy.context, "live skin")
+    skin.write_layout(ob, lay, tri)
+    sph = make_object("sphere", radius=0.01)
+    me = bpy.data.meshes.new("finger")
+    bridge.write_mesh(me, sph.vertices, sph.faces)
+    ind = bpy.data.objects.new("finger", me)
+    bpy.context.scene.collection.objects.link(ind)
+    path = np.linspace(-0.04, 0.04, moves)
+    pose = placement_pose(sph, xy=(path[0], 0.0), top=0.003, gap=0.001)
+    ind.matrix_world = bridge.to_matrix(pose)
+    s = bpy.context.scene.vtskin
+    s.indenter, s.thickness, s.force, s.use_force, s.live_model = ind, 0.003, 2.0, True, model
+    bpy.context.view_layer.objects.active = ob
+    s.live_touch = True  # builds the solver and answers the first pose (not timed)
+    t = time.perf_counter()
+    c0 = time.process_time()
+    for x in path[1:]:
+        ind.location.x = float(x)
+        bpy.context.view_layer.update()
+    seconds = time.perf_counter() - t
+    cpu = time.process_time() - c0
+    s.live_touch = False
+    rate = (moves - 1) / seconds
+    pose = placement_pose(sph, xy=(path[-1], 0.0), top=0.003, gap=0.001)
+    ref = interactive.simulate(lay, tri, sph.vertices, sph.faces, pose, thickness=0.003, force=2.0, model=model)
+    got = bridge.get_attribute(ob.data, "pressure")
+    err = float(np.abs(got - ref.pressure).max() / max(ref.pressure.max(), 1e-300))
+    goal = 30 if model == "local" else 10
+    name = "local layer" if model == "local" else "finite layer"
+    return [{"case": f"live touch, {len(lay)}-taxel skin, {name}: {moves - 1} indenter moves, view layer updated "
+                     f"after each (load {os.getloadavg()[0]:.1f})",
+             "seconds": seconds / (moves - 1), "goal": f">= {goal} updates/s", "met": rate >= goal,
+             "accuracy": f"{rate:.0f} updates/s ({(moves - 1) / cpu:.0f} per CPU s); last frame vs Simulate at "
+                         f"that pose: max pressure difference {err:.1e} of the peak",
+             "short": f"live touch, {name}"}]
+
+
 def replay_skin(n):
     """A flat skin of ``n`` taxels (4 mm pitch grid, Delaunay skin mesh) with CySkin UIDs
     ``module << 4 | sensor`` (10 sensors a module)."""
@@ -231,6 +296,11 @@ def run(out: Path, quick: bool = False, only: str = "") -> list[dict]:
                 rows += bench_replay(4000, frames, display_on, out)
             write(out, rows)
             return rows
+        if only == "live":
+            for model in ("local", "finite_layer"):
+                rows += bench_live_touch(model, 31 if quick else 121)
+            write(out, rows)
+            return rows
         r, _ = bench_frame_write(4000, 20 if quick else 100)
         rows += r
         bench_lay_patch(32, 16)  # warm-up: first-use imports are not part of a placement
@@ -241,6 +311,8 @@ def run(out: Path, quick: bool = False, only: str = "") -> list[dict]:
         rows += bench_playback(4000, frames, True)
         for display_on in (False, True):
             rows += bench_replay(4000, frames, display_on, out)
+        for model in ("local", "finite_layer"):
+            rows += bench_live_touch(model, 31 if quick else 121)
         write(out, rows)
         return rows
     finally:
@@ -299,7 +371,7 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--out", default=str(ROOT / "benchmarks" / "out" / "blender"))
     ap.add_argument("--quick", action="store_true")
-    ap.add_argument("--only", choices=("replay",), default="", help="run only these rows")
+    ap.add_argument("--only", choices=("replay", "live"), default="", help="run only these rows")
     args = ap.parse_args()
     rows = run(Path(args.out), args.quick, args.only)
     for r in rows:

@@ -211,7 +211,7 @@ def run(out: Path, quick: bool = False) -> list[dict]:
     # points well inside the patch: near its edge the press-by-press plane solve extrapolates the
     # skin's surface beyond the taxels (a fitted quadric), which is not the shortcut's error
     inner = np.argsort(np.linalg.norm(pts - curved.positions.mean(axis=0), axis=1))[:4 if quick else 12]
-    rows.append(shortcut_row("seed 002 curved patch (R 45 mm), finger pad along x", curved, pts[inner], nrm[inner],
+    rows.append(shortcut_row("seed 002 curved patch (R 45 mm), finger pad across its curvature", curved, pts[inner], nrm[inner],
                              layer, st, noise, n_thr=2 if quick else 6, n_tp=0))
     for radius in (0.045, 0.02):
         ring = _ring_skin(radius, rows=15)

@@ -91,13 +91,36 @@ def settings_of(scene, layout, rng):
     return st, noise
 
 
-def display_mesh(mesh, spacing: float):
-    """The mesh the maps are shown on: ``mesh`` with every edge longer than ``spacing`` split (a CAD
-    export's long slivers or a collision hull's few faces would show one value per face otherwise);
-    its vertices start with the mesh's own, in order."""
-    from ...layout.repair import refine
+def display_mesh(mesh, spacing: float, near=None, reach: float = 0.0):
+    """The mesh the maps are shown on: ``mesh`` with every edge longer than ``spacing`` split where the maps
+    have values (faces within ``reach`` of a point of ``near`` (P, 3)): a CAD export's long slivers or a
+    collision hull's few faces would show one value per face otherwise. Its vertices start with the mesh's
+    own, in order; the faces elsewhere are the mesh's own."""
+    import trimesh
+    from scipy.spatial import cKDTree
 
-    return refine(mesh, spacing, max_faces=max(300_000, 2 * len(mesh.faces)))
+    from ...layout.repair import face_submesh, refine
+
+    V, F = np.asarray(mesh.vertices, float), np.asarray(mesh.faces, np.int64)
+    tri = V[F]
+    centre = tri.mean(axis=1)
+    rad = np.linalg.norm(tri - centre[:, None], axis=2).max(axis=1)
+    if near is None or not len(near):
+        region = np.ones(len(F), bool)
+    else:
+        d, _ = cKDTree(np.asarray(near, float)).query(centre)
+        region = d - rad <= reach
+    sel = np.flatnonzero(region)
+    if not len(sel):
+        return mesh
+    sub = face_submesh(mesh, sel)
+    fine = refine(sub, spacing, max_faces=max(300_000, 2 * len(sel)))
+    used = np.flatnonzero(np.bincount(F[sel].ravel(), minlength=len(V)))
+    n_sub = len(sub.vertices)
+    remap = np.concatenate([used, len(V) + np.arange(len(fine.vertices) - n_sub)])
+    verts = np.vstack([V, np.asarray(fine.vertices)[n_sub:]])
+    faces = np.vstack([F[~region], remap[np.asarray(fine.faces)]])
+    return trimesh.Trimesh(verts, faces, process=False, validate=False)
 
 
 def run(scene, ctx) -> TaskResult:
@@ -118,12 +141,12 @@ def run(scene, ctx) -> TaskResult:
     except ValueError as exc:
         key = getattr(exc, "key", None) or "spacing"
         raise scene.error(f"task.{key}" if "." not in key else key, getattr(exc, "reason", str(exc))) from None
-    shown = display_mesh(mesh, t["spacing"])
+    shown = display_mesh(mesh, 1.5 * t["spacing"], dm.samples.positions, 2 * t["spacing"])
     vm = vertex_maps(dm, shown.vertices, shown.vertex_normals)
     rgba, legend = map_colours(vm, t["colour_by"])
     write_ply(ctx.out / "maps.ply", shown.vertices, shown.faces, vm, rgba,
               comments=[f"colours: {' / '.join(legend.lines())}",
-                        f"the end-effector mesh, edges longer than {t['spacing'] * 1e3:g} mm split "
+                        f"the end-effector mesh, edges longer than {1.5 * t['spacing'] * 1e3:g} mm split "
                         f"(its first {len(mesh.vertices)} vertices are the mesh's own)"])
     metrics = dm.summary()
     arrays = {"positions": layout.positions, "normals": layout.normals, "taxel_ids": layout.taxel_ids,
