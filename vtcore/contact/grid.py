@@ -19,6 +19,8 @@ from . import elastic
 from .materials import SoftLayer
 
 TAXEL_RADIUS = 2e-3  # m, CySkin taxels are 4 mm discs (seed 000, 001)
+#: Largest grid spacing and margin, m: a cell a metre wide says nothing about a 4 mm taxel.
+MAX_SPACING_M = 1.0
 
 
 @dataclass
@@ -39,6 +41,8 @@ class ContactGrid:
             v = float(getattr(self, k))
             if not (v > 0 if k == "spacing" else v >= 0) or not np.isfinite(v):
                 raise InputError(f"must be {'> 0' if k == 'spacing' else '>= 0'} m, got {v}", key=f"grid.{k}")
+            if v > MAX_SPACING_M:  # cells a metre wide average nothing over 4 mm taxels; 1e308 overflowed
+                raise InputError(f"must be <= {MAX_SPACING_M:g} m, got {v:g}", key=f"grid.{k}")
             setattr(self, k, v)
         if self.extent is not None and not float(self.extent) > 0:
             raise InputError(f"must be > 0 m, got {self.extent}", key="grid.extent")
@@ -129,7 +133,7 @@ def grid_cells(lo, hi, dx, key: str = "grid.spacing", why: str = ""):
 
     with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
         span = np.asarray(hi, dtype=np.float64) - np.asarray(lo, dtype=np.float64)
-        cells = 2.0 * np.ceil(span / (2.0 * dx))
+        cells = 2.0 * np.maximum(np.ceil(span / dx / 2.0), 1.0)  # (2 * dx overflows at 1e308)
     total = float(np.prod(cells)) if np.isfinite(cells).all() else float("inf")
     what = (f"a contact grid of {cells[0]:.3g} x {cells[1]:.3g} cells ({span[0]:.3g} m x {span[1]:.3g} m at "
             f"{dx:.3g} m){why}")

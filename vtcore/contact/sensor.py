@@ -93,7 +93,7 @@ def sample_clock(frames, timestamps, rate: float = RATE_HZ, phase: float = 0.0):
     need_memory(8.0 * 3 * max(float(ticks), 0.0) * max(f.shape[1], 1), key="rate",
                 what=f"{ticks:.3g} samples ({t[-1] - t[0]:.3g} s at {rate:.3g} Hz) x {f.shape[1]} taxels",
                 remedy="lower the sampling rate")
-    k = int(ticks)
+    k = int(ticks) if ticks > 0 else 0  # (+inf was refused above; a phase past the last frame: no tick)
     clock = start + np.arange(max(k, 0)) / rate
     idx = np.searchsorted(t, clock + 1e-12, side="right") - 1
     return f[idx], clock

@@ -25,6 +25,14 @@ SAMPLE_COPIES = 8
 MAX_FORCE_N = 1e4
 #: Longest strip:N patch (modules); a 1000-module CySkin strip is 7.5 m long.
 MAX_STRIP_MODULES = 1000
+#: Largest |value| of a sensor parameter in counts (offsets, drift, noise, ceilings): 15,000 times the
+#: 16-bit range. Past it, 1e308 counts plus a drift overflowed to infinity (or NaN) in the frames.
+MAX_COUNTS = 1e9
+#: Largest gain, counts per pascal (CySkin: about 0.1-2): 1e6 saturates the converter at 0.07 Pa.
+MAX_GAIN = 1e6
+#: Object stiffness range, N/m: softer than any sponge (300 N/m) to stiffer than a steel contact; a
+#: stiffness of 5e-324 made the object's deflection force / k infinite.
+STIFFNESS_N_M = (1.0, 1e12)
 
 
 def check_run_sizes(scene, n_taxels: int) -> None:

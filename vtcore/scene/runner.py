@@ -25,7 +25,7 @@ import numpy as np
 
 from .. import __version__
 from .._io import atomic_write, check_terminated, save_npz, write_json
-from ..errors import InputError
+from ..errors import Cancelled, VtError
 from ..inputs import check_output_dir, os_error
 from .._progress import progress
 from . import registry
@@ -143,18 +143,20 @@ def run_scene(scene: Scene | str | Path, out: str | Path, overrides: list[str] |
     """Run ``scene`` and write its results into ``out``; return the ``result.json`` object.
 
     Warnings raised inside the run are collected (:mod:`.notices`), not printed: ``result["warnings"]``
-    lists them. An InputError raised without a file names the scene file and the scene's key.
+    lists them. An error of bad input (or of a target the physics cannot reach) raised without a file
+    names the scene file and the scene's key (:data:`SCENE_KEYS`), ``task`` where it has none.
     """
     if not isinstance(scene, Scene):
         scene = load_scene(scene, overrides)
     with warnings_of(scene.path) as notes:
         try:
             return _run_staged(scene, out, notes)
-        except InputError as exc:
+        except VtError as exc:  # bad input, or a target the physics cannot reach: one line naming file and key
             err = exc
-            if exc.file is None:
-                err = scene.error(SCENE_KEYS.get(exc.key, exc.key) or "task", exc.reason)
-            err.details = notes.lines()  # shown by `vtcore run --details`
+            if getattr(exc, "file", None) is None and not isinstance(exc, Cancelled):
+                key = getattr(exc, "key", None)
+                err = scene.error(SCENE_KEYS.get(key, key) or "task", getattr(exc, "reason", None) or str(exc))
+            err.details = list(getattr(err, "details", None) or []) + notes.lines()  # `vtcore run --details`
             if err is exc:
                 raise
             raise err from None

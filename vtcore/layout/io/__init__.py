@@ -55,7 +55,7 @@ FORMATS = tuple(FORMAT_MODULES)
 READ_FORMATS = tuple(n for n, m in FORMAT_MODULES.items() if m.read is not None)
 # suffix -> format name when writing; ".json" is ambiguous (ours or CySkin), ours wins on save
 SUFFIX_FORMATS = {s: n for n, m in reversed(FORMAT_MODULES.items()) for s in m.SUFFIXES if s}
-from .fields import MAX_COORDINATE_M, check_layout
+from .checks import MAX_COORDINATE_M, check_layout
 
 
 def detect_format(path: Path) -> str:

@@ -23,6 +23,7 @@ from ...errors import FormatError, InputError
 from ...inputs import clean, finite_json
 from ..model import Layout
 from ..uids import cyskin_modules
+from .checks import MAX_COORDINATE_M, check_layout
 from .common import (ImportReport, array_digest, check_repeats, clean_normals, default_faces, finish, parse_number,
                      read_json_doc, row_digests, transform_of, unchanged_rows, units_scale)
 
@@ -171,8 +172,6 @@ def doc_problem(doc: dict) -> str | None:
             warnings.simplefilter("ignore", LayoutWarning)
             with np.errstate(all="ignore"):
                 lay = parse(doc, "cyskin_doc")
-        from .fields import MAX_COORDINATE_M, check_layout  # (fields reads this module's checks)
-
         if np.abs(lay.positions).max() > MAX_COORDINATE_M:
             return f"holds taxels beyond +-{MAX_COORDINATE_M:g} m"
         check_layout(lay, "cyskin_doc")

@@ -20,6 +20,7 @@ import numpy as np
 
 from ...contact.elastic import SPREADINGS
 from ...contact.grid import spread_field, taxel_means
+from ..budget import STIFFNESS_N_M
 from ..registry import EffectSpec, register_effect
 from ..schema import Field, Section
 
@@ -76,6 +77,6 @@ register_effect(EffectSpec("soft_layer", "contact", 10, SoftLayerSpreading, Sect
                     doc="exact base stress of the layer, or the Boussinesq half-space stress at depth h")}),
     doc="Boussinesq spreading of stress through the layer to the taxels"))
 register_effect(EffectSpec("object_compliance", "contact", 20, ObjectCompliance, Section({
-    "default_stiffness": Field("float", default=5000.0, gt=0, unit="N/m",
+    "default_stiffness": Field("float", default=5000.0, ge=STIFFNESS_N_M[0], le=STIFFNESS_N_M[1], unit="N/m",
                                doc="stiffness of objects whose table gives none")}),
     doc="object's local stiffness in series with the layer"))

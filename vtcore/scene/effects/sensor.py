@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...contact import sensor as S
+from ..budget import MAX_COUNTS, MAX_GAIN
 from ..registry import EffectSpec, register_effect
 from ..schema import Field, Section
 
@@ -123,28 +124,30 @@ class Sampling:
 
 
 register_effect(EffectSpec("gain", "sensor", 10, Gain, Section({
-    "counts_per_pa": Field("float", default=0.1, gt=0, doc="sensor counts per pascal (slope at 0)"),
-    "p_half": Field("float", default=None, gt=0, unit="Pa",
+    "counts_per_pa": Field("float", default=0.1, gt=0, le=MAX_GAIN, doc="sensor counts per pascal (slope at 0)"),
+    "p_half": Field("float", default=None, gt=0, le=1e12, unit="Pa",
                     doc="saturating transfer: pressure at half the ceiling (none: linear)")}),
     doc="pressure to counts (linear or saturating transfer curve)"))
 register_effect(EffectSpec("baseline", "sensor", 20, Baseline, Section({
-    "offset": Field("float", default=0.0, doc="mean offset, counts"),
-    "spread": Field("float", default=0.0, ge=0, doc="standard deviation of the offset across taxels, counts")}),
+    "offset": Field("float", default=0.0, ge=-MAX_COUNTS, le=MAX_COUNTS, doc="mean offset, counts"),
+    "spread": Field("float", default=0.0, ge=0, le=MAX_COUNTS,
+                    doc="standard deviation of the offset across taxels, counts")}),
     doc="per-taxel baseline offset"))
 register_effect(EffectSpec("drift", "sensor", 30, Drift, Section({
-    "rate": Field("float", default=0.5, doc="linear drift, counts per second"),
-    "walk": Field("float", default=0.0, ge=0, doc="random-walk drift, counts per sqrt(second)")}),
+    "rate": Field("float", default=0.5, ge=-MAX_COUNTS, le=MAX_COUNTS, doc="linear drift, counts per second"),
+    "walk": Field("float", default=0.0, ge=0, le=MAX_COUNTS, doc="random-walk drift, counts per sqrt(second)")}),
     doc="slow baseline drift"))
 register_effect(EffectSpec("noise", "sensor", 40, Noise, Section({
-    "sigma": Field("float", default=20.0, ge=0, doc="standard deviation, counts")}),
+    "sigma": Field("float", default=20.0, ge=0, le=MAX_COUNTS, doc="standard deviation, counts")}),
     doc="Gaussian read noise"))
 register_effect(EffectSpec("saturation", "sensor", 80, Saturation, Section({
-    "max_counts": Field("float", default=65535.0, gt=0, doc="16-bit ceiling"),
-    "min_counts": Field("float", default=0.0, doc="floor")}), doc="clip to the converter's range"))
+    "max_counts": Field("float", default=65535.0, gt=0, le=MAX_COUNTS, doc="16-bit ceiling"),
+    "min_counts": Field("float", default=0.0, ge=-MAX_COUNTS, le=MAX_COUNTS, doc="floor")}),
+    doc="clip to the converter's range"))
 register_effect(EffectSpec("quantisation", "sensor", 90, Quantisation, Section({
     "step": Field("float", default=1.0, ge=1e-6, le=1e6,
                   doc="counts per step (1e-6..1e6: finer is no quantisation, and counts / 1e-320 overflow)")}), doc="integer counts"))
 register_effect(EffectSpec("sampling", "sensor", 95, Sampling, Section({
     "rate": Field("float", default=20.0, gt=0, unit="Hz", doc="read-out clock"),
-    "phase": Field("float", default=0.0, ge=0, unit="s", doc="first tick after the first frame")}),
+    "phase": Field("float", default=0.0, ge=0, le=3600.0, unit="s", doc="first tick after the first frame")}),
     doc="sample-and-hold on the sensor clock"))

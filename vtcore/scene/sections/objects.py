@@ -17,6 +17,7 @@ from ...contact.objects import DEFAULTS, SIZE_RANGE_M, make_object, placement_po
 from ...contact.proximity import OPEN_MESH
 from ...errors import InputError
 from ...layout.meshinput import load_mesh
+from ..budget import STIFFNESS_N_M
 from ..registry import register_section
 from ..schema import Field, Section
 from .layer import build_layer
@@ -53,11 +54,13 @@ OBJECT = Section({
     "position": Field("vec", default=[0.0, 0.0], length=2, unit="m",
                       doc="where the object's axis crosses the skin"),
     "yaw": Field("float", default=0.0, unit="rad"),
-    "gap": Field("float", default=1e-3, unit="m", doc="distance above the layer before pressing"),
+    "gap": Field("float", default=1e-3, ge=-0.1, le=1.0, unit="m",
+                 doc="distance above the layer before pressing (-0.1 .. 1 m; negative: starting in contact)"),
     "flip": Field("bool", default=True, doc="turn the object over so its top face meets the skin"),
     "keyframes": Field("tables", default=[], section=KEYFRAME, doc="trajectory keyframes"),
-    "stiffness": Field("float", default=None, gt=0, unit="N/m", doc="object stiffness (object_compliance)"),
-    "stiffness_edge": Field("float", default=None, gt=0, unit="N/m",
+    "stiffness": Field("float", default=None, ge=STIFFNESS_N_M[0], le=STIFFNESS_N_M[1], unit="N/m",
+                       doc="object stiffness (object_compliance)"),
+    "stiffness_edge": Field("float", default=None, ge=STIFFNESS_N_M[0], le=STIFFNESS_N_M[1], unit="N/m",
                             doc="stiffness at the object's outline; varies with r^2 from `stiffness` at its axis"),
     "stiffness_file": Field("path", default=None, doc=".npy per-vertex stiffness, N/m"),
 }, check=lambda o: ([("mesh", "kind = \"mesh\" needs a mesh file")] if o["kind"] == "mesh" and not o["mesh"]
@@ -144,13 +147,18 @@ def object_compliance(scene, i: int, mesh=None):
     per-vertex values, or a callable of object-frame points."""
     o = scene["objects"][i]
     if o["stiffness_file"]:
-        vals = np.load(o["stiffness_file"]).astype(float).reshape(-1)
+        try:
+            vals = np.load(o["stiffness_file"], allow_pickle=False).astype(float).reshape(-1)
+        except (OSError, ValueError, TypeError, EOFError) as exc:  # not a .npy of numbers
+            raise scene.error(f"objects[{i}].stiffness_file", f"cannot read a .npy array of numbers: {exc}") from None
         mesh = mesh if mesh is not None else object_mesh(scene, i)
         if len(vals) != len(mesh.vertices):
             raise scene.error(f"objects[{i}].stiffness_file",
                               f"has {len(vals)} values but the mesh has {len(mesh.vertices)} vertices")
-        if not np.all(vals > 0):
-            raise scene.error(f"objects[{i}].stiffness_file", "stiffness values must be > 0 N/m")
+        lo, hi = STIFFNESS_N_M
+        if not np.all((vals >= lo) & (vals <= hi)):
+            raise scene.error(f"objects[{i}].stiffness_file", f"stiffness values must be in [{lo:g}, {hi:g}] N/m "
+                              "(finite)")
         return vals
     k0 = o["stiffness"]
     if k0 is None:
