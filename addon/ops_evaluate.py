@@ -13,6 +13,7 @@ means) is in the panel and, for renders, a colour bar with labels beside the obj
 from __future__ import annotations
 
 import bpy
+import mathutils
 import numpy as np
 
 from . import bridge, display, skin
@@ -23,6 +24,14 @@ LEGEND = "vtskin map legend"
 COLOUR_PREFIX = "vtskin_map_"
 FLOATS = ("threshold_n", "localisation_mm", "two_point_mm", "detect_rate")
 FLAGS = ("blind", "evaluated", "covered")
+
+
+def srgb_to_linear(rgba):
+    """RGBA (n, 4) in sRGB (the ramp's colours) -> scene-linear, what a float colour attribute holds."""
+    c = np.asarray(rgba, float).copy()
+    rgb = c[:, :3]
+    c[:, :3] = np.where(rgb <= 0.04045, rgb / 12.92, ((rgb + 0.055) / 1.055) ** 2.4)
+    return c
 
 
 def map_material():
@@ -121,7 +130,7 @@ class VTSKIN_OT_evaluate_skin(Op, bpy.types.Operator):
             bridge.set_attribute(me, name, m.values[name], "BOOLEAN")
         legends = {}
         for key, rgba in m.colours.items():
-            bridge.set_attribute(me, f"{COLOUR_PREFIX}{key}", rgba, "FLOAT_COLOR")
+            bridge.set_attribute(me, f"{COLOUR_PREFIX}{key}", srgb_to_linear(rgba), "FLOAT_COLOR")
             legends[key] = "\n".join(m.legends[key].lines() + m.lines)
         ee["vtskin_legends"] = legends
         ee["vtskin_legend_data"] = {k: {"title": g.title, "unit": g.unit, "lo": g.lo, "hi": g.hi, "log": g.log,
@@ -177,9 +186,40 @@ def remove_legend() -> None:
     bpy.data.collections.remove(coll)
 
 
+def _legend_frame(context, ob):
+    """(place(offset) -> world point, rotation, bar height): where the legend goes. With a scene camera,
+    at the right of its view just in front of the mapped object, facing it (so renders show it);
+    else beside the object's bounding box, in its orientation."""
+    cam = context.scene.camera
+    bb = np.array([tuple(ob.matrix_world @ mathutils.Vector(c)) for c in ob.bound_box])
+    if cam is not None and cam.type == "CAMERA":
+        m = cam.matrix_world.copy()
+        # in front of the object's nearest corner, so the object never hides it
+        near = float(np.linalg.norm(bb - np.array(m.translation), axis=1).min())
+        dist = 0.8 * near
+        half_w = dist * (cam.data.sensor_width / 2) / cam.data.lens
+        h = 0.55 * half_w
+        base = mathutils.Vector((0.4 * half_w, -0.5 * h, -dist))
+        return (lambda off: m @ (base + mathutils.Vector(off))), m.to_quaternion(), h
+    m = ob.matrix_world.copy()
+    h = 0.6 * float(np.ptp(bb, axis=0).max())
+    corner = mathutils.Vector(tuple(bb.max(axis=0) + np.array([0.1 * h, 0.0, 0.0])))
+    return (lambda off: corner + m.to_3x3() @ mathutils.Vector(off)), m.to_quaternion(), h
+
+
+def _legend_object(coll, name, data, place, rot, off):
+    o = bpy.data.objects.new(name, data)
+    coll.objects.link(o)
+    o.rotation_mode = "QUATERNION"
+    o.location, o.rotation_quaternion = place(off), rot
+    o.visible_shadow = False  # a legend, not part of the scene: it casts no shadow on the mesh
+    return o
+
+
 def build_legend(context, ob, key: str):
-    """A colour bar with its labels beside ``ob`` (renders with the scene): 32 coloured quads from the map's
-    lowest to its highest value, the title with its unit, tick values, and a red swatch for 'no value'."""
+    """A colour bar with its labels for map ``key`` of ``ob`` (renders with the scene): 32 coloured quads
+    from the map's lowest to its highest value, the title with its unit, tick values, and a red swatch
+    for 'no value' (see :func:`_legend_frame` for where)."""
     from vtcore.evaluate.colours import NO_VALUE, ramp
 
     data = ob.get("vtskin_legend_data", {}).get(key)
@@ -188,59 +228,53 @@ def build_legend(context, ob, key: str):
     remove_legend()
     coll = bpy.data.collections.new(LEGEND)
     context.scene.collection.children.link(coll)
-    lo_b, hi_b = (np.array(ob.bound_box).min(axis=0), np.array(ob.bound_box).max(axis=0))
-    size = float(max(hi_b - lo_b))
-    h, w, n = 0.8 * size, 0.06 * size, 32
+    place, rot, h = _legend_frame(context, ob)
+    w, n = 0.08 * h, 32
     ys = np.linspace(0.0, h, n + 1)
     v = np.concatenate([np.column_stack([np.zeros(n + 1), ys, np.zeros(n + 1)]),
                         np.column_stack([np.full(n + 1, w), ys, np.zeros(n + 1)])])
     quads = np.column_stack([np.arange(n), np.arange(n) + n + 1, np.arange(n) + n + 2, np.arange(n) + 1])
-    tris = np.vstack([quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]])
     me = bpy.data.meshes.new(f"{LEGEND} bar")
-    bridge.write_mesh(me, v, tris)
-    t = np.linspace(0, 1, n + 1)
-    rgba = np.column_stack([ramp(t), np.ones(n + 1)])
-    bridge.set_attribute(me, "vtskin_map_legend", np.vstack([rgba, rgba]), "FLOAT_COLOR")
-    bar = bpy.data.objects.new(f"{LEGEND} bar", me)
-    coll.objects.link(bar)
+    bridge.write_mesh(me, v, np.vstack([quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]]))
+    rgba = np.column_stack([ramp(np.linspace(0, 1, n + 1)), np.ones(n + 1)])
+    bridge.set_attribute(me, "vtskin_map_legend", srgb_to_linear(np.vstack([rgba, rgba])), "FLOAT_COLOR")
     mat = bpy.data.materials.new(f"{LEGEND} bar")
     nt = display.shader_nodes(mat)
     attr = nt.nodes.new("ShaderNodeAttribute")
     attr.attribute_name = "vtskin_map_legend"
     emit = nt.nodes.new("ShaderNodeEmission")
     nt.links.new(attr.outputs["Color"], emit.inputs["Color"])
-    out = nt.nodes.get("Material Output")
-    nt.links.new(emit.outputs["Emission"], out.inputs["Surface"])
+    nt.links.new(emit.outputs["Emission"], nt.nodes.get("Material Output").inputs["Surface"])
     me.materials.append(mat)
-    origin = np.array(ob.matrix_world.translation) + np.array([hi_b[0] - lo_b[0], 0, 0]) * 0.7
-    m = ob.matrix_world.copy()
-    bar.matrix_world = m
-    bar.location = tuple(origin)
-    labels = [(data["title"] + f" ({data['unit']})", h + 0.08 * size)]
+    bar = _legend_object(coll, f"{LEGEND} bar", me, place, rot, (0, 0, 0))
     ticks = np.geomspace(data["lo"], data["hi"], 4) if data["log"] else np.linspace(data["lo"], data["hi"], 5)
     span = (np.log(ticks / data["lo"]) / np.log(data["hi"] / data["lo"]) if data["log"]
             else (ticks - data["lo"]) / max(data["hi"] - data["lo"], 1e-300))
-    labels += [(f"{tv:.3g}", float(sv) * h) for tv, sv in zip(ticks, span)]
-    labels.append((f"red: {data['no_value']}", -0.1 * size))
-    for i, (text, y) in enumerate(labels):
+    labels = [(f"{data['title']} ({data['unit']})", (0.0, 1.08 * h, 0.0))]
+    labels += [(f"{tv:.3g}" + (" or more" if i == len(ticks) - 1 else ""), (1.4 * w, float(sv) * h - 0.02 * h, 0.0))
+               for i, (tv, sv) in enumerate(zip(ticks, span))]
+    import textwrap
+
+    red_text = "\n".join(textwrap.wrap(f"red: {data['no_value']}", 26))
+    labels.append((red_text, (1.4 * w, -0.16 * h, 0.0)))
+    text = bpy.data.materials.new(f"{LEGEND} text")
+    text.diffuse_color = (0.05, 0.05, 0.06, 1.0)
+    display.shader_nodes(text).nodes.get("Principled BSDF").inputs["Base Color"].default_value = (0.02, 0.02, 0.02, 1)
+    for i, (words, off) in enumerate(labels):
         cu = bpy.data.curves.new(f"{LEGEND} text {i}", "FONT")
-        cu.body = text
-        cu.size = 0.045 * size
-        txt = bpy.data.objects.new(f"{LEGEND} text {i}", cu)
-        coll.objects.link(txt)
-        txt.matrix_world = m
-        txt.location = tuple(origin + np.array([1.3 * w if i else 0.0, y, 0.0]))
+        cu.body = words
+        cu.size = 0.075 * h
+        cu.materials.append(text)
+        _legend_object(coll, f"{LEGEND} text {i}", cu, place, rot, off)
     swatch = bpy.data.meshes.new(f"{LEGEND} red")
     bridge.write_mesh(swatch, np.array([[0, 0, 0], [w, 0, 0], [w, w, 0], [0, w, 0.0]]), [[0, 1, 2], [0, 2, 3]])
     red = bpy.data.materials.new(f"{LEGEND} red")
     red.diffuse_color = (*NO_VALUE, 1.0)
-    bsdf = display.shader_nodes(red).nodes.get("Principled BSDF")
-    bsdf.inputs["Base Color"].default_value = (*NO_VALUE, 1.0)
+    red_emit = display.shader_nodes(red)
+    red_emit.nodes.get("Principled BSDF").inputs["Base Color"].default_value = (
+        *srgb_to_linear(np.array([[*NO_VALUE, 1.0]]))[0, :3], 1.0)
     swatch.materials.append(red)
-    sw = bpy.data.objects.new(f"{LEGEND} red", swatch)
-    coll.objects.link(sw)
-    sw.matrix_world = m
-    sw.location = tuple(origin + np.array([0.0, -0.13 * size, 0.0]))
+    _legend_object(coll, f"{LEGEND} red", swatch, place, rot, (0.0, -0.18 * h, 0.0))
     return bar
 
 

@@ -164,7 +164,7 @@ def test_shortcut_matches_press_by_press_on_the_hexagon(hexagon):
     ref = reference_points(hexagon, pts, nrm, LAYER, st, noise, threshold_points=range(4),
                            two_point_points=range(3), two_point_directions=(0.0, np.pi / 2))
     nb = neighbours(hexagon.positions, hexagon.normals, pts, nrm, pm.table.reach)
-    mine = noise.counts_per_pa * readings(pm.table, pm.table.index(5.0), nb)
+    mine = noise.counts(readings(pm.table, pm.table.index(5.0), nb))
     assert np.all(np.abs(mine - ref.readings).max(axis=1) <= 0.02 * ref.readings.max(axis=1))
     np.testing.assert_allclose(pm.localisation.error_noise_free, ref.localisation.error_noise_free, atol=2e-5)
     np.testing.assert_allclose(pm.localisation.error, ref.localisation.error, rtol=0.10, atol=5e-5)
@@ -187,5 +187,26 @@ def test_turned_finger_pad_reads_as_pressed(hexagon):
     pm = evaluate_points(hexagon, pts, nrm, LAYER, st, noise)
     ref = reference_points(hexagon, pts, nrm, LAYER, st, noise)
     nb = neighbours(hexagon.positions, hexagon.normals, pts, nrm, pm.table.reach, st.probe.yaw)
-    mine = noise.counts_per_pa * readings(pm.table, pm.table.index(st.reference_force), nb)
+    mine = noise.counts(readings(pm.table, pm.table.index(st.reference_force), nb))
     assert np.all(np.abs(mine - ref.readings).max(axis=1) <= 0.02 * ref.readings.max(axis=1))
+
+
+def test_saturating_sensor(hexagon):
+    """A profile's saturating transfer (p_half): detection is where the curve, not the line, reaches k
+    sigma; a ceiling below k sigma detects nothing anywhere, clearly."""
+    from vtcore.evaluate import SensorNoise
+    from vtcore.contact.sensor import gain
+
+    lin = SensorNoise(191.0, 5.0, 1.0)
+    sat = SensorNoise(191.0, 5.0, 1.0, p_half=2000.0)
+    assert gain(sat.threshold_pa, 1.0, 2000.0) == pytest.approx(sat.threshold_counts)
+    assert sat.threshold_pa > lin.threshold_pa
+    pts, nrm = hexagon.positions[:3], np.tile(UP, (3, 1))
+    a = evaluate_points(hexagon, pts, nrm, LAYER, Settings(two_point=False, draws=4), lin)
+    b = evaluate_points(hexagon, pts, nrm, LAYER, Settings(two_point=False, draws=4), sat)
+    assert np.all(b.detection.threshold > a.detection.threshold)
+    dead = SensorNoise(191.0, 5.0, 1.0, p_half=500.0)  # ceiling 500 counts < 955
+    assert dead.threshold_pa == np.inf
+    c = evaluate_points(hexagon, pts, nrm, LAYER, Settings(draws=4), dead)
+    assert not c.detection.detectable.any() and not c.localisation.located.any() and c.blind.all()
+    assert np.all(np.isfinite(c.detection.threshold))

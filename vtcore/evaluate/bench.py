@@ -66,7 +66,7 @@ def shortcut_row(case, layout, points, normals, layer, st, noise, *, n_thr, n_tp
     k = pm.table.index(st.reference_force)
     nb = neighbours(layout.positions, layout.normals, points, normals, pm.table.reach, st.probe.yaw,
                     axis=st.probe_axis)
-    mine = noise.counts_per_pa * readings(pm.table, k, nb)
+    mine = noise.counts(readings(pm.table, k, nb))
     peak = np.maximum(ref.readings.max(axis=1), 1e-300)
     rd = np.abs(mine - ref.readings).max(axis=1) / peak * 100
     loc_ok = pm.localisation.located & ref.localisation.located

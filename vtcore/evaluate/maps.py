@@ -34,7 +34,10 @@ from .probe import ResponseTable
 #: a taxel counts for a probe whose normal differs from its own by less than this (cos 60 degrees)
 NORMAL_AGREEMENT = 0.5
 #: taxels whose mean reading lies this many noise deviations below the gate are left out of the draws
-PRUNE_SIGMAS = 5.0
+#: (one passes the gate with odds 3.4e-6 per draw)
+PRUNE_SIGMAS = 4.5
+#: taxels among which the strongest reading at every force is sought (the strongest at the largest)
+CANDIDATES = 8
 #: (points x taxels x draws) values one chunk of the noise draws may hold
 CHUNK_VALUES = 4_000_000
 
@@ -138,7 +141,16 @@ def detection_threshold(table: ResponseTable, nb: Neighbours, noise: SensorNoise
     """Smallest force at which the strongest mean reading reaches ``k sigma`` at each point."""
     m = nb.index.shape[0]
     need = noise.threshold_pa
-    peaks = np.stack([readings(table, k, nb).max(axis=1, initial=0.0) for k in range(len(table.forces))], axis=1)
+    # the strongest taxel at any force is among the strongest few at the largest force (the reading
+    # falls with the offset at every force; only near-ties reorder): the other forces read those alone
+    last = len(table.forces) - 1
+    top_all = readings(table, last, nb)
+    c = min(CANDIDATES, top_all.shape[1])
+    cols = np.argsort(-top_all, axis=1, kind="stable")[:, :c]
+    take = lambda a: np.take_along_axis(a, cols, axis=1)  # noqa: E731
+    sub = Neighbours(take(nb.index), take(nb.dx), take(nb.dy))
+    peaks = np.stack([readings(table, k, sub).max(axis=1, initial=0.0) if k < last else
+                      top_all.max(axis=1, initial=0.0) for k in range(len(table.forces))], axis=1)
     f = table.forces
     cap = float(table.bottomed_at if table.bottomed_at is not None else f[-1])
     above = peaks >= need
@@ -194,8 +206,7 @@ def localisation_error(table: ResponseTable, nb: Neighbours, noise: SensorNoise,
     """Expected localisation error of the centroid estimator at ``reference_force`` (N) over ``draws``
     noise draws (seeded: the same seed gives the same map)."""
     k = table.index(reference_force)
-    return localise(noise.counts_per_pa * readings(table, k, nb), nb, noise, draws=draws, seed=seed,
-                    error_cap=error_cap)
+    return localise(noise.counts(readings(table, k, nb)), nb, noise, draws=draws, seed=seed, error_cap=error_cap)
 
 
 def localise(mean: np.ndarray, nb: Neighbours, noise: SensorNoise, *, draws: int = 32, seed: int = 0,
@@ -208,7 +219,7 @@ def localise(mean: np.ndarray, nb: Neighbours, noise: SensorNoise, *, draws: int
     gate = noise.threshold_counts
     nf_err, nf_det = centroid_error(mean, nb.dx, nb.dy, gate)
     # a taxel whose mean is more than PRUNE_SIGMAS deviations below the gate passes it in a draw with
-    # odds below 3e-7: the draws keep only the others (the same columns for the same readings)
+    # odds below 3.4e-6: the draws keep only the others (the same columns for the same readings)
     keep = (nb.index >= 0) & (mean >= gate - PRUNE_SIGMAS * noise.sigma)
     kk = max(int(keep.sum(axis=1).max(initial=0)), 1) if mean.shape[1] else 0
     cols = np.argsort(~keep, axis=1, kind="stable")[:, :kk]
@@ -225,7 +236,7 @@ def localise(mean: np.ndarray, nb: Neighbours, noise: SensorNoise, *, draws: int
         step = max(1, CHUNK_VALUES // max(1, kk * int(draws)))
         for s in range(0, m, step):
             sl = slice(s, s + step)
-            z = rng.standard_normal((int(draws), min(step, m - s), kk))
+            z = rng.standard_normal((int(draws), min(step, m - s), kk), dtype=np.float32)
             c = np.maximum(mean[sl][None] + noise.sigma * z, 0.0)
             c[:, nb.index[sl] < 0] = 0.0
             e, det = centroid_error(c, nb.dx[sl][None], nb.dy[sl][None], gate)

@@ -30,16 +30,20 @@ DEFAULT_GAIN_SOURCE = "vtcore's default linear gain (assumption; the papers give
 class SensorNoise:
     """What decides detection: a taxel detects when its reading exceeds ``k * sigma`` counts.
 
-    sigma : counts, per-taxel noise standard deviation. k : noise deviations. counts_per_pa : linear
-    gain (counts / Pa). source : where each number came from (shown in every report).
+    sigma : counts, per-taxel noise standard deviation. k : noise deviations. counts_per_pa : the
+    transfer's slope at 0 (counts / Pa). p_half : Pa or None: a saturating transfer that reaches half its
+    ceiling there (vtcore.contact.sensor.gain), None: linear. source : where each number came from.
     """
 
     sigma: float = MEASURED_SIGMA_COUNTS
     k: float = DEFAULT_K
     counts_per_pa: float = DEFAULT_GAIN
     source: str = ""
+    p_half: float | None = None
 
     def __post_init__(self):
+        if self.p_half is not None and not (np.isfinite(self.p_half) and self.p_half > 0):
+            raise InputError(f"must be a finite number > 0 Pa, got {self.p_half}", key="sensor.p_half")
         for name, lo in (("sigma", 0.0), ("k", 0.0), ("counts_per_pa", 0.0)):
             v = float(getattr(self, name))
             if not (np.isfinite(v) and v > lo) and not (name == "sigma" and v == 0):
@@ -53,8 +57,19 @@ class SensorNoise:
 
     @property
     def threshold_pa(self) -> float:
-        """The same at the taxel, as stress (Pa)."""
-        return self.threshold_counts / self.counts_per_pa
+        """The same at the taxel, as stress (Pa): the transfer's inverse at k sigma (``inf`` where a
+        saturating transfer's ceiling stays below it: no stress is ever detected)."""
+        t = self.threshold_counts
+        if self.p_half is None:
+            return t / self.counts_per_pa
+        ceiling = self.counts_per_pa * self.p_half
+        return t * self.p_half / (ceiling - t) if ceiling > t else float("inf")
+
+    def counts(self, pressure):
+        """Mean readings (counts) of taxel stresses ``pressure`` (Pa, any shape): the sensor's transfer."""
+        from ..contact.sensor import gain
+
+        return gain(pressure, self.counts_per_pa, self.p_half)
 
 
 def sensor_noise(sigma: float | None = None, k: float | None = None, counts_per_pa: float | None = None,
@@ -83,4 +98,8 @@ def sensor_noise(sigma: float | None = None, k: float | None = None, counts_per_
     kk = pick(k, getattr(prof, "detection_k", None), "detection k", DEFAULT_K, DEFAULT_K_SOURCE, "k")
     g = pick(counts_per_pa, getattr(response, "counts_per_pa", None), "fitted response", DEFAULT_GAIN,
              DEFAULT_GAIN_SOURCE, "gain (counts/Pa)")
-    return SensorNoise(s, kk, g, "; ".join(parts))
+    # the fitted transfer's saturation goes with the fitted gain only
+    p_half = getattr(response, "p_half", None) if counts_per_pa is None else None
+    if p_half is not None:
+        parts.append(f"saturating at p_half {float(p_half):g} Pa: sensor profile {name!r} (fitted response)")
+    return SensorNoise(s, kk, g, "; ".join(parts), None if p_half is None else float(p_half))

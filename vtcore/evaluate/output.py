@@ -56,12 +56,13 @@ def vertex_maps(dm: DesignMap, vertices, vertex_normals) -> dict:
     return out
 
 
-def map_colours(values: dict, quantity: str = "threshold"):
-    """RGBA (V, 4) and the :class:`colours.Legend` of one map from :func:`vertex_maps`'s values."""
+def map_colours(values: dict, quantity: str = "threshold", hi: float | None = None):
+    """RGBA (V, 4) and the :class:`colours.Legend` of one map from :func:`vertex_maps`'s values; ``hi`` (SI)
+    ends the colour range (default: the 98th percentile of the values)."""
     q = QUANTITIES[quantity]
     key = q.attribute
     return colourise(np.asarray(values[key]) / q.scale, values[f"{quantity}_valid"], q,
-                     evaluated=values.get("evaluated"))
+                     evaluated=values.get("evaluated"), hi=None if hi is None else hi * q.scale)
 
 
 def write_ply(path, vertices, faces, values: dict, colours=None, comments=()) -> None:

@@ -102,7 +102,7 @@ def reference_points(layout, points, normals, layer, settings: Settings, noise: 
         except UnreachableTargetError:  # the probe bottoms out here (a curved patch's crest): reads nothing
             continue
         ok = nb.index[i] >= 0
-        mean[i, ok] = noise.counts_per_pa * p[nb.index[i, ok]]
+        mean[i, ok] = noise.counts(p[nb.index[i, ok]])
     loc = localise(mean, nb, noise, draws=settings.draws, seed=settings.seed, error_cap=settings.error_cap)
 
     thr = np.full(len(points), np.nan)
@@ -144,8 +144,8 @@ def reference_points(layout, points, normals, layer, settings: Settings, noise: 
                     p = press(live, pair, pose, layer, force=2 * settings.reference_force, direction=-normals[i],
                               open_mesh="envelope", **kw).pressure
                     rel = live.positions - points[i]
-                    p = np.where(np.abs(rel @ e1) <= band, p, 0.0)
-                    level = max(need, BLOB_FRACTION * p.max())
+                    p = np.where(np.abs(rel @ e1) <= band, noise.counts(p), 0.0)
+                    level = max(noise.threshold_counts, BLOB_FRACTION * p.max())
                     if split_blobs((p > level)[None], np.arange(len(p))[None], (rel @ e2)[None], adj)[0]:
                         found = s
                         break

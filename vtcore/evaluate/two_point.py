@@ -137,7 +137,7 @@ def two_point_discrimination(table: ResponseTable, taxels: np.ndarray, taxel_nor
     found_dir = np.zeros((m, len(ang)), bool)
     if kk == 0:  # no taxel near any point: nothing is told apart
         return TwoPoint(np.full(m, float(max_separation)), np.zeros(m, bool), per, ang, seps, float(max_separation))
-    gate = noise.threshold_pa
+    gate = noise.threshold_counts
     n_ang = len(ang)
     chunk = max(1, CHUNK_VALUES // max(1, n_ang * kk))
     ca, sa = np.cos(ang)[None, :, None], np.sin(ang)[None, :, None]
@@ -169,7 +169,7 @@ def two_point_discrimination(table: ResponseTable, taxels: np.ndarray, taxel_nor
             px, py, pm = bx[pending][:, None, :], by[pending][:, None, :], bm[pending][:, None, :]
             v = table.lookup(k, np.broadcast_to(px, (len(pending), len(ss), kb)), py - hy) \
                 + table.lookup(k, np.broadcast_to(px, (len(pending), len(ss), kb)), py + hy)
-            v = np.where(pm, v, 0.0)
+            v = np.where(pm, noise.counts(v), 0.0)  # blobs are judged on the readings (counts)
             level = np.maximum(gate, BLOB_FRACTION * v.max(axis=-1, keepdims=True, initial=0.0))
             cfg = len(pending) * len(ss)
             two = split_blobs((v > level).reshape(cfg, kb),

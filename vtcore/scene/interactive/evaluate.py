@@ -52,7 +52,8 @@ def evaluate_skin(layout: Layout, mesh_vertices, mesh_triangles, *, thickness: f
     colours, legends = {}, {}
     for key, q in QUANTITIES.items():
         if q.attribute in vm:
-            colours[key], legends[key] = map_colours(vm, key)
+            # the threshold map's range ends at the blind limit: yellow means 'too hard to be a touch'
+            colours[key], legends[key] = map_colours(vm, key, hi=st.limit if key == "threshold" else None)
     s = dm.summary()
     lines = [f"{s['samples']} points, {s['taxels_live']} live taxels, {st.probe.describe()} at "
              f"{st.reference_force:g} N",

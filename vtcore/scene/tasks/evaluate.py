@@ -143,7 +143,7 @@ def run(scene, ctx) -> TaskResult:
         raise scene.error(f"task.{key}" if "." not in key else key, getattr(exc, "reason", str(exc))) from None
     shown = display_mesh(mesh, 1.5 * t["spacing"], dm.samples.positions, 2 * t["spacing"])
     vm = vertex_maps(dm, shown.vertices, shown.vertex_normals)
-    rgba, legend = map_colours(vm, t["colour_by"])
+    rgba, legend = map_colours(vm, t["colour_by"], hi=st.limit if t["colour_by"] == "threshold" else None)
     write_ply(ctx.out / "maps.ply", shown.vertices, shown.faces, vm, rgba,
               comments=[f"colours: {' / '.join(legend.lines())}",
                         f"the end-effector mesh, edges longer than {1.5 * t['spacing'] * 1e3:g} mm split "
