@@ -77,6 +77,37 @@ def clear(ob):
             bpy.data.meshes.remove(cache)
 
 
+def remap(ob, kept):
+    """Keep the bake of taxel object ``ob`` across a layout edit: the new taxel i shows what old
+    taxel ``kept[i]`` showed (-1: a new or moved taxel, whose baked values no longer hold: zero,
+    False). Every cached attribute is rewritten for the new taxel count."""
+    old = ob.vtskin.cache
+    kept = np.asarray(kept, np.int64)
+    if old is None:
+        return
+    n_old = len(old.vertices)
+    if (kept >= n_old).any():
+        clear(ob)
+        return
+    cache = bpy.data.meshes.new(old.name)
+    cache.vertices.add(len(kept))
+    cache.use_fake_user = True
+    ok = kept >= 0
+    for attr in list(old.attributes):
+        if attr.domain != "POINT" or attr.name == "position" or attr.name.startswith("."):
+            continue
+        values = bridge.get_attribute(old, attr.name)
+        out = np.zeros((len(kept),) + values.shape[1:], values.dtype)
+        out[ok] = values[kept[ok]]
+        bridge.set_attribute(cache, attr.name, out, attr.data_type)
+    if SHOWS in old:
+        cache[SHOWS] = list(old[SHOWS])
+    ob.vtskin.cache = cache
+    old.use_fake_user = False
+    if old.users == 0:
+        bpy.data.meshes.remove(old)
+
+
 def frame_values(ob, frame: int) -> dict:
     """The cached arrays of ``frame`` (clamped to the baked range): name -> (N,)."""
     s = ob.vtskin

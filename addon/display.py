@@ -241,6 +241,73 @@ def ensure_display(ob):
     return mod
 
 
+def ramp_node(ob):
+    """The colour-ramp node the taxel discs of ``ob`` are coloured through (the panel draws it as
+    the legend's colour bar), or None."""
+    mod = ob.modifiers.get(MODIFIER) if ob is not None else None
+    if mod is None or mod.node_group is None:
+        return None
+    return mod.node_group.nodes.get("Ramp")
+
+
+def legend_lines(ob) -> list:
+    """What the colours of ``ob``'s taxels mean: quantity, unit and the range the ramp spans (the
+    ramp is scaled to the attribute's min and max on the object): ``vtcore.plots.legend_lines``."""
+    from vtcore.plots import legend_lines as words
+
+    from . import bridge
+
+    name = ob.vtskin.color_by
+    attr = ob.data.attributes.get(name) if ob.type == "MESH" else None
+    if attr is None:
+        return [f"{name}: not on this skin yet"]
+    if attr.data_type in ("FLOAT_COLOR", "BYTE_COLOR"):
+        return [f"{name}: the colours as stored"]
+    return words(name, bridge.get_attribute(ob.data, name))
+
+
+_ID_HANDLE = None
+
+
+def draw_ids():
+    """Viewport overlay (POST_PIXEL): each taxel's id next to it, on skins with *Show taxel ids*."""
+    import blf
+    from bpy_extras.view3d_utils import location_3d_to_region_2d
+
+    from . import bridge
+
+    context = bpy.context
+    region, rv3d = context.region, context.region_data
+    if region is None or rv3d is None:
+        return
+    for ob in context.visible_objects:
+        s = getattr(ob, "vtskin", None)
+        if s is None or s.role != "TAXELS" or not s.show_ids or "taxel_id" not in ob.data.attributes:
+            continue
+        m = bridge.matrix(ob)
+        pts = bridge.vertex_positions(ob.data).reshape(-1, 3) @ m[:3, :3].T + m[:3, 3]
+        ids = bridge.get_attribute(ob.data, "taxel_id")
+        blf.size(0, 11)
+        for p, i in zip(pts[:4000], ids[:4000]):  # a label per taxel: a few thousand at most stay readable
+            xy = location_3d_to_region_2d(region, rv3d, p)
+            if xy is not None:
+                blf.position(0, xy[0] + 4, xy[1] + 4, 0)
+                blf.draw(0, str(int(i)))
+
+
+def register_ids():
+    global _ID_HANDLE
+    if _ID_HANDLE is None and not bpy.app.background:
+        _ID_HANDLE = bpy.types.SpaceView3D.draw_handler_add(draw_ids, (), "WINDOW", "POST_PIXEL")
+
+
+def unregister_ids():
+    global _ID_HANDLE
+    if _ID_HANDLE is not None:
+        bpy.types.SpaceView3D.draw_handler_remove(_ID_HANDLE, "WINDOW")
+        _ID_HANDLE = None
+
+
 def set_color_by(ob, name: str):
     """Colour the discs of ``ob`` by attribute ``name`` (ramp for scalars, as is for colours)."""
     mod = ob.modifiers.get(MODIFIER)

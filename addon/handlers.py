@@ -19,13 +19,17 @@ def on_frame_change(scene, depsgraph=None):
 
 
 def register():
+    from . import display
+
+    display.register_ids()
     if on_frame_change not in bpy.app.handlers.frame_change_pre:
         bpy.app.handlers.frame_change_pre.append(on_frame_change)
 
 
 def unregister():
-    from . import live
+    from . import display, live
 
+    display.unregister_ids()
     live.stop()
     if on_frame_change in bpy.app.handlers.frame_change_pre:
         bpy.app.handlers.frame_change_pre.remove(on_frame_change)

@@ -16,13 +16,20 @@ import numpy as np
 
 from . import bridge, skin
 
-def fail(op, message: str):
+def fail(op, message: str, details=()):
     op.report({"ERROR"}, message)
+    for line in details:  # vtcore's detail lines (why no module fits, island by island): the Info log
+        op.report({"INFO"}, line)
     return {"CANCELLED"}
 
 
 class Cancel(Exception):
-    """Bad input: the message tells the user what to do; the operator changes nothing."""
+    """Bad input: the message tells the user what to do; the operator changes nothing.
+    ``details``: lines that say more (reported as INFO after the error)."""
+
+    def __init__(self, message: str, details=()):
+        super().__init__(message)
+        self.details = [str(d) for d in details]
 
 
 class Op:
@@ -36,7 +43,7 @@ class Op:
         try:
             return self.run(context)
         except Cancel as exc:
-            return fail(self, str(exc))
+            return fail(self, str(exc), exc.details)
 
 
 @contextmanager
@@ -49,7 +56,7 @@ def failing(what: str):
     try:
         yield
     except vt_errors() as exc:
-        raise Cancel(f"{what}: {exc}") from exc
+        raise Cancel(f"{what}: {exc}", getattr(exc, "details", None) or ()) from exc
 
 
 def need_skin(context, message: str, *, taxels: bool = False, attribute: str | None = None):

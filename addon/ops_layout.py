@@ -9,9 +9,11 @@ from . import bake, bridge, display, skin
 from .opbase import (Cancel, Op, fail, failing, mesh_in_frame, need_skin, patch_direction, selection_anchor,
                      skin_frame, to_frame, triangle_faces)
 
-def _apply_report(ob, report):
+def _apply_report(ob, edit):
+    """The whole skin's report and warnings onto ``ob`` (the panel's report box shows them)."""
     from vtcore.layout.summary import report_lines
 
+    report = edit.report
     s = ob.vtskin
     s.strain_max = 100.0 * float(report.get("strain_max") or 0.0)
     s.strain_mean = 100.0 * float(report.get("strain_mean") or 0.0)
@@ -19,20 +21,57 @@ def _apply_report(ob, report):
     cov = report.get("coverage")
     s.coverage = -1.0 if cov is None else 100.0 * float(cov)
     s.report = "\n".join(report_lines(report))
+    s.warnings = "\n".join(edit.warnings)
+
+
+def _carry(ob, edit):
+    """Per-taxel results of the skin before the edit kept for the taxels that stayed where they were
+    (``edit.kept``: old index, -1 for new or moved taxels, whose results are zero); the bake cache
+    too. Returns (pressure, response, edge) for ``skin.write_layout``."""
+    n = len(edit.layout)
+    kept = np.asarray(edit.kept if edit.kept is not None else np.full(n, -1), np.int64)
+    me = ob.data if ob is not None else None
+    out = []
+    for name, kind in (("pressure", float), ("response", float), ("edge", bool)):
+        old = bridge.get_attribute(me, name) if me is not None and name in me.attributes else None
+        vals = np.zeros(n, kind)
+        if old is not None and len(old):
+            ok = (kept >= 0) & (kept < len(old))
+            vals[ok] = np.asarray(old)[kept[ok]]
+        out.append(vals)
+    if ob is not None and ob.vtskin.cache is not None:
+        bake.remap(ob, kept)
+    return out
 
 
 def _write_edit(context, ee, skin_ob, frame, edit, module):
     """Write a LayoutEdit to ``skin_ob`` (created on ``ee`` if None). Returns the object."""
+    pressure, response, edge = _carry(skin_ob, edit)
     if skin_ob is None:
         skin_ob = skin.new_object(context, f"{ee.name} skin", matrix=frame)
         skin_ob.vtskin.end_effector = ee
         skin_ob.vtskin.module_type = module
-    skin.write_layout(skin_ob, edit.layout, edit.triangles)
-    if skin_ob.vtskin.cache is not None:
-        bake.clear(skin_ob)  # the baked frames belong to the old taxels
-    _apply_report(skin_ob, edit.report)
+    skin.write_layout(skin_ob, edit.layout, edit.triangles, pressure=pressure, response=response, edge=edge)
+    n = len(edit.layout)
+    bridge.set_attribute(skin_ob.data, "strain", np.zeros(n) if edit.strain is None else edit.strain)
+    bridge.set_attribute(skin_ob.data, "overlap", np.zeros(n) if edit.overlap is None else edit.overlap.astype(float))
+    _apply_report(skin_ob, edit)
     display.ensure_display(skin_ob)
     return skin_ob
+
+
+def _say(op, ob, edit, what):
+    """The edit's warnings as WARNING reports (the status bar and the Info log), then one INFO line."""
+    for line in edit.warnings:
+        op.report({"WARNING"}, line)
+    op.report({"INFO"}, f"{ob.name}: {what}; {len(edit.layout)} taxels, max strain {ob.vtskin.strain_max:.1f} %, "
+                        f"{ob.vtskin.overlaps} overlaps")
+
+
+def _fill_settings(s):
+    """lay_patch's strain limit, crease angle, islands and force from the scene's settings."""
+    return dict(max_strain=(s.max_strain / 100.0) or None, crease_angle=float(np.degrees(s.crease_angle)),
+                islands=s.islands, force=s.keep_refused)
 
 
 class VTSKIN_OT_lay_patch(Op, bpy.types.Operator):
@@ -58,28 +97,37 @@ class VTSKIN_OT_lay_patch(Op, bpy.types.Operator):
         verts, tri = mesh_in_frame(ee, frame)
         if len(tri) == 0:
             raise Cancel(f"{ee.name!r} has no faces: a skin needs a surface")
-        region = None
-        if self.fill or s.place_at == "SELECTED":
+        region, extra = None, {}
+        by_selection = (self.fill and s.fill_region == "SELECTED") or (not self.fill and s.place_at == "SELECTED")
+        if by_selection:
             at, sel = selection_anchor(ee, frame)
             if at is None:
-                raise Cancel(f"No faces of {ee.name!r} are selected")
+                raise Cancel(f"No faces of {ee.name!r} are selected: select the faces to cover in Edit Mode")
             if self.fill:
                 region = np.isin(triangle_faces(ee), sel)
         else:
             at = to_frame(frame, context.scene.cursor.location)
+        if self.fill and s.fill_region == "RADIUS":
+            extra["radius"] = s.fill_radius
+        elif self.fill and s.fill_region == "FACING":
+            at_sel, sel = selection_anchor(ee, frame)
+            if at_sel is not None:  # the faces of the selection that face that way
+                region, at = np.isin(triangle_faces(ee), sel), at_sel
+            # the direction is given in the end-effector's frame: into the skin frame
+            rot = np.linalg.inv(frame)[:3, :3] @ bridge.matrix(ee)[:3, :3]
+            extra.update(facing=rot @ np.asarray(s.facing, float), within=float(np.degrees(s.within)))
         patch = f"strip:{s.strip_modules}" if s.patch == "strip" else s.patch
         base = skin.read_layout(existing) if existing is not None and len(existing.data.vertices) else None
         with failing("Cannot lay the patch"):
             module = get_module(s.module, mirror=s.mirror)
         args = dict(vertices=verts, triangles=tri, at=at, existing=base, patch=patch, module=module,
                     direction=patch_direction(s.rotation), offset=s.offset, method=s.method, fill_region=region,
-                    max_faces=s.solve_faces or None)
+                    max_faces=s.solve_faces or None, **extra, **_fill_settings(s))
         return ee, existing, frame, args
 
     def _write(self, context, ee, existing, frame, edit):
         ob = _write_edit(context, ee, existing, frame, edit, context.scene.vtskin.module)
-        self.report({"INFO"}, f"{ob.name}: {len(edit.layout)} taxels, max strain "
-                    f"{ob.vtskin.strain_max:.1f} %, {ob.vtskin.overlaps} overlaps")
+        _say(self, ob, edit, "filled" if self.fill else "patch laid")
         return {"FINISHED"}
 
     def run(self, context):
@@ -101,7 +149,7 @@ class VTSKIN_OT_lay_patch(Op, bpy.types.Operator):
         try:
             self._start(context)
         except Cancel as exc:
-            return fail(self, str(exc))
+            return fail(self, str(exc), exc.details)
         context.window_manager.modal_handler_add(self)
         return {"RUNNING_MODAL"}
 
@@ -146,9 +194,18 @@ class VTSKIN_OT_lay_patch(Op, bpy.types.Operator):
             with failing("Cannot lay the patch"):
                 edit = self._job.result()
         except Cancel as exc:
-            return fail(self, str(exc))
+            return fail(self, str(exc), exc.details)
         ee, existing, frame, _ = self._input
         return self._write(context, ee, existing, frame, edit)
+
+
+def _skin_layout(ob):
+    """The skin's layout with what the last edit knew of it (module type, coverage)."""
+    layout = skin.read_layout(ob)
+    layout.meta["module_type"] = ob.vtskin.module_type
+    if ob.vtskin.coverage >= 0:
+        layout.meta["placement"] = {"coverage": ob.vtskin.coverage / 100.0}
+    return layout
 
 
 def _selected_modules(ob):
@@ -174,10 +231,12 @@ class VTSKIN_OT_remove_module(Op, bpy.types.Operator):
 
         ob = need_skin(context, "Select a skin (taxel object)")
         mods = [self.module] if self.module >= 0 else _selected_modules(ob)
+        layout = _skin_layout(ob)
         with failing("Cannot remove"):
-            edit = interactive.remove_modules(skin.read_layout(ob), mods)
+            edit = interactive.remove_modules(layout, mods, module=ob.vtskin.module_type)
         edit.layout.meta.clear()
         _write_edit(context, ob.vtskin.end_effector, ob, None, edit, ob.vtskin.module_type)
+        _say(self, ob, edit, f"removed module(s) {', '.join(map(str, np.asarray(mods).tolist()))}")
         return {"FINISHED"}
 
 
@@ -202,14 +261,15 @@ class VTSKIN_OT_move_module(Op, bpy.types.Operator):
             raise Cancel(f"Select the taxels of exactly one module (got {len(mods)} modules)")
         frame = bridge.matrix(ob)
         verts, tri = mesh_in_frame(ee, frame)
-        layout = skin.read_layout(ob)
-        layout.meta["module"] = ob.vtskin.module_type
+        layout = _skin_layout(ob)
         s = context.scene.vtskin
         with failing("Cannot move"):
             edit = interactive.move_module(layout, int(mods[0]), verts, tri,
                                            to_frame(frame, context.scene.cursor.location),
-                                           patch_direction(s.rotation), s.offset)
+                                           patch_direction(s.rotation), s.offset, module_type=ob.vtskin.module_type,
+                                           force=s.keep_refused, max_strain=(s.max_strain / 100.0) or None)
         _write_edit(context, ee, ob, frame, edit, ob.vtskin.module_type)
+        _say(self, ob, edit, f"moved module {int(mods[0])}")
         return {"FINISHED"}
 
 

@@ -62,7 +62,17 @@ class VTSKIN_PT_layout(_Panel, bpy.types.Panel):
         for name in ("place_at", "rotation", "offset", "method", "solve_faces"):
             col.prop(s, name)
         _button(col, "vtskin.lay_patch", "MESH_ICOSPHERE", {"fill": False})
-        _button(col, "vtskin.lay_patch", "MOD_TRIANGULATE", {"fill": True}, text="Fill Selected Faces")
+        fill = col.box()
+        fill.prop(s, "fill_region")
+        if s.fill_region == "RADIUS":
+            fill.prop(s, "fill_radius")
+        elif s.fill_region == "FACING":
+            _row(fill, s, "facing")
+            fill.prop(s, "within")
+        _row(fill, s, "islands")
+        fill.prop(s, "crease_angle")
+        _button(fill, "vtskin.lay_patch", "MOD_TRIANGULATE", {"fill": True}, text="Fill")
+        _row(col, s, "max_strain", "keep_refused")
         row = col.row(align=True)
         _button(row, "vtskin.remove_module", "X")
         _button(row, "vtskin.move_module", "PIVOT_CURSOR")
@@ -74,7 +84,23 @@ class VTSKIN_PT_layout(_Panel, bpy.types.Panel):
             # vtcore words the placement report (the same lines as `vtcore layout place`)
             for line in v.report.splitlines():
                 box.label(text=line[:1].upper() + line[1:])
-            box.prop(v, "color_by")
+            for line in v.warnings.splitlines():  # what the last edit warned about, not only in a terminal
+                box.label(text=line[:1].upper() + line[1:], icon="ERROR")
+            draw_legend(box, ob)
+
+
+def draw_legend(layout, ob):
+    """Colour by, the colour ramp as drawn on the taxels and what its ends mean, with units."""
+    from . import display
+
+    v = ob.vtskin
+    layout.prop(v, "color_by")
+    for line in display.legend_lines(ob):
+        layout.label(text=line)
+    ramp = display.ramp_node(ob)
+    if ramp is not None:
+        layout.template_color_ramp(ramp, "color_ramp", expand=False)
+    layout.prop(v, "show_ids")
 
 
 class VTSKIN_PT_layer(_Panel, bpy.types.Panel):
@@ -150,7 +176,7 @@ class VTSKIN_PT_replay(_Panel, bpy.types.Panel):
         # vtcore words the mismatch report and the decoder's summary
         for line in v.replay_report.splitlines():
             box.label(text=line.strip())
-        box.prop(v, "color_by")
+        draw_legend(box, ob)
 
 
 class VTSKIN_PT_filters(_Panel, bpy.types.Panel):

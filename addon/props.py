@@ -17,6 +17,9 @@ COLOR_BY = [
     ("pressure", "Pressure", "Pressure at the taxels (Pa)"),
     ("edge", "Edge", "Taxels on an edge of the contact"),
     ("tactile_color", "Tactile colour", "Colour propagated onto a point cloud"),
+    ("strain", "Strain", "Stretch of each taxel's module edges on the surface (%), from the last layout edit"),
+    ("overlap", "Overlap", "Taxels closer than 0.75 pitch to another module's"),
+    ("module_id", "Module", "The module each taxel belongs to"),
 ]
 
 
@@ -55,6 +58,10 @@ class VTSKIN_PG_object(bpy.types.PropertyGroup):
                             description="Share of the region under module outlines (-1: unknown)")
     report: StringProperty(name="Placement report", default="",
                            description="The last layout edit's placement report, one finding a line")
+    warnings: StringProperty(name="Warnings", default="",
+                             description="What the last layout edit warned about, one warning a line")
+    show_ids: BoolProperty(name="Show taxel ids", default=False,
+                           description="Draw each taxel's id next to it in the viewport")
     force: FloatProperty(name="Force", default=0.0, unit="NONE", description="Force of the last contact (N)")
     edge_threshold: FloatProperty(name="Edge threshold", default=0.0,
                                   description="Edge response threshold used (counts^2/m)")
@@ -142,6 +149,33 @@ class VTSKIN_PG_scene(bpy.types.PropertyGroup):
     method: EnumProperty(name="Method", items=[("logmap", "Log map", "Geodesic (discrete exponential map)"),
                                                ("project", "Project", "Project the flat patch")],
                          default="logmap")
+    fill_region: EnumProperty(name="Fill", default="SELECTED", items=[
+        ("SELECTED", "Selected faces", "The faces selected on the end-effector (in Edit Mode or kept from it)"),
+        ("RADIUS", "Radius round cursor", "Every face within a geodesic radius of the 3D cursor"),
+        ("FACING", "Facing a direction", "The faces whose normal is within an angle of a direction "
+                                         "(of the selection, if any faces are selected)")])
+    fill_radius: FloatProperty(name="Radius", default=0.05, min=1e-4, subtype="DISTANCE", unit="LENGTH",
+                               description="Geodesic radius of the fill round the 3D cursor")
+    facing: bpy.props.FloatVectorProperty(name="Facing", default=(0.0, 0.0, 1.0), subtype="DIRECTION", size=3,
+                                          description="Fill the faces whose normal points this way "
+                                                      "(in the end-effector's frame)")
+    within: FloatProperty(name="Within", default=0.7853981633974483, min=1e-3, max=3.141592653589793,
+                          subtype="ANGLE", description="Cone round the facing direction")
+    islands: EnumProperty(name="Islands", default="each", items=[
+        ("each", "Each its own", "Every connected part of the region gets its own lattice (most modules)"),
+        ("one", "One lattice", "Parts within two pitches of each other share one lattice (rows line up)")])
+    crease_angle: FloatProperty(name="Crease angle", default=0.6981317007977318, min=0.01, max=3.141592653589793,
+                                subtype="ANGLE",
+                                description="No module crosses an edge where the faces turn more than this "
+                                            "(40 degrees: a design crease); raise it when a coarse mesh's "
+                                            "facets are not creases of the part")
+    max_strain: FloatProperty(name="Strain limit", default=0.0, min=0.0, max=100.0, subtype="PERCENTAGE",
+                              description="Largest stretch of a module edge (percent). 0: the defaults, 5 % "
+                                          "(Fill leaves out modules straining more) and 10 % (a patch straining "
+                                          "more is refused)")
+    keep_refused: BoolProperty(name="Keep anyway", default=False,
+                               description="Keep a placement that has taxels off the surface, is over-strained or lies far "
+                                    "from the cursor (refused otherwise); it is kept with warnings")
     solve_faces: IntProperty(name="Solve faces", default=20000, min=0,
                              description="Solve the log map on a copy simplified to about this many faces "
                                          "(0: the full mesh); fewer is faster and less accurate")

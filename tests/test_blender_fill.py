@@ -221,7 +221,15 @@ def test_panel_draws_the_report_lines():
     bpy.context.view_layer.objects.active = ob
     panel.VTSKIN_PT_layout.draw_more(None, UI(log), bpy.context.scene.vtskin, bpy.context)
     labels = [t for name, t in log if name == "label"]
-    assert [t.lower() for t in labels[1:]] == [line.lower() for line in lines]
+    assert [t.lower() for t in labels[1:1 + len(lines)]] == [line.lower() for line in lines]
+    # the legend: what the colours mean, with the unit, and the colour ramp itself
+    assert labels[1 + len(lines)] == "Sensor response (counts): purple 0 .. yellow 0 (all equal)"
+    assert ("template_color_ramp", None) in log
+    ob.vtskin.color_by = "strain"
+    log.clear()
+    panel.VTSKIN_PT_layout.draw_more(None, UI(log), bpy.context.scene.vtskin, bpy.context)
+    legend = [t for name, t in log if name == "label" and t and t.startswith("Module-edge strain (%)")]
+    assert len(legend) == 1 and f"yellow {ob.vtskin.strain_max:.4g}" in legend[0]
 
 
 def test_mirror_setting_lays_mirror_image_modules():

@@ -105,3 +105,61 @@ def skin_3d(positions, values, *, mesh=None, title="", label="", cmap="viridis",
     ax.set_title(title)
     fig.colorbar(sc, ax=ax, label=label, shrink=0.7, pad=0.1)
     return fig
+
+
+#: Every per-taxel quantity the add-on colours, with its title, unit and the factor from vtcore's
+#: SI value to the unit shown (strain is a fraction, shown in %); "bool" quantities are two colours.
+QUANTITIES = {
+    "pressure": ("Pressure", "Pa", 1.0),
+    "response": ("Sensor response", "counts", 1.0),
+    "response_compensated": ("Response above baseline", "counts", 1.0),
+    "edge": ("Edge of the contact", "bool", 1.0),
+    "strain": ("Module-edge strain", "%", 100.0),
+    "overlap": ("Overlap with another module", "bool", 1.0),
+    "compliance": ("Compliance", "m/N", 1.0),
+    "module_id": ("Module", "id", 1.0),
+}
+
+
+def legend_lines(name: str, values) -> list[str]:
+    """The legend of a colour-by quantity as the add-on's panel shows it: title and unit, then the
+    range the colour ramp spans (low = dark purple, high = yellow; viridis), from ``values`` (N,)."""
+    title, unit, k = QUANTITIES.get(name, (name.replace("_", " ").capitalize(), "", 1.0))
+    v = np.asarray(values, float).reshape(-1)
+    v = v[np.isfinite(v)]
+    if unit == "bool":
+        n = int((v > 0.5).sum())
+        return [f"{title}: yellow yes ({n} taxels), purple no ({len(v) - n})"]
+    if not len(v):
+        return [f"{title} ({unit}): no values"]
+    lo, hi = float(v.min()) * k, float(v.max()) * k
+    return [f"{title} ({unit}): purple {lo:.4g} .. yellow {hi:.4g}" + (" (all equal)" if lo == hi else "")]
+
+
+def add_colorbar(png_path, name: str, lo: float, hi: float, cmap: str = "viridis") -> None:
+    """Append a horizontal colour bar with the quantity's title, unit and range under the picture
+    ``png_path`` (rendered pictures of the add-on: ``scripts/render_docs.py``), in place."""
+    plt = pyplot()
+    import matplotlib as mpl
+
+    title, unit, k = QUANTITIES.get(name, (name, "", 1.0))
+    img = plt.imread(str(png_path))
+    h, w = img.shape[:2]
+    dpi = 100
+    fig = plt.figure(figsize=(w / dpi, h / dpi + 0.9), dpi=dpi)
+    ax = fig.add_axes([0, 0.9 / (h / dpi + 0.9), 1, h / dpi / (h / dpi + 0.9)])
+    ax.imshow(img)
+    ax.axis("off")
+    cax = fig.add_axes([0.15, 0.35 / (h / dpi + 0.9), 0.7, 0.18 / (h / dpi + 0.9)])
+    if unit == "bool":
+        cmap_ = mpl.colors.ListedColormap([mpl.colormaps[cmap](0.0), mpl.colormaps[cmap](1.0)])
+        cb = fig.colorbar(mpl.cm.ScalarMappable(mpl.colors.Normalize(0, 1), cmap_), cax=cax,
+                          orientation="horizontal", ticks=[0.25, 0.75])
+        cb.ax.set_xticklabels(["no", "yes"])
+        cb.set_label(title)
+    else:
+        cb = fig.colorbar(mpl.cm.ScalarMappable(mpl.colors.Normalize(lo * k, hi * k if hi > lo else lo * k + 1),
+                                                mpl.colormaps[cmap]), cax=cax, orientation="horizontal")
+        cb.set_label(f"{title} ({unit})")
+    fig.savefig(str(png_path), dpi=dpi)
+    plt.close(fig)

@@ -242,3 +242,80 @@ def points_in_outlines(points: np.ndarray, patch: Patch) -> np.ndarray:
     ins = np.all(cross >= 0, axis=1) | np.all(cross <= 0, axis=1)
     out[rows[ins]] = True
     return out
+
+
+def module_edge_strain(layout: Layout, module) -> tuple[np.ndarray, np.ndarray]:
+    """``(per_taxel (N,), edges (E,))``: the largest |strain| of the module edges at each taxel of
+    ``layout``, and the |strain| of every module edge, judged against the
+    module type's own flat geometry (``module``: a :class:`~vtcore.layout.modules.ModuleType`), so
+    any skin can be judged, however it was made (patches merged, modules moved, files read).
+
+    A taxel's sensor (slot) comes from its id (CySkin: the low 4 bits; iCub: id modulo the slots);
+    an edge is a pair of the module's taxels at most 1.25 pitch apart in the flat module; its strain
+    is the arc through both taxels' normals over the flat length, minus one (as
+    :func:`layout_strain`). Taxels with no edge (a sensor the module type lacks) get 0.
+    """
+    from .uids import cyskin_sensors
+
+    n = len(layout)
+    out = np.zeros(n)
+    if not n:
+        return out, np.zeros(0)
+    ids = np.asarray(layout.taxel_ids, np.int64)
+    sensors = ids % module.slots if module.id_scheme == "icub" else cyskin_sensors(ids)
+    row_of = np.full(max(int(module.sensors.max()), int(sensors.max())) + 1, -1, np.int64)
+    row_of[module.sensors] = np.arange(len(module.sensors))
+    rows = row_of[np.clip(sensors, 0, len(row_of) - 1)]
+    mods, mi = np.unique(layout.module_ids, return_inverse=True)
+    table = np.full((len(mods), len(module.taxels)), -1, np.int64)
+    ok = rows >= 0
+    table[mi[ok], rows[ok]] = np.flatnonzero(ok)
+    e = module.edges
+    i, j = table[:, e[:, 0]].ravel(), table[:, e[:, 1]].ravel()
+    flat = np.tile(np.linalg.norm(module.taxels[e[:, 0]] - module.taxels[e[:, 1]], axis=1), len(mods))
+    both = (i >= 0) & (j >= 0)
+    i, j, flat = i[both], j[both], flat[both]
+    p, nrm = np.asarray(layout.positions), np.asarray(layout.normals)
+    s = np.abs(arc_lengths(p[i], p[j], nrm[i], nrm[j]) / np.where(flat > 0, flat, np.nan) - 1.0)
+    s = np.nan_to_num(s, nan=0.0)
+    np.maximum.at(out, i, s)
+    np.maximum.at(out, j, s)
+    return out, s
+
+
+def overlapping_taxels(positions: np.ndarray, module_ids: np.ndarray, min_distance: float) -> np.ndarray:
+    """(N,) bool: taxels closer than ``min_distance`` metres to a taxel of another module."""
+    out = np.zeros(len(positions), bool)
+    if len(positions) < 2:
+        return out
+    pairs = cKDTree(positions).query_pairs(min_distance, output_type="ndarray")
+    if len(pairs):
+        cross = pairs[module_ids[pairs[:, 0]] != module_ids[pairs[:, 1]]]
+        out[cross.ravel()] = True
+    return out
+
+
+def skin_report(layout: Layout, module, previous: dict | None = None, n_before: int | None = None) -> tuple:
+    """The report of a whole skin after an edit (modules removed or moved), judged on the skin as it
+    is, and the per-taxel values to colour it by.
+
+    layout : every taxel of the skin. module : its ModuleType. previous : the report dict before
+    the edit (its coverage is scaled by the module count, ``n_before`` modules before; the region
+    is not re-measured) and its notes are dropped. Returns ``(report dict, strain (N,), overlap
+    (N,) bool)``: the report has ``strain_max``, ``strain_mean`` (of the module edges' |strain|),
+    ``overlaps`` (module pairs) with ``overlap_pairs``, ``coverage``; ``strain`` is the largest
+    |strain| of the module edges at each taxel.
+    """
+    strain, edges = module_edge_strain(layout, module)
+    gap = OVERLAP_FRACTION * module.pitch
+    pairs = find_overlaps(np.asarray(layout.positions), np.asarray(layout.module_ids), gap)
+    overlap = overlapping_taxels(np.asarray(layout.positions), np.asarray(layout.module_ids), gap)
+    rep = {"method": (previous or {}).get("method", "edit"), "strain_max": float(edges.max()) if len(edges) else 0.0,
+           "strain_mean": float(edges.mean()) if len(edges) else 0.0, "overlaps": len(pairs),
+           "overlaps_within": len(pairs), "overlaps_existing": 0, "overlap_pairs": [list(p) for p in pairs],
+           "existing_overlap_pairs": [], "notes": []}
+    cov = (previous or {}).get("coverage")
+    if cov is not None and n_before:
+        rep["coverage"] = float(cov) * layout.n_modules / n_before
+        rep["notes"].append("coverage scaled by the modules kept, the region not re-measured")
+    return rep, strain, overlap
