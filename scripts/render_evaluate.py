@@ -23,6 +23,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "scripts"))
 
 
 def ur5_forearm():
@@ -97,21 +98,6 @@ def camera(context, ee, sk, lay, mapped):
     context.scene.world = world
 
 
-def render(context, path, samples, size=(900, 640)):
-    import bpy
-
-    sc = context.scene
-    sc.render.engine = "CYCLES"
-    sc.cycles.device = "CPU"
-    sc.cycles.samples = samples
-    sc.cycles.use_denoising = False
-    sc.render.resolution_x, sc.render.resolution_y = size
-    sc.render.resolution_percentage = 100
-    sc.view_settings.view_transform = "Standard"
-    sc.render.filepath = str(path)
-    bpy.ops.render.render(write_still=True)
-
-
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--out", default=str(ROOT / "docs" / "img"))
@@ -119,6 +105,7 @@ def main():
     ap.add_argument("--only", choices=("ur5", "cad"), default=None)
     args = ap.parse_args()
     import bpy
+    from render_docs import render  # the docs' own Cycles settings (CPU, Standard view)
 
     from tests.blender.bl_helpers import register_addon
 
@@ -144,7 +131,7 @@ def main():
         for m in maps:
             s.map_show = m
             assert bpy.ops.vtskin.map_legend() == {"FINISHED"}
-            render(ctx, out / f"evaluate_{name}_{m}.png", args.samples)
+            render(ctx, out / f"evaluate_{name}_{m}.png", args.samples, size=(900, 640))
     addon.unregister()
     sys.stdout.flush()
     os._exit(0)
