@@ -19,9 +19,10 @@ def on_frame_change(scene, depsgraph=None):
 
 
 def register():
-    from . import display
+    from . import display, live
 
     display.register_ids()
+    live.register()
     if on_frame_change not in bpy.app.handlers.frame_change_pre:
         bpy.app.handlers.frame_change_pre.append(on_frame_change)
 
@@ -30,6 +31,6 @@ def unregister():
     from . import display, live
 
     display.unregister_ids()
-    live.stop()
+    live.unregister()
     if on_frame_change in bpy.app.handlers.frame_change_pre:
         bpy.app.handlers.frame_change_pre.remove(on_frame_change)

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import bpy
 import numpy as np
+from bpy.app.handlers import persistent
 
 from . import bridge, display, skin
 
@@ -141,3 +142,24 @@ def write(ob, frame, s) -> None:
         s.live_note = frame.note
     if ob.modifiers.get(display.MODIFIER) is None:
         display.ensure_display(ob)
+
+
+@persistent
+def on_load_post(*_args):
+    """A file saved with live touch on opens with it on (and a file opened over a live session stops it)."""
+    stop()
+    scene = bpy.context.scene
+    s = getattr(scene, "vtskin", None) if scene is not None else None
+    if s is not None and s.live_touch:
+        toggle(scene, True)
+
+
+def register() -> None:
+    if on_load_post not in bpy.app.handlers.load_post:
+        bpy.app.handlers.load_post.append(on_load_post)
+
+
+def unregister() -> None:
+    if on_load_post in bpy.app.handlers.load_post:
+        bpy.app.handlers.load_post.remove(on_load_post)
+    stop()

@@ -125,3 +125,28 @@ def test_live_touch_follows_the_indenter(skinned, model):
     ind.location.x += 0.003
     bpy.context.view_layer.update()
     np.testing.assert_array_equal(attr(ob, "pressure"), seen[-1])  # off: nothing follows any more
+
+
+def test_live_touch_survives_save_and_reload(skinned, tmp_path):
+    """A .blend saved with live touch on reopens with the skin following the indenter."""
+    from addon import bridge
+
+    ee, ind, ob = skinned
+    s = bpy.context.scene.vtskin
+    s.live_model, s.force = "local", 2.0
+    s.live_touch = True
+    names = ob.name, ind.name  # bpy references do not survive opening a file
+    path = str(tmp_path / "live.blend")
+    bpy.ops.wm.save_mainfile(filepath=path)
+    s.live_touch = False
+    bpy.ops.wm.open_mainfile(filepath=path)
+    try:
+        ob2, ind2 = bpy.data.objects[names[0]], bpy.data.objects[names[1]]
+        assert bpy.context.scene.vtskin.live_touch
+        before = bridge.get_attribute(ob2.data, "pressure").copy()
+        ind2.location.x += 0.004
+        bpy.context.view_layer.update()
+        after = bridge.get_attribute(ob2.data, "pressure")
+        assert after.any() and not np.allclose(before, after)
+    finally:
+        bpy.context.scene.vtskin.live_touch = False
