@@ -210,3 +210,20 @@ def test_saturating_sensor(hexagon):
     c = evaluate_points(hexagon, pts, nrm, LAYER, Settings(draws=4), dead)
     assert not c.detection.detectable.any() and not c.localisation.located.any() and c.blind.all()
     assert np.all(np.isfinite(c.detection.threshold))
+
+
+def test_dead_taxels_leave_their_surface_covered_and_blind(hexagon):
+    """The covered surface is the layout's: with all but six taxels dead, the hexagon's surface is still
+    the covered surface, and most of it is blind."""
+    import trimesh
+
+    plate = trimesh.creation.box(extents=(0.09, 0.09, 0.01))
+    plate.apply_translation((0, 0, -0.005))
+    plate = plate.subdivide_to_size(0.004)
+    dead = tuple(int(i) for i in hexagon.taxel_ids[6:])
+    st = Settings(two_point=False, draws=4)
+    full = evaluate(hexagon, plate, LAYER, st, spacing=0.004, margin=0.0)
+    few = evaluate(hexagon, plate, LAYER, Settings(two_point=False, draws=4, dead=dead), spacing=0.004, margin=0.0)
+    assert few.summary()["covered_area_cm2"] == pytest.approx(full.summary()["covered_area_cm2"])
+    assert few.summary()["blind_area_covered_cm2"] > 0.5 * few.summary()["covered_area_cm2"]
+    assert full.summary()["blind_area_covered_cm2"] < 0.1 * full.summary()["covered_area_cm2"]

@@ -247,15 +247,19 @@ def evaluate(layout, mesh, layer, settings: Settings | None = None, noise: Senso
     """Design maps of ``layout`` on ``mesh`` (trimesh, metres, the layout's frame) through ``layer``.
 
     spacing : m between samples; margin : m of surface evaluated beyond the covered part (points
-    within ``cover`` of a taxel, default :func:`samples.cover_radius`). The layer is taken to cover
+    within ``cover`` of a pressure taxel of the layout, dead ones included: their surface stays
+    covered, and blind; default :func:`samples.cover_radius`). The layer is taken to cover
     the whole evaluated surface (a designer covers the link, not only the taxels).
     """
     settings = settings or Settings()
     alive = live_taxels(layout, settings.dead)
     if not alive.any():
         raise InputError("every taxel of the layout is dead or not a pressure taxel", key="dead")
+    # the surface the design covers is the layout's, dead taxels included: a dead taxel leaves a hole
+    # in the covered surface, not a gap that the margin then calls uncovered
+    placed = live_taxels(layout, ())
     t0 = time.perf_counter()
-    samples = sample_surface(mesh, layout.positions[alive], layout.normals[alive], spacing=spacing, margin=margin,
+    samples = sample_surface(mesh, layout.positions[placed], layout.normals[placed], spacing=spacing, margin=margin,
                              cover=cover_radius() if cover is None else cover)
     t_samples = time.perf_counter() - t0
     sel = None
