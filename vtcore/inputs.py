@@ -567,6 +567,14 @@ def finite_json(obj, where: str = ""):
     Writers call it before writing: JSON has no NaN, and a text file with ``nan`` is
     not re-readable by the readers that refuse it.
     """
+    if not where:
+        import json
+
+        try:  # the common case, at C speed: plain JSON types, all finite
+            json.dumps(obj, allow_nan=False)
+            return
+        except (ValueError, TypeError, RecursionError):
+            pass  # a non-finite number (found and named below) or numpy values the walk handles
     if isinstance(obj, float) or isinstance(obj, np.floating):
         if not math.isfinite(obj):
             raise InputError(f"is {obj}; refusing to write a non-finite number", key=where or None)

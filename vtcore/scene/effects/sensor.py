@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...contact import sensor as S
+from ...errors import InputError
 from ..budget import MAX_COUNTS, MAX_GAIN
 from ..registry import EffectSpec, register_effect
 from ..schema import Field, Section
@@ -117,6 +118,9 @@ class Sampling:
         if t is None:
             return _join(f, st)  # rows are already readings on the sensor clock
         frames, clock = S.sample_clock(np.atleast_2d(f), t, self.rate, self.phase)
+        if len(t) and not len(clock):  # a run without a single reading has no result to give
+            raise InputError(f"{self.phase:g} s is past the last frame ({float(np.max(t) - np.min(t)):g} s after the "
+                             "first): the clock never ticks", key="phase")
         out = _join(frames, st, clock)
         if isinstance(out, dict):
             out["sample_index"] = np.searchsorted(np.asarray(t, float), clock + 1e-12, side="right") - 1
