@@ -103,14 +103,14 @@ def link_skin(faces: int, modules: int):
 
 def perf_rows(quick: bool, layer, noise) -> list[dict]:
     """The performance case (see the module docstring)."""
-    import vtcore.evaluate.design as design
+    from .design import clear_tables
 
     mesh, lay = link_skin(10_000 if quick else 100_000, 30 if quick else 100)
     rows = []
 
     def one(setting, st, spacing, layouts=(lay,), cold=False):
         if cold:
-            design._TABLES.clear()
+            clear_tables()
         tracemalloc.start()
         wall, cpu, dms = _timed(lambda: [evaluate(x, mesh, layer, st, noise, spacing=spacing) for x in layouts])
         peak = tracemalloc.get_traced_memory()[1]
@@ -139,7 +139,7 @@ def perf_rows(quick: bool, layer, noise) -> list[dict]:
 
 def knob_rows(hexagon, layer, noise, quick) -> list[dict]:
     """The table's cell against a 0.25 mm table (its convergence) and what it costs."""
-    import vtcore.evaluate.design as design
+    from .design import clear_tables
 
     rng = np.random.default_rng(3)
     m = 16 if quick else 64
@@ -148,7 +148,7 @@ def knob_rows(hexagon, layer, noise, quick) -> list[dict]:
     out, ref = [], None
     for cell in (0.00025, 0.0005, 0.001):
         st = Settings(two_point=False, table_spacing=cell)
-        design._TABLES.clear()
+        clear_tables()
         t, c, pm = _timed(lambda: evaluate_points(hexagon, pts, nrm, layer, st, noise))
         if ref is None:
             ref = pm

@@ -144,6 +144,11 @@ def live_taxels(layout, dead=()) -> np.ndarray:
     return (roles == "pressure") & ~np.isin(ids, dead)
 
 
+def clear_tables() -> None:
+    """Forget the response tables kept in memory (a benchmark's cold start)."""
+    _TABLES.clear()
+
+
 def table_for(settings: Settings, layer) -> ResponseTable:
     """The probe's response table for ``layer`` and ``settings`` (kept in memory: layouts compared on
     the same layer share it)."""
