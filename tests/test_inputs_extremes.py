@@ -206,3 +206,26 @@ def test_info_pitch_from_the_file_cannot_ask_for_every_pair(icub_json, tmp_path)
     src = _write(tmp_path, doc)
     rc, _, err = run("layout", "info", src)
     one_error(rc, err, f"{src}: meta.pitch_m")
+
+
+def test_ply_ids_past_32_bits_are_written_as_what_they_are(icub_json, tmp_path):
+    """The PLY writer declared every id ``int`` (32 bits) and wrote 2**40 under it: a consumer that
+    believes the header reads garbage. Ids past 32 bits are declared ``double`` (exact to 2**53);
+    past 2**53 the export is one error naming the key."""
+    import trimesh
+
+    from vtcore.layout import load
+
+    doc = json.loads(json.dumps(icub_json))
+    doc["taxels"]["taxel_ids"] = [2 ** 40 + k for k in range(24)]
+    src = _write(tmp_path, doc)
+    (rc, _, err), out = _export(src, tmp_path, "ply")
+    assert rc == 0, err
+    assert "property double taxel_id" in out.read_text()
+    assert load(out).taxel_ids.tolist() == doc["taxels"]["taxel_ids"]
+    raw = trimesh.load(out).metadata["_ply_raw"]["vertex"]["data"]["taxel_id"].ravel()
+    assert raw.astype("int64").tolist() == doc["taxels"]["taxel_ids"]
+    doc["taxels"]["taxel_ids"][0] = 2 ** 60
+    src = _write(tmp_path, doc)
+    (rc, _, err), out = _export(src, tmp_path, "ply")
+    one_error(rc, err, "taxel_ids: holds 1152921504606846976")

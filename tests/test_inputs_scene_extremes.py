@@ -154,3 +154,87 @@ def test_contour_documents_the_nan_of_its_distances():
     from vtcore.scene.tasks import contour
 
     assert "nan_meaning" in inspect.getsource(contour.run)
+
+
+# ----------------------------------------------------------------------------- found by the scene-extremes fuzz
+TINY = """
+[scene]
+name = "tiny"
+task = "press"
+seed = 1
+[end_effector]
+shape = "plane"
+size = [0.05, 0.05]
+[layout]
+patch = "triangle"
+[layer]
+thickness = 0.003
+grid_spacing = 0.0015
+samples_per_taxel = 3
+[[objects]]
+kind = "sphere"
+radius = 0.01
+[task]
+force = 2.0
+readings = 3
+[effects.soft_layer]
+[effects.object_compliance]
+[effects.gain]
+[effects.noise]
+[effects.sampling]
+rate = 10.0
+[output]
+plots = false
+"""
+
+
+@pytest.fixture
+def tiny(tmp_path):
+    p = tmp_path / "tiny.toml"
+    p.write_text(TINY)
+    return p
+
+
+@pytest.mark.parametrize("setting, needle", [
+    ("layer.grid_spacing=1e308", "layer.grid_spacing: must be <= 0.01 m"),       # 2 * dx overflowed: no cells
+    ("effects.sampling.phase=1e308", "effects.sampling.phase: must be <= 3600.0 s"),  # int(-inf)
+    ("effects.object_compliance.default_stiffness=5e-324", "default_stiffness: must be >= 1.0 N/m"),  # F / k = inf
+    ("objects[0].gap=-1e308", None),  # --set cannot address an array of tables: edited below
+    ("effects.gain.p_half=1e308", "effects.gain.p_half: must be <= 1000000000000.0 Pa"),  # overflow in gain
+    ("layout.pitch=1e-320", "layout.pitch: must be >= 0.0001 m"),  # every taxel on one point
+    ("effects.drift.rate=1e308", "effects.drift.rate: must be <= 1000000000.0"),  # 1e308 counts/s * t = inf
+])
+def test_values_the_scene_fuzz_found_are_refused_by_name(tiny, tmp_path, setting, needle):
+    if needle is None:
+        tiny.write_text(TINY.replace("radius = 0.01\n", "radius = 0.01\ngap = -1e308\n"))
+        setting, needle = "task.readings=3", "objects[0].gap: must be >= -0.1 m"
+    rc, _, err = run("run", tiny, "--set", setting, "--out", tmp_path / "o")
+    one_error(rc, err, f"{tiny}: ", needle)
+    assert not (tmp_path / "o").exists()
+
+
+def test_a_sampling_clock_that_never_ticks_is_one_error(tiny, tmp_path):
+    """Found: a phase past the run's last frame gave no reading, then IndexError in the press task."""
+    rc, _, err = run("run", tiny, "--set", "effects.sampling.phase=1000", "--out", tmp_path / "o")
+    one_error(rc, err, f"{tiny}: effects.sampling.phase: 1000 s is past the last frame")
+
+
+def test_a_target_the_physics_cannot_reach_names_the_scene(tiny, tmp_path):
+    """An UnreachableTargetError raised inside the run names the scene file (and 'task')."""
+    rc, _, err = run("run", tiny, "--set", "task.force=1e4", "--out", tmp_path / "o")
+    one_error(rc, err, f"{tiny}: task: ", "bottoms out")
+
+
+def test_a_warning_of_a_run_is_a_vtcore_warning_line(tiny, tmp_path):
+    """Warnings inside a run are ``vtcore: warning: SCENE: KEY: ...`` lines, never Python's own
+    ``UserWarning``/``RuntimeWarning`` lines with a source line; result.json and report.md list them."""
+    import json
+
+    rc, _, err = run("run", tiny, "--set", "layout.at=[0.0, 0.0, -1.0]", "--out", tmp_path / "o")
+    assert rc == 0, err
+    lines = err.rstrip("\n").split("\n")
+    assert lines and all(ln.startswith(f"vtcore: warning: {tiny}: task: ") for ln in lines), err
+    assert "Warning" not in err and "warnings.warn" not in err
+    result = json.loads((tmp_path / "o" / "result.json").read_text())
+    assert [w["key"] for w in result["warnings"]] == ["task"] and "off the surface" in result["warnings"][0]["message"]
+    assert "## Warnings" in (tmp_path / "o" / "report.md").read_text()

@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from ..._io import atomic_write
-from ...errors import FormatError
+from ...errors import FormatError, InputError
 from ...inputs import read_bytes
 from ..model import Layout
 from .common import (ImportReport, clean_normals, default_faces, finish, number, parse_number, transform_of,
@@ -32,6 +32,17 @@ SUFFIXES = (".ply",)
 _ROLE_CODE = {"pressure": 0, "thermal": 1}
 
 
+def _int_type(values: np.ndarray, key: str) -> str:
+    """The PLY property type of an id column: ``int`` (32 bits) when every value fits, else ``double``,
+    which holds integers exactly to 2**53 (PLY has no 64-bit integer); past that, an error naming ``key``."""
+    if not len(values) or (values.min() >= -(2 ** 31) and values.max() < 2 ** 31):
+        return "int"
+    if np.abs(values).max() <= 2 ** 53:
+        return "double"
+    raise InputError(f"holds {int(np.abs(values).max())}; a PLY file holds integers exactly up to 2**53 "
+                     "(its widest number is a double)", key=key)
+
+
 def write(layout: Layout, path, faces: np.ndarray | None = None, *, mesh: bool = False) -> None:
     """ASCII PLY: vertex ``x y z nx ny nz taxel_id module_id role [u v] [can_id]`` (one per
     taxel, metres; ``role`` 0 pressure, 1 thermal, 2 other) and the faces the layout was read
@@ -40,11 +51,12 @@ def write(layout: Layout, path, faces: np.ndarray | None = None, *, mesh: bool =
         faces = default_faces(layout)
     faces = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
     props = ["double x", "double y", "double z", "double nx", "double ny", "double nz",
-             "int taxel_id", "int module_id", "uchar role"]
+             f"{_int_type(layout.taxel_ids, 'taxel_ids')} taxel_id",
+             f"{_int_type(layout.module_ids, 'module_ids')} module_id", "uchar role"]
     if layout.flat is not None:
         props += ["double u", "double v"]
     if layout.can_ids is not None:
-        props += ["int can_id"]
+        props += [f"{_int_type(layout.can_ids, 'can_ids')} can_id"]
     face_el = "face" if mesh else "skin_face"
     head = ["ply", "format ascii 1.0", "comment vtcore layout, units metres, one vertex per taxel in taxel order",
             f"comment frame {layout.frame}",
