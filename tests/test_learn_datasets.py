@@ -96,15 +96,26 @@ def test_cloud_inputs_are_normalised_and_coloured_from_the_chosen_touches():
     ds = D.make_dataset(scans, 3, "cluster", per_object=20, seed=2)
     subs = D.object_subsamples(scans, 2)
     scale = D.c_scale(scans)
-    assert scale == 2e6
+    assert scale == pytest.approx(np.quantile(np.tile(np.linspace(1e6, 2e6, 17), 2), 0.95))
     x = D.build_clouds(ds, scans, subs)
     assert x.shape == (40, 512, 4)
     assert np.allclose(x[:, :, :3].mean(axis=1), 0, atol=1e-6)
     assert np.allclose(np.linalg.norm(x[:, :, :3], axis=2).max(axis=1), 1.0, atol=1e-6)
     for r in (0, 25):
         o = ds.labels[r]
-        allowed = scans[o].touch_values[ds.touches[r]] / scale          # cluster: each point takes one touch's colour
+        allowed = np.minimum(scans[o].touch_values[ds.touches[r]] / scale, 1.0)   # one touch's colour, on the scale
         assert np.all(np.isin(np.round(x[r, :, 3], 6), np.round(allowed.astype(np.float32), 6)))
+
+
+def test_one_outlier_touch_does_not_set_the_colour_scale():
+    """Eq. 1 with a noisy sub-millimetre displacement is heavy-tailed: one touch 1000x too stiff must
+    not squeeze every other colour to 0 (it saturates at the top of the scale instead)."""
+    vals = np.linspace(1e6, 2e6, 17)
+    vals[3] = 1e9
+    scans = [scan("a", values=vals), scan("b", seed=1, values=np.linspace(3e6, 4e6, 17))]
+    scale = D.c_scale(scans)
+    assert 3e6 < scale < 5e6
+    np.testing.assert_allclose(D.colour_input([1e6, 1e9, -1.0], scale), [1e6 / scale, 1.0, 0.0])
 
 
 def test_scan_rejects_nan_and_mismatched_probes():

@@ -131,7 +131,8 @@ def _touch(probe_fn, v, n, noise, rng):
     if noise is not None and reached.any():
         disp[reached], repeats, _ = noise.measure(disp[reached], p_mean[reached], rng)
         repeated = int(np.sum(repeats > 0))
-    physical = np.isfinite(disp) & (disp > MIN_DISPLACEMENT) & (p_mean > 0)
+    floor = noise.min_displacement if noise is not None else MIN_DISPLACEMENT
+    physical = np.isfinite(disp) & (disp > floor) & (p_mean > 0)
     rejected = int(np.sum(reached & ~physical))
     disp[~physical] = np.nan
     return p_mean, disp, {"probes_repeated": repeated, "probes_rejected": rejected}

@@ -23,7 +23,11 @@ The model (each number is an assumption or a measurement, named as such):
   the order of a Franka Panda's pose repeatability, 0.1 mm).
 
 A touch whose measured displacement is at or below ``min_displacement`` (or not finite)
-is non-physical for Eq. 1. It is **repeated** (the robot backs off and touches again:
+is non-physical for Eq. 1. The scene tasks set it to what this measurement reads, on
+average, for the skin's soft layer alone pressed to p̄* on a rigid flat plate
+(:func:`rigid_floor` through :meth:`ProbeNoise.expected`, a calibration a real robot can
+make too): no object, however stiff, gives less, so a smaller reading (a colour above a
+rigid object's) is the noise's, not the object's. It is **repeated** (the robot backs off and touches again:
 fresh detection and position errors) up to ``retries`` times; if it never comes out
 physical it is **rejected**, and the caller samples another contact point. Both are
 counted; neither stops a scan.
@@ -69,8 +73,9 @@ def skin_noise(profile: str = "cyskin") -> SkinNoise:
     except ImportError:
         return SkinNoise(CYSKIN_NOISE_COUNTS, DETECT_K, CYSKIN_NOISE_SOURCE)
     prof = load_profile(profile)
-    return SkinNoise(float(prof.noise_sigma), float(getattr(prof, "detect_k", DETECT_K)),
-                     f"sensor profile {profile!r} ({getattr(prof, 'source', 'vtcore.contact.profile')})")
+    return SkinNoise(float(prof.noise_sigma), float(prof.detection_k),
+                     f"sensor profile {prof.name!r} (median per-taxel sigma, clipping at 0 accounted for, fitted "
+                     f"on the untouched recordings of shared/data/cyskin_gesture)")
 
 
 @dataclass
@@ -80,7 +85,8 @@ class ProbeNoise:
     position_sigma : m, per measured robot position. approach_speed : m/s. read_rate : Hz.
     detect_counts : counts, the contact threshold on p̄ (``detect_k * sigma / sqrt(taxels)``
     of the skin's noise, :meth:`from_skin`). retries : how many times a non-physical touch is
-    repeated before it is rejected. min_displacement : m.
+    repeated before it is rejected. min_displacement : m, at or below it a measured
+    displacement is non-physical (see the module docstring).
     """
 
     position_sigma: float = 50e-6
@@ -91,7 +97,7 @@ class ProbeNoise:
     min_displacement: float = MIN_DISPLACEMENT
 
     def __post_init__(self):
-        for key in ("position_sigma", "approach_speed", "detect_counts"):
+        for key in ("position_sigma", "approach_speed", "detect_counts", "min_displacement"):
             v = getattr(self, key)
             if not (np.isfinite(v) and v >= 0):
                 raise InputError(f"must be a finite number >= 0, got {v}", key=key)
@@ -109,6 +115,12 @@ class ProbeNoise:
     def latency_travel(self) -> float:
         """Metres the probe can travel between the threshold crossing and the frame that sees it."""
         return self.approach_speed / self.read_rate
+
+    def expected(self, disp, p_mean):
+        """The mean measured displacement (m) of a touch whose true one is ``disp`` at ``p_mean`` counts:
+        less the part pressed before the threshold and half the latency travel (position noise is
+        zero-mean)."""
+        return float(disp) * (1.0 - min(self.detect_counts / float(p_mean), 1.0)) - 0.5 * self.latency_travel
 
     def _draw(self, disp, p_mean, rng):
         """One measurement of each touch: (n,) metres."""
@@ -138,3 +150,30 @@ class ProbeNoise:
             out[bad] = self._draw(disp[bad], p[bad], rng)
         ok = np.isfinite(out) & (out > self.min_displacement)
         return np.where(ok, out, np.nan), repeats, ok
+
+
+def rigid_floor(probe_fn) -> float:
+    """Displacement (m) of a probe pressed to its target on a rigid flat plate: its skin's layer alone.
+
+    probe_fn : ``(points (n, 3), normals (n, 3)) -> (p_mean (n,), v_ss (n, 3))`` built for a rigid
+    plate whose top face is z = 0 (a :class:`~vtcore.augment.probing.ContactProber` of
+    :func:`rigid_plate`), or any probe of the same shape.
+    """
+    v, n = np.zeros((1, 3)), np.array([[0.0, 0.0, 1.0]])
+    p, v_ss = probe_fn(v, n)
+    d = float((v - np.asarray(v_ss, float))[0] @ n[0])
+    if not (np.isfinite(p[0]) and np.isfinite(d) and d > 0):
+        raise InputError(f"the probe did not reach its target on a rigid plate (displacement {d} m)", key="target")
+    return d
+
+
+def rigid_plate(size: float = 0.2):
+    """A rigid flat plate (its own stiffness 1e12 N/m), top face at z = 0, as a CompliantObject."""
+    import trimesh
+
+    from .objects import CompliantObject
+
+    mesh = trimesh.creation.box(extents=[size, size, 0.02])
+    mesh.apply_translation([0.0, 0.0, -0.01])
+    return CompliantObject("rigid_plate", mesh, lambda p: np.full(len(np.atleast_2d(p)), 1e12),
+                           lambda p: np.full(len(np.atleast_2d(p)), 0.5))

@@ -209,10 +209,21 @@ def object_subsamples(scans: list[ObjectScan], seed: int, subsets: int = SUBSAMP
                                 size=size, name=f"{s.name}.points") for o, s in enumerate(scans)]
 
 
-def c_scale(scans: list[ObjectScan]) -> float:
-    """The shared colour scale: the stiffest probed colour over all objects (counts/m), > 0."""
-    top = max(float(np.max(s.touch_values)) if len(s.touch_values) else 0.0 for s in scans)
+#: the quantile of all probed colours that sets the top of the shared colour scale
+SCALE_QUANTILE = 0.95
+
+
+def c_scale(scans: list[ObjectScan], quantile: float = SCALE_QUANTILE) -> float:
+    """The shared colour scale (counts/m, > 0): the ``quantile`` of every probed colour over all
+    objects (robust to a few heavy-tailed touches; see the module docstring)."""
+    vals = np.concatenate([s.touch_values for s in scans]) if scans else np.zeros(0)
+    top = float(np.quantile(vals, quantile)) if len(vals) else 0.0
     return top if top > 0 else 1.0
+
+
+def colour_input(c, scale: float) -> np.ndarray:
+    """Colours (counts/m) on the shared scale: ``c / scale`` clipped to [0, 1]."""
+    return np.clip(np.asarray(c, dtype=np.float64) / float(scale), 0.0, 1.0)
 
 
 def normalise_xyz(points: np.ndarray) -> np.ndarray:
@@ -250,8 +261,8 @@ def build_clouds(ds: DataSet, scans: list[ObjectScan], subsamples: list[np.ndarr
         out[j, :, :3] = normalise_xyz(pts)
         if ds.touches_g:
             t = ds.touches[r]
-            out[j, :, 3] = propagate(ds.propagation, scans[o].touch_points[t], scans[o].touch_values[t], pts,
-                                     beta) / scale
+            out[j, :, 3] = colour_input(propagate(ds.propagation, scans[o].touch_points[t],
+                                                  scans[o].touch_values[t], pts, beta), scale)
     return out
 
 
@@ -263,7 +274,8 @@ def manifest(datasets: list[DataSet], scans: list[ObjectScan], *, scale: float) 
                      **{k: v for k, v in s.meta.items() if isinstance(v, (int, float, str))}} for s in scans],
         "points_per_cloud": POINTS,
         "c_scale": scale,
-        "normalisation": "xyz centred and scaled into the unit ball per cloud; c divided by c_scale",
+        "normalisation": f"xyz centred and scaled into the unit ball per cloud; c divided by c_scale (the "
+                         f"{SCALE_QUANTILE:g} quantile of all probed colours) and clipped to [0, 1]",
         "datasets": [{"name": d.name, "touches": d.touches_g, "propagation": d.propagation,
                       "clouds": len(d.labels), **d.counts(), "unique_possible": d.unique_possible,
                       "seed": d.seed} for d in datasets],

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .active import map_error, select_touches
-from .datasets import TEST, TRAIN, VAL, DataSet, ObjectScan, build_clouds, normalise_xyz, propagate
+from .datasets import TEST, TRAIN, VAL, DataSet, ObjectScan, build_clouds, colour_input, normalise_xyz, propagate
 
 #: Table 1 of seed 000 (accuracy in %), for the report
 PAPER_TABLE1 = {"g0": 44.44, "cluster_g3": 79.34, "cluster_g7": 94.84, "cluster_g10": 97.35, "cluster_g13": 98.55,
@@ -103,7 +103,8 @@ def policy_clouds(policy: str, scans: list[ObjectScan], subsamples, g: int, per_
             pts = scan.points[subsamples[o][s]]
             j = o * per_object + k
             x[j, :, :3] = normalise_xyz(pts)
-            x[j, :, 3] = propagate(propagation, scan.touch_points[t], scan.touch_values[t], pts, beta) / scale
+            x[j, :, 3] = colour_input(propagate(propagation, scan.touch_points[t], scan.touch_values[t], pts, beta),
+                                      scale)
     return x, y
 
 

@@ -117,8 +117,24 @@ def probe_noise(scene, ctx):
         else SkinNoise(skin_noise().sigma, p["detect_k"], skin_noise().source)
     if not p["probe_noise"]:
         return None, skin.sigma, skin.source
-    return (ProbeNoise.from_skin(skin, position_sigma=p["position_noise"], approach_speed=p["approach_speed"],
-                                 retries=p["probe_retries"]), skin.sigma, skin.source)
+    noise = ProbeNoise.from_skin(skin, position_sigma=p["position_noise"], approach_speed=p["approach_speed"],
+                                 retries=p["probe_retries"])
+    noise.min_displacement = max(noise.expected(probe_floor(scene, ctx), p["target_response"]), 0.0)
+    return noise, skin.sigma, skin.source
+
+
+def probe_floor(scene, ctx) -> float:
+    """The smallest physical displacement of the scene's probe (m): its skin layer alone, pressed to the
+    target on a rigid flat plate (one contact solve; the series probe's ``F / layer_stiffness``)."""
+    from ...augment.probe_noise import rigid_floor, rigid_plate
+
+    p = scene["task"]
+    if p["probe"] == "series":
+        d = ProbeModel()                                  # tasks without the series keys use its defaults
+        cpn = p["counts_per_newton"] if "counts_per_newton" in p else d.counts_per_newton
+        k_layer = p["layer_stiffness"] if "layer_stiffness" in p else d.layer_stiffness
+        return p["target_response"] / cpn / k_layer
+    return rigid_floor(contact_prober(scene, ctx, rigid_plate()))
 
 
 def probe_model(p):
