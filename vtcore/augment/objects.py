@@ -58,15 +58,30 @@ BOTTLE = dict(radius=0.032, base_fillet=0.006, body_top=0.120, shoulder_top=0.16
               groove_width=0.004, stand_height=0.055)
 
 
-def bottle_profile(n: int = 160) -> np.ndarray:
-    """(r, z) profile of the bottle from the bottom centre to the top centre, (P, 2) metres."""
-    b = BOTTLE
+def bottle_profile(n: int = 160, groove_depth: float | None = None, groove_width: float | None = None) -> np.ndarray:
+    """(r, z) profile of the bottle from the bottom centre to the top centre, (P, 2) metres.
+
+    groove_depth, groove_width : metres, the body's ring at ``BOTTLE["groove_z"]`` (a Gaussian
+    dip of that depth whose full width is about ``groove_width``); a negative depth is a rib
+    standing out; None takes :data:`BOTTLE`'s. The ring is sampled every 0.25 mm.
+    """
+    b = dict(BOTTLE)
+    if groove_depth is not None:
+        b["groove_depth"] = float(groove_depth)
+    if groove_width is not None:
+        b["groove_width"] = float(groove_width)
+    if not (b["groove_width"] > 0 and abs(b["groove_depth"]) < b["radius"] / 2):
+        raise InputError(f"groove width must be > 0 and |depth| < {b['radius'] / 2} m, got "
+                         f"{b['groove_width']} and {b['groove_depth']}", key="groove_depth")
     R, f = b["radius"], b["base_fillet"]
     pts = [(0.0, 0.0), (R - f, 0.0)]
     t = np.linspace(-np.pi / 2, 0.0, 9)[1:]
     pts += list(zip(R - f + f * np.cos(t), f + f * np.sin(t)))
-    # body with one shallow groove ring (moulded bottles have them; a straight path loses contact there)
+    # body with one ring (moulded bottles have grooves and ribs): a probe that cannot bridge it loses contact
     z = np.linspace(f, b["body_top"], n // 2)[1:]
+    ring = b["groove_z"] + np.arange(-3.0, 3.0 + 1e-9, 0.25e-3 / b["groove_width"]) * b["groove_width"]
+    outside = (z < ring[0] - 1e-4) | (z > ring[-1] + 1e-4)     # the ring's own samples replace these
+    z = np.sort(np.concatenate([z[outside], ring[(ring > f) & (ring < b["body_top"])]]))
     g = b["groove_depth"] * np.exp(-0.5 * ((z - b["groove_z"]) / (b["groove_width"] / 2.5)) ** 2)
     pts += list(zip(R - g, z))
     # shoulder: a quarter-cosine from the body radius to the neck radius
@@ -78,11 +93,11 @@ def bottle_profile(n: int = 160) -> np.ndarray:
     return np.asarray(pts, dtype=np.float64)
 
 
-def bottle_mesh(sections: int = 96):
-    """The bottle as a closed trimesh (revolved profile), metres."""
+def bottle_mesh(sections: int = 96, **groove):
+    """The bottle as a closed trimesh (revolved profile), metres; ``groove`` : see :func:`bottle_profile`."""
     import trimesh
 
-    prof = bottle_profile()
+    prof = bottle_profile(**groove)
     mesh = trimesh.creation.revolve(prof, sections=sections)
     mesh.merge_vertices()
     if mesh.volume < 0:
@@ -180,12 +195,15 @@ def contrast_scales(contrast: float) -> dict[str, float]:
     return scales
 
 
-def make_seed000_object(name: str, stiffness_scale: float = 1.0) -> CompliantObject:
+def make_seed000_object(name: str, stiffness_scale: float = 1.0, **groove) -> CompliantObject:
     """One of :data:`OBJECTS` with its stiffness field scaled by ``stiffness_scale``.
 
     On the bottles the scale applies to the wall (body, shoulder, bottom), not to the plastic
-    cap and neck, which are the same part on both bottles.
+    cap and neck, which are the same part on both bottles. ``groove`` (bottles only):
+    ``groove_depth``, ``groove_width`` of the body's ring (:func:`bottle_profile`).
     """
+    if groove and name not in ("empty_bottle", "full_bottle"):
+        raise InputError(f"{name} has no groove; groove_depth/groove_width are for the bottles", key="groove_depth")
     s = float(stiffness_scale)
     if not (np.isfinite(s) and s > 0):
         raise InputError(f"must be > 0, got {stiffness_scale}", key="stiffness_scale")
@@ -195,8 +213,8 @@ def make_seed000_object(name: str, stiffness_scale: float = 1.0) -> CompliantObj
         gains = dict(shoulder_gain=3.0, bottom_gain=1.5) if name == "empty_bottle" \
             else dict(shoulder_gain=1.2, bottom_gain=0.6)
         cap = BOTTLE_CAP_STIFFNESS
-        return CompliantObject(name, bottle_mesh(), lambda p: bottle_stiffness(p, body, cap=cap, **gains),
-                               bottle_friction, dict(body_stiffness=body, cap_stiffness=cap, **gains))
+        return CompliantObject(name, bottle_mesh(**groove), lambda p: bottle_stiffness(p, body, cap=cap, **gains),
+                               bottle_friction, dict(body_stiffness=body, cap_stiffness=cap, **gains, **groove))
     if name == "tennis_ball":
         return CompliantObject(name, ball_mesh(0.0335), _const(BODY_STIFFNESS[name] * s), _const(0.7),
                                dict(radius=0.0335, stiffness=BODY_STIFFNESS[name] * s))
@@ -212,9 +230,10 @@ def make_seed000_object(name: str, stiffness_scale: float = 1.0) -> CompliantObj
     raise InputError(f"unknown object {name!r}; valid: {', '.join(OBJECTS)}", key="object")
 
 
-def bottle_radius_at(z) -> np.ndarray:
-    """Radius (m) of the bottle's surface of revolution at heights ``z`` (m); 0 above the top."""
-    prof = bottle_profile()
+def bottle_radius_at(z, **groove) -> np.ndarray:
+    """Radius (m) of the bottle's surface of revolution at heights ``z`` (m); 0 above the top.
+    ``groove`` : see :func:`bottle_profile`."""
+    prof = bottle_profile(**groove)
     zz = np.asarray(z, float)
     # the profile is monotone in z except at the base and the cap step: interpolate over the side wall
     side = prof[1:-1]

@@ -9,11 +9,18 @@ queried on the fly at the contact point ``x_r``:
 so the robot pushes hardest where the object is stiffest. The mean taxel
 response p̄ is tracked by an integral force controller acting on the
 commanded indentation, through the robot's own (second-order) position
-dynamics; the contact is the object's local stiffness in series with the
-soft layer, i.e. ``p̄ = c_true(x) * max(indentation - gap, 0)`` where
-``c_true`` is the same quantity the probes measure (Eq. 1) and ``gap`` is how
-far the real surface lies below the planned straight path (grooves, curvature:
-the robot can lose contact, as in the paper at 0.025 m).
+dynamics. The plant is either the contact simulator's response along the path
+(:mod:`vtcore.control.response_table`: the module pressed on the object's real
+surface, so a groove or rib the module cannot bridge lifts it off) or a linear
+series model ``p̄ = c_true(x) * max(indentation - gap, 0)`` with ``gap`` how far the
+real surface lies below the planned straight path.
+
+The measured p̄ carries the skin's read noise: per taxel, clipped at 0, where the
+plant gives each taxel's reading (the real read-out: an unloaded taxel reads the
+positive half of its noise), else on the mean. The paper's comparison is the mean
+tracking error; here also the contact-loss intervals (where the noise-free
+response is zero), the error outside them, and the overshoots of the
+noise-free response (:meth:`PathFollowingResult.overshoots`).
 """
 
 from __future__ import annotations
@@ -25,6 +32,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..tolerances import EPS
+from .response_table import ResponseTable, contact_response_table  # noqa: F401  (the plant's table)
 
 
 def force_setpoint(c, p_max: float, c_max: float) -> np.ndarray:
@@ -47,9 +55,12 @@ class ForceController:
 
     ki : m / (count s), integral gain from force error to commanded indentation rate.
     omega : rad/s and zeta : the robot's closed position loop along the normal
-    (a second-order lag; what makes steps overshoot). noise : counts, std of the
-    measured p̄. dt : s, control period. setpoint_period : s, how often the
-    augmented cloud is queried (on the fly, like a 100 Hz outer loop).
+    (a second-order lag; what makes steps overshoot). noise : counts, std of one
+    taxel's reading (per-taxel plants) or of the measured p̄ (mean-only plants; pass
+    ``sigma / sqrt(taxels)`` there). dt : s, control period. setpoint_period : s, how
+    often the augmented cloud is queried (on the fly, like a 100 Hz outer loop).
+    The gains are our choices: the paper gives none ("the same control gains were
+    used in the two experiments").
     """
 
     ki: float = 4e-6
@@ -65,7 +76,12 @@ class PathFollowingResult:
     """Time series of one run; all (T,) arrays.
 
     time (s), s (m, arc length), setpoint (counts, p̄*), response (counts, p̄
-    measured), colour (counts/m, c(x_r) queried), indentation (m), contact (bool).
+    measured, with the read noise), response_true (counts, the noise-free p̄),
+    colour (counts/m, c(x_r) queried), indentation (m beyond first contact),
+    contact (bool: the module touches the object, noise-free response > 0),
+    response_expected (counts, the measured p̄ without its noise: with per-taxel noise
+    clipped at 0 an unloaded taxel reads ``sigma / sqrt(2 pi)`` on average, so this is what
+    the controller tracks; equal to ``response_true`` for mean-only plants).
     """
 
     time: np.ndarray
@@ -75,13 +91,19 @@ class PathFollowingResult:
     colour: np.ndarray
     indentation: np.ndarray
     contact: np.ndarray
+    response_true: np.ndarray | None = None
+    response_expected: np.ndarray | None = None
 
-    def tracking_error(self) -> float:
-        """Mean |p̄ - p̄*| over the path, counts (the paper's force-tracking error)."""
-        return float(np.mean(np.abs(self.response - self.setpoint)))
+    def tracking_error(self, in_contact_only: bool = False) -> float:
+        """Mean |p̄ - p̄*| over the path, counts (the paper's force-tracking error); with
+        ``in_contact_only`` over the samples outside the contact-loss intervals."""
+        e = np.abs(self.response - self.setpoint)
+        if in_contact_only:
+            e = e[self.contact]
+        return float(np.mean(e)) if len(e) else float("nan")
 
     def peak_error(self) -> float:
-        """Largest |p̄ - p̄*|, counts (after a set-point step it measures the controller's lag)."""
+        """Largest |p̄ - p̄*|, counts (after a set-point step it measures the controller's lag, not an overshoot)."""
         return float(np.max(np.abs(self.response - self.setpoint), initial=0.0))
 
     def setpoint_max_jump(self) -> float:
@@ -89,93 +111,43 @@ class PathFollowingResult:
         d = np.abs(np.diff(self.setpoint))
         return float(d.max(initial=0.0))
 
+    def contact_loss_intervals(self) -> list[tuple[float, float]]:
+        """``[(s_start, s_end)]`` metres of path where the module had lost contact."""
+        lost = ~np.asarray(self.contact, bool)
+        if not lost.any():
+            return []
+        edges = np.flatnonzero(np.diff(np.concatenate([[0], lost.astype(np.int8), [0]])))
+        return [(float(self.s[a]), float(self.s[min(b, len(self.s) - 1)])) for a, b in zip(edges[::2], edges[1::2])]
 
-@dataclass
-class ResponseTable:
-    """The contact simulator's mean response along a path, tabulated for the control loop.
+    def contact_lost_length(self) -> float:
+        """Metres of path without contact (sum of :meth:`contact_loss_intervals`)."""
+        return float(sum(b - a for a, b in self.contact_loss_intervals()))
 
-    s : (S,) metres, arc length of the stations. u : (S, U) metres, end-effector
-    displacement beyond the planned path (increasing along each row; the first
-    entry, at zero response, is the gap to the real surface). p : (S, U) counts,
-    mean response p̄ at that displacement. Between stations and displacements the
-    response is interpolated linearly; beyond the last displacement it is
-    extrapolated with the last slope (the stiffest the table saw).
-    """
-
-    s: np.ndarray
-    u: np.ndarray
-    p: np.ndarray
-
-    def response(self, s_value: float, u: float) -> float:
-        j = int(np.clip(np.searchsorted(self.s, s_value) - 1, 0, len(self.s) - 2)) if len(self.s) > 1 else 0
-        if len(self.s) == 1:
-            return self._curve(0, u)
-        w = float(np.clip((s_value - self.s[j]) / (self.s[j + 1] - self.s[j]), 0.0, 1.0))
-        return (1.0 - w) * self._curve(j, u) + w * self._curve(j + 1, u)
-
-    def response_gap(self, s_value: float) -> float:
-        """Displacement (m) at which the module first touches the surface at ``s_value``."""
-        return float(np.interp(s_value, self.s, self.u[:, 0]))
-
-    def displacement_for(self, s_value: float, p_target: float) -> float:
-        """Displacement (m) giving ``p_target`` counts at ``s_value`` (inverse of the nearest curve)."""
-        j = int(np.argmin(np.abs(self.s - s_value)))
-        uu, pp = self.u[j], self.p[j]
-        if p_target <= pp[-1]:
-            return float(np.interp(p_target, pp, uu))
-        slope = (pp[-1] - pp[-2]) / max(uu[-1] - uu[-2], EPS)
-        return float(uu[-1] + (p_target - pp[-1]) / max(slope, EPS))
-
-    def _curve(self, j, u):
-        uu, pp = self.u[j], self.p[j]
-        if u <= uu[-1]:
-            return float(np.interp(u, uu, pp, left=0.0))
-        slope = (pp[-1] - pp[-2]) / max(uu[-1] - uu[-2], EPS)
-        return float(pp[-1] + slope * (u - uu[-1]))
-
-
-def contact_response_table(mesh, start, end, normal, layer, *, stiffness=None, counts=None, stations: int = 27,
-                           forces=(0.02, 0.05, 0.1, 0.2, 0.4, 0.7, 1.0, 1.5, 2.5), layout=None,
-                           **press_kw) -> ResponseTable:
-    """Tabulate p̄(u) along a straight path with the contact simulator (one CySkin module).
-
-    mesh : the object (metres). start, end : (3,) metres, the planned path.
-    normal : (3,) or callable (P, 3) -> (P, 3), outward surface normal along it (the
-    end-effector stays aligned with it). layer : vtcore.contact.SoftLayer.
-    stiffness : callable ``(result) -> k`` N/m of the object at a press's contact
-    (object compliance in series), or None for a rigid object. counts : callable
-    pressure (N,) Pa -> counts (N,) (noise-free sensor transfer; default 0.1 counts/Pa).
-    Each station is pressed at ``forces`` (N); other keywords go to ``press``.
-    """
-    from ..augment.probing import cyskin_module_layout, probe_pose
-    from ..contact import press
-
-    layout = layout or cyskin_module_layout()
-    a, b = np.asarray(start, float), np.asarray(end, float)
-    length = float(np.linalg.norm(b - a))
-    s = np.linspace(0.0, length, max(int(stations), 1))
-    pts = a + s[:, None] * (b - a) / max(length, EPS)
-    nrm = normal(pts) if callable(normal) else np.broadcast_to(np.asarray(normal, float), pts.shape)
-    counts = counts or (lambda pr: 0.1 * pr)
-    pre = 2e-3                                   # start 2 mm off the planned point, subtract it after
-    us, ps = [], []
-    for i in range(len(s)):                      # one short force sweep per station
-        pose = probe_pose(pts[i], nrm[i], layer.thickness, gap=pre)
-        u_row, p_row, prev, gap0 = [], [], None, None
-        for f in forces:
-            r = press(layout, mesh, pose, layer, force=float(f), warm_start=prev, **press_kw)
-            prev = r
-            if gap0 is None:
-                # zero response where the module first touches the real surface: travel minus indentation
-                gap0 = r.travel - pre - r.indentation
-            defl = f / float(stiffness(r)) if stiffness is not None else 0.0
-            u_row.append(r.travel - pre + defl)
-            p_row.append(float(np.mean(counts(r.pressure))))
-        us.append([gap0] + u_row)
-        ps.append([0.0] + p_row)
-    u, p = np.asarray(us), np.asarray(ps)
-    u = np.maximum.accumulate(u, axis=1)         # guard against solver round-off: keep each row monotone
-    return ResponseTable(s=s, u=u, p=p)
+    def overshoots(self, threshold: float) -> list[tuple[float, float]]:
+        """``[(s m, size counts)]``: each time the response crosses the set-point after having been
+        more than ``threshold`` counts on the other side, how far it then goes past it (until it
+        crosses back). A set-point step or a lost contact that the controller closes without
+        crossing is lag, not overshoot, and does not count; nor does a crossing the set-point makes
+        by jumping over the response. Uses the noise-free expected reading (``response_expected``,
+        else ``response_true``): the measured response's noise would cross at every step."""
+        p = next((a for a in (self.response_expected, self.response_true) if a is not None), self.response)
+        sp = np.asarray(self.setpoint, float)
+        e = np.asarray(p, float) - sp
+        sign = np.sign(e)
+        nz = np.flatnonzero(sign)                        # samples on one side or the other (0: exactly on it)
+        if len(nz) == 0:
+            return []
+        # runs of one sign among the nonzero samples: an excursion each
+        breaks = np.flatnonzero(np.diff(sign[nz]) != 0) + 1
+        runs = np.split(nz, breaks)
+        out = []
+        for before, after in zip(runs[:-1], runs[1:]):
+            a, b = after[0], before[-1]
+            moved_over = np.sign(p[a] - sp[b]) != np.sign(e[b])  # the response crossed the old set-point
+            if moved_over and np.abs(e[before]).max() > threshold:
+                k = after[int(np.argmax(np.abs(e[after])))]
+                out.append((float(self.s[k]), float(np.abs(e[k]))))
+        return out
 
 
 def follow_path(start, end, query: Callable[[np.ndarray], np.ndarray],
@@ -191,7 +163,8 @@ def follow_path(start, end, query: Callable[[np.ndarray], np.ndarray],
     the true colour (counts/m) of the object under the end-effector (linear series
     model, ``p̄ = c * (u - gap)``), with ``gap`` : (P, 3) -> (P,) metres between
     the planned path and the real surface; or ``response``, a :class:`ResponseTable`
-    from the contact simulator (:func:`contact_response_table`). The robot starts in
+    from the contact simulator (:func:`contact_response_table`; with its per-taxel
+    readings the noise is added per taxel and clipped at 0). The robot starts in
     contact at the start set-point.
     """
     a, b = np.asarray(start, float), np.asarray(end, float)
@@ -200,6 +173,9 @@ def follow_path(start, end, query: Callable[[np.ndarray], np.ndarray],
         raise InputError("the path has zero length: start and end coincide", key="path")
     if not speed > 0:
         raise InputError(f"must be > 0 m/s, got {speed}", key="speed")
+    if (plant_c is None) == (response is None):
+        raise InputError("give the plant as plant_c (series model) or response (contact table), not both",
+                         key="plant")
     ctl = controller or ForceController()
     rng = np.random.default_rng(rng)
     direction = (b - a) / length
@@ -213,36 +189,57 @@ def follow_path(start, end, query: Callable[[np.ndarray], np.ndarray],
     colour_q = np.asarray(query(x[q_idx]), dtype=np.float64).reshape(-1)
     colour = colour_q[np.minimum(np.arange(steps) // every, len(q_idx) - 1)]
     setpoint = force_setpoint(colour, p_max, c_max)
-    if (plant_c is None) == (response is None):
-        raise InputError("give the plant as plant_c (series model) or response (contact table), not both",
-                         key="plant")
-    if response is None:
-        c_true = np.asarray(plant_c(x), dtype=np.float64).reshape(-1)
-        g = np.zeros(steps) if gap is None else np.asarray(gap(x), dtype=np.float64).reshape(-1)
-    noise = rng.normal(0.0, ctl.noise, steps)
+    plant, u = _plant(response, plant_c, gap, x, s, setpoint[0])
+    per_taxel = response is not None and response.taxels is not None
+    noise = rng.normal(0.0, ctl.noise, (steps, response.taxels.shape[2]) if per_taxel else steps)
 
     # sequential in time (a controller), vectorised over nothing else: a plain loop is the clear way
-    if response is None:
-        def plant(i, u):
-            pen = u - g[i]
-            return c_true[i] * pen if pen > 0 else 0.0, pen
-        u = setpoint[0] / max(c_true[0], EPS) + g[0]   # start at equilibrium
-    else:
-        def plant(i, u):
-            return response.response(s[i], u), u - response.response_gap(s[i])
-        u = response.displacement_for(s[0], setpoint[0])
     v = 0.0
     cmd = u
-    resp = np.empty(steps)
-    ind = np.empty(steps)
+    resp, true, expect, ind = np.empty(steps), np.empty(steps), np.empty(steps), np.empty(steps)
     w2, damp = ctl.omega ** 2, 2.0 * ctl.zeta * ctl.omega
     for i in range(steps):
-        p, pen = plant(i, u)
-        meas = p + noise[i]
-        resp[i], ind[i] = meas, pen
+        p, pen, taxels = plant(i, u)
+        if per_taxel:
+            meas, expect[i] = float(np.mean(np.clip(taxels + noise[i], 0.0, None))), _clipped_mean(taxels, ctl.noise)
+        else:
+            meas, expect[i] = p + noise[i], p
+        resp[i], true[i], ind[i] = meas, p, pen
         cmd += ctl.ki * (setpoint[i] - meas) * ctl.dt
         acc = w2 * (cmd - u) - damp * v           # semi-implicit Euler of the position loop
         v += acc * ctl.dt
         u += v * ctl.dt
     return PathFollowingResult(time=t, s=s, setpoint=setpoint, response=resp, colour=colour, indentation=ind,
-                               contact=ind > 0)
+                               contact=true > 0, response_true=true, response_expected=expect)
+
+
+def _clipped_mean(mu, sigma: float) -> float:
+    """Mean over taxels of E[max(mu + sigma Z, 0)], Z standard normal: the expected clipped reading."""
+    if sigma <= 0:
+        return float(np.mean(np.clip(mu, 0.0, None)))
+    from scipy.special import ndtr
+
+    z = np.asarray(mu, float) / sigma
+    return float(np.mean(mu * ndtr(z) + sigma * np.exp(-0.5 * z * z) / np.sqrt(2 * np.pi)))
+
+
+def _plant(response, plant_c, gap, x, s, p0):
+    """``(plant(i, u) -> (p̄ counts, indentation m, taxels (N,) or None), u0 m)``: the object under the
+    end-effector at step ``i`` and commanded displacement ``u``, and the equilibrium at ``p0``."""
+    if response is None:
+        c_true = np.asarray(plant_c(x), dtype=np.float64).reshape(-1)
+        g = np.zeros(len(s)) if gap is None else np.asarray(gap(x), dtype=np.float64).reshape(-1)
+
+        def plant(i, u):
+            pen = u - g[i]
+            return (c_true[i] * pen if pen > 0 else 0.0), pen, None
+        return plant, p0 / max(c_true[0], EPS) + g[0]
+
+    if response.taxels is not None:
+        def plant(i, u):
+            tx = response.taxel_response(s[i], u)
+            return float(tx.mean()), u - response.response_gap(s[i]), tx
+    else:
+        def plant(i, u):
+            return response.response(s[i], u), u - response.response_gap(s[i]), None
+    return plant, response.displacement_for(s[0], p0)
