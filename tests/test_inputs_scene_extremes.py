@@ -238,3 +238,31 @@ def test_a_warning_of_a_run_is_a_vtcore_warning_line(tiny, tmp_path):
     result = json.loads((tmp_path / "o" / "result.json").read_text())
     assert [w["key"] for w in result["warnings"]] == ["task"] and "off the surface" in result["warnings"][0]["message"]
     assert "## Warnings" in (tmp_path / "o" / "report.md").read_text()
+
+
+@pytest.mark.parametrize("t_end, needle", [
+    ("1e308", "would need unbounded memory"),       # was: OverflowError in int(inf)
+    ("1e5", "time budget of 3600 s"),                # was: 2 million contact solves, hours
+])
+def test_a_trajectory_longer_than_the_budgets_is_refused_before_it_starts(tmp_path, t_end, needle):
+    scene = tmp_path / "traj.toml"
+    scene.write_text(TINY.replace("radius = 0.01\n", "radius = 0.01\n[[objects.keyframes]]\nt = 0.0\n"
+                                  f"[[objects.keyframes]]\nt = {t_end}\noffset = [0.0, 0.0, -0.002]\n"))
+    rc, _, err = run("run", scene, "--out", tmp_path / "o")
+    one_error(rc, err, f"{scene}: task.rate: ", "contact frames", needle)
+
+
+def test_time_budget_is_a_setting(monkeypatch):
+    from vtcore.errors import InputError
+    from vtcore.inputs import need_time, time_budget
+
+    assert time_budget() == 3600.0
+    need_time(100, 1.0, key="k", what="w")
+    monkeypatch.setenv("VTCORE_TIME_BUDGET", "90s")
+    with pytest.raises(InputError, match="k: w would take at least 100 s, more than the time budget of 90 s"):
+        need_time(100, 1.0, key="k", what="w")
+    monkeypatch.setenv("VTCORE_TIME_BUDGET", "2h")
+    assert time_budget() == 7200.0
+    monkeypatch.setenv("VTCORE_TIME_BUDGET", "soon")
+    with pytest.raises(InputError, match="VTCORE_TIME_BUDGET"):
+        time_budget()

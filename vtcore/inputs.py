@@ -15,7 +15,8 @@ names the file, the line or key, and the reason:
 - :class:`Spec` and :func:`validate`: declarative checks of decoded records
   (JSON objects) in the scene schema's "file, key, reason" style.
 - :func:`need_memory`: the resource guard. A size a user sets is checked against the
-  memory budget (``VTCORE_MEMORY_BUDGET``, default 4 GiB) *before* allocating.
+  memory budget (``VTCORE_MEMORY_BUDGET``, default 4 GiB) *before* allocating;
+  :func:`need_time` the same for a loop's count against ``VTCORE_TIME_BUDGET`` (default 1 h).
 - :func:`clean`: messages never copy control bytes from a file into a terminal.
 
 Why not chardet/charset-normalizer: guessing an encoding turns a wrong file into
@@ -521,6 +522,36 @@ def need_memory(nbytes: float, *, key: str | None, what: str, file=None, line: i
                          "the budget with VTCORE_MEMORY_BUDGET (e.g. 16G)", file=file, key=key, line=line)
 
 
+_TIME_UNITS = {"": 1.0, "S": 1.0, "M": 60.0, "H": 3600.0}
+
+
+def time_budget() -> float:
+    """Seconds one piece of work sized by user-set values may be expected to take.
+
+    ``VTCORE_TIME_BUDGET`` (``90s``, ``30m``, ``2h``, or seconds), default one hour.
+    """
+    raw = os.environ.get("VTCORE_TIME_BUDGET", "").strip().upper()
+    if not raw:
+        return 3600.0
+    m = re.fullmatch(r"([0-9.]+)\s*([SMH]?)", raw)
+    if not m:
+        raise InputError(f"must be a duration like 90s, 30m or 2h, got {clean(raw, 40)!r}", key="VTCORE_TIME_BUDGET")
+    return float(m.group(1)) * _TIME_UNITS[m.group(2)]
+
+
+def need_time(steps: float, seconds_per_step: float, *, key: str | None, what: str, file=None,
+              remedy: str | None = None) -> None:
+    """Refuse, before starting, a loop of ``steps`` whose expected time (``seconds_per_step``, an
+    optimistic per-step cost: the guard refuses only what is surely too long) exceeds :func:`time_budget`."""
+    budget = time_budget()
+    seconds = float(steps) * seconds_per_step
+    if not math.isfinite(seconds) or seconds > budget:
+        shown = f"at least {seconds:.3g} s" if math.isfinite(seconds) else "forever"
+        raise InputError(f"{what} would take {shown}, more than the time budget of {budget:g} s; "
+                         f"{remedy or f'lower {key}'}, or raise the budget with VTCORE_TIME_BUDGET (e.g. 2h)",
+                         file=file, key=key)
+
+
 # ----------------------------------------------------------------------------- outputs
 def check_output_dir(path, key: str = "--out") -> Path:
     """Check, before any work, that ``path`` can be an output folder.
@@ -589,5 +620,5 @@ def finite_json(obj, where: str = ""):
 
 
 __all__ = ["MAX_LINE_BYTES", "Spec", "TextLines", "check_input", "check_output_dir", "check_output_file", "clean",
-           "decode", "finite_json", "float_array", "int_array", "memory_budget", "need_memory", "open_binary",
-           "os_error", "read_bytes", "read_text", "to_float", "to_int", "validate"]
+           "decode", "finite_json", "float_array", "int_array", "memory_budget", "need_memory", "need_time",
+           "open_binary", "os_error", "read_bytes", "read_text", "time_budget", "to_float", "to_int", "validate"]

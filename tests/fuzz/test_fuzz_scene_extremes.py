@@ -6,9 +6,11 @@ tables, huge integers, or deleted.
 accepts, so every value that reaches the physics, the sensor effects and the writers does. The keys
 come from the schema itself: every field of the sections, the task and every registered effect
 (an effect not listed in the seed is added by setting its key), so a new field is fuzzed without an
-edit here. The seed is a small press (a 10-taxel triangle patch, three readings, no plots), about
-0.3 s a run; each run is held to a 256 MiB memory budget (``VTCORE_MEMORY_BUDGET``), which bounds
-what a large valid value can ask for, and to the suite's 60 s alarm.
+edit here. The seeds are a small press (a 10-taxel triangle patch, three readings, no plots), about
+0.3 s a run, and the same press as a trajectory (five contact frames); each run is held to a 256 MiB memory budget (``VTCORE_MEMORY_BUDGET``) and a 2 s time
+budget (``VTCORE_TIME_BUDGET``: a trajectory of at most ~200 contact frames), which bound what a large
+valid value can ask for, and to the suite's 60 s alarm. Setting a keyframe's key
+(``objects[0].keyframes[0].t``) turns the press into a trajectory.
 
 Every run must end in exit 2 with one ``vtcore: error:`` line naming the scene, or exit 0 with a
 ``result.json`` of finite numbers (``null`` for an undefined metric) and an ``arrays.npz`` whose
@@ -41,6 +43,9 @@ SCENE = {
                 "quantisation": {}, "sampling": {"rate": 10.0}},
     "output": {"plots": False},
 }
+#: The same press as a trajectory: the ball follows two keyframes (5 contact frames at 20 Hz).
+TRAJECTORY = {**SCENE, "objects": [{**SCENE["objects"][0], "keyframes": [
+    {"t": 0.0}, {"t": 0.2, "offset": [0.0, 0.0, -0.002]}]}]}
 #: TOML has no null: "delete the key" stands for it
 DELETE = object()
 
@@ -96,14 +101,17 @@ def _toml_value(v):
 
 def apply(scene: dict, path: tuple, value) -> None:
     node = scene
-    for p in path[:-1]:
+    for i, p in enumerate(path[:-1]):
         if isinstance(p, int):
-            if not isinstance(node, list) or not node:
+            if not isinstance(node, list):
                 return  # the array of tables was replaced by something else: nothing to address
+            if not node:
+                node.append({})
             node = node[0]
             continue
         if not isinstance(node.get(p), (dict, list)):
-            node[p] = {}
+            # an array of tables where the path goes on by index (objects[0].keyframes[0].t)
+            node[p] = [] if isinstance(path[i + 1], int) else {}
         node = node[p]
     if not isinstance(node, dict):
         return
@@ -129,6 +137,7 @@ def test_fuzz_scene_values_at_the_extremes(keys, tmp_path, pytestconfig, monkeyp
     import tomli_w
 
     monkeypatch.setenv("VTCORE_MEMORY_BUDGET", "256M")
+    monkeypatch.setenv("VTCORE_TIME_BUDGET", "2s")  # at most ~200 contact frames of a trajectory
     monkeypatch.setenv("VTCORE_PROGRESS", "0")
     src, out = tmp_path / "scene.toml", tmp_path / "out"
     generic = st.sampled_from([v for v in EXTREME_VALUES if v is not None] + [DELETE])
@@ -139,10 +148,12 @@ def test_fuzz_scene_values_at_the_extremes(keys, tmp_path, pytestconfig, monkeyp
         value = st.one_of(st.sampled_from(own), st.sampled_from(own), st.sampled_from(own), generic) if own else generic
         return st.tuples(st.just(path), value)
 
-    edits = st.lists(st.sampled_from(keys).flatmap(edit), min_size=1, max_size=3)
+    edits = st.tuples(st.sampled_from([SCENE, SCENE, TRAJECTORY]),
+                      st.lists(st.sampled_from(keys).flatmap(edit), min_size=1, max_size=3))
 
-    def check(pairs):
-        scene = json.loads(json.dumps(SCENE))
+    def check(example):
+        seed, pairs = example
+        scene = json.loads(json.dumps(seed))
         for path, value in pairs:
             apply(scene, path, value)
         try:

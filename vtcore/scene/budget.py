@@ -14,12 +14,15 @@ size are alive at the peak of the stage, so the estimate errs towards refusing e
 
 from __future__ import annotations
 
-from ..inputs import need_memory
+from ..inputs import need_memory, need_time
 
 #: Live (T, N) float64 arrays at the peak of a run's sensor pipeline.
 FRAME_COPIES = 16
 #: Live (N * S, 3) float64 arrays at the peak of a proximity query over taxel samples.
 SAMPLE_COPIES = 8
+#: Optimistic seconds of one simulated contact frame (a press solve on a small grid, warm-started): the
+#: time guard refuses only trajectories that surely take longer than the budget (measured 0.02-0.2 s).
+CONTACT_FRAME_S = 0.01
 #: Largest task.force accepted, N (a tonne-force: far past any skin's range; 1e308 N made the press
 #: solve overflow and report force_n = 0).
 MAX_FORCE_N = 1e4
@@ -52,3 +55,11 @@ def check_run_sizes(scene, n_taxels: int) -> None:
         if isinstance(s, int) and s > 0:
             need_memory(8.0 * 3 * SAMPLE_COPIES * s * n, key=key, file=file,
                         what=f"{s} samples per taxel x {n} taxels")
+
+
+def check_frames(scene, frames: float, n_taxels: int, key: str, what: str) -> None:
+    """Refuse, before the loop, ``frames`` simulated contact frames that need more memory or time than
+    the budgets (``frames`` counted in floats: 1e308 s of keyframes is not an int)."""
+    n = max(int(n_taxels), 1)
+    need_memory(8.0 * FRAME_COPIES * frames * n, key=key, file=scene.path, what=f"{what} x {n} taxels")
+    need_time(frames, CONTACT_FRAME_S, key=key, file=scene.path, what=what)

@@ -28,7 +28,7 @@ from ...plots import pyplot, skin_3d, taxel_map
 from ...tolerances import EPS
 from ..registry import TaskSpec, register_task
 from ..runner import TaskResult
-from ..budget import MAX_FORCE_N
+from ..budget import MAX_FORCE_N, check_frames
 from ..schema import Field, Section
 from ..sections.layer import build_layer, layer_options
 from ..sections.objects import keyframe_poses, object_compliance, object_mesh, object_pose
@@ -203,7 +203,11 @@ def run(scene, ctx) -> TaskResult:
 
     if obj["keyframes"]:
         t_end = obj["keyframes"][-1]["t"]
-        times = np.arange(int(np.floor(t_end * rate + 1e-9)) + 1) / rate
+        with np.errstate(over="ignore"):
+            n_frames = np.floor(t_end * rate + 1e-9) + 1
+        check_frames(scene, n_frames, len(layout), "task.rate",
+                     f"{n_frames:.3g} contact frames ({t_end:g} s of keyframes at {rate:g} Hz)")
+        times = np.arange(int(n_frames)) / rate
         poses = keyframe_poses(scene, k, times, mesh)
         results = press_sequence(layout, mesh, poses, layer, **kw)
         mode = "trajectory"
