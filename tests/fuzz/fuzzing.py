@@ -288,13 +288,13 @@ def doc_mutation(draw, doc, names=()):
             if not isinstance(node.get(p), dict):
                 node[p] = {}
             node = node[p]
-        node[name[-1]] = draw(st.sampled_from(EXTREME_VALUES))
+        node[name[-1]] = copy.deepcopy(draw(st.sampled_from(EXTREME_VALUES)))  # never the shared list itself
         return
     if not paths:
         return
     path, value = paths[draw(st.integers(0, len(paths) - 1))]
     if kind == "extreme" or kind == "add":
-        _set(doc, path, draw(st.sampled_from(EXTREME_VALUES)))
+        _set(doc, path, copy.deepcopy(draw(st.sampled_from(EXTREME_VALUES))))
     elif kind == "scale" and isinstance(value, (int, float)) and not isinstance(value, bool):
         _set(doc, path, value * draw(st.sampled_from([1e3, 1e-3, -1, 1e12, 1e-12, 0.5])))
     elif kind == "copy":
