@@ -18,6 +18,7 @@ SHARED = {"errors", "geometry", "inputs", "_io", "_bench", "_progress", "plots",
 PACKAGES = sorted(p.name for p in ROOT.iterdir() if (p / "__init__.py").exists())
 ALLOWED = {
     "layout": set(),
+    "robot": {"layout"},
     "contact": {"layout"},
     "filters": {"layout", "contact"},
     "augment": {"layout", "contact"},

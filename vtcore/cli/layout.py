@@ -56,7 +56,8 @@ def _check_place_numbers(args) -> None:
     from ..inputs import to_float
     from ..layout.io import MAX_COORDINATE_M
 
-    args.at = [to_float(v, lo=-MAX_COORDINATE_M, hi=MAX_COORDINATE_M, key="--at") for v in args.at]
+    if args.at is not None:  # with --link it defaults to a point of the link's surface
+        args.at = [to_float(v, lo=-MAX_COORDINATE_M, hi=MAX_COORDINATE_M, key="--at") for v in args.at]
     if args.direction is not None:
         d = [to_float(v, key="--direction") for v in args.direction]
         big = max(abs(v) for v in d)
@@ -125,13 +126,35 @@ def _warnings_if_done():
     _print_warnings(caught)
 
 
+def _place_mesh(args):
+    """The surface to place on: a mesh file, or with ``--link`` a robot link's geometry in its frame
+    (then also the robot)."""
+    from ..layout.meshinput import load_mesh
+
+    if args.link is None:
+        if args.geometry is not None or args.package:
+            raise InputError("--geometry and --package go with --link (MESH a robot file)", key="--link")
+        if args.at is None:
+            raise InputError("--at is required (the surface point the patch is centred on)", key="--at")
+        return load_mesh(args.mesh, args.scale, key=None, scale_key="--scale"), None
+    from ..robot import link_mesh, load_robot
+    from .robot import packages
+
+    if args.scale != 1.0:
+        raise InputError("a robot link is scaled by its model (the mesh's scale attribute); --scale is for "
+                         "mesh files", key="--scale")
+    robot = load_robot(args.mesh, packages(args.package))
+    return link_mesh(robot, args.link, args.geometry or "visual"), robot
+
+
 def cmd_place(args) -> int:
     from ..layout import fill, get_module, place, save
-    from ..layout.meshinput import load_mesh
     from ..layout.report import DEFAULT_MAX_STRAIN, PLACE_MAX_STRAIN, check_trust
+    from ..robot import lay_on_link
 
     _check_place_numbers(args)
-    mesh = load_mesh(args.mesh, args.scale, key=None, scale_key="--scale")
+    with _warnings_if_done():
+        mesh, robot = _place_mesh(args)
     _check_offset(args.offset, mesh)
     if args.subdivide:
         from ..layout.repair import refine
@@ -141,11 +164,17 @@ def cmd_place(args) -> int:
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
+            opts = {}
             if args.patch == "fill":
+                opts = dict(region=_region(args, mesh), max_strain=args.max_strain or DEFAULT_MAX_STRAIN,
+                            crease_angle=args.crease_angle, islands=args.islands)
+            if robot is not None:  # born in the link's frame: exported back into the robot with no transform
+                layout, report = lay_on_link(robot, args.link, args.patch, args.at, args.direction, mesh=mesh,
+                                             geometry=args.geometry or "visual", module=module, offset=args.offset,
+                                             method=args.method, radius=args.radius, **opts)
+            elif args.patch == "fill":
                 layout, report = fill(mesh, args.at, args.direction, module=module, radius=args.radius,
-                                      region=_region(args, mesh), offset=args.offset,
-                                      max_strain=args.max_strain or DEFAULT_MAX_STRAIN,
-                                      crease_angle=args.crease_angle, islands=args.islands)
+                                      offset=args.offset, **opts)
             else:
                 layout, report = place(mesh, args.patch, args.at, args.direction, module=module,
                                        offset=args.offset, method=args.method)
@@ -159,11 +188,14 @@ def cmd_place(args) -> int:
     _print_warnings(caught)
     for line in kept:
         print(f"vtcore: warning: kept with --force: {line}", file=sys.stderr)
-    layout.meta["mesh"] = str(args.mesh)
+    if robot is None:
+        layout.meta["mesh"] = str(args.mesh)
     save(layout, args.out, args.format)
     from ..layout.summary import report_lines
 
-    print(f"{args.out}: {len(layout)} taxels in {layout.n_modules} modules, {report.seconds:.2f} s ({report.method})")
+    where = f" on link {args.link!r} (its frame)" if robot is not None else ""
+    print(f"{args.out}: {len(layout)} taxels in {layout.n_modules} modules{where}, {report.seconds:.2f} s "
+          f"({report.method})")
     for line in report_lines(layout.meta.get("placement")):
         print(f"  {line}")
     return 0
@@ -359,10 +391,17 @@ def register(sub) -> None:
     lsub = p.add_subparsers(dest="layout_command", metavar="ACTION")
 
     pl = lsub.add_parser("place", help="conform a patch of modules to a mesh")
-    pl.add_argument("mesh", metavar="MESH", help="end-effector mesh (STL, OBJ, PLY, ...)")
+    pl.add_argument("mesh", metavar="MESH", help="end-effector mesh (STL, OBJ, PLY, ...), or with --link a robot "
+                                                 "(URDF or MJCF)")
+    pl.add_argument("--link", help="lay the skin on this link of the robot MESH: its geometry as the model places "
+                                   "it, the layout born in the link's frame")
+    pl.add_argument("--geometry", choices=("visual", "collision"), help="with --link: which geometry (default visual)")
+    pl.add_argument("--package", action="append", metavar="NAME=FOLDER",
+                    help="with --link: where a package:// package of the URDF is")
     pl.add_argument("--patch", type=_patch_arg, default="hexagon", help="triangle, hexagon, strip:N or fill")
-    pl.add_argument("--at", type=float, nargs=3, required=True, metavar=("X", "Y", "Z"),
-                    help="surface point the patch is centred on (metres)")
+    pl.add_argument("--at", type=float, nargs=3, metavar=("X", "Y", "Z"),
+                    help="surface point the patch is centred on (metres; with --link in the link frame, default "
+                         "the surface point nearest the link's centroid)")
     pl.add_argument("--direction", type=float, nargs=3, metavar=("DX", "DY", "DZ"),
                     help="in-plane direction of the patch's x axis")
     pl.add_argument("--module", default="cyskin10", choices=sorted(MODULES), help="module type")

@@ -176,7 +176,7 @@ def add_skin(layout: Layout, parent: ET.Element, sensor: ET.Element, *, position
     return names
 
 
-def _rebase(root: ET.Element, src_dir: Path, out_dir: Path) -> None:
+def rebase(root: ET.Element, src_dir: Path, out_dir: Path) -> None:
     """Keep the robot's relative file references valid from the output's folder."""
     if src_dir.resolve() == out_dir.resolve():
         return
@@ -256,8 +256,15 @@ def merge_into_model(layout: Layout, model, body: str | None = None, **options) 
     """The robot MJCF ``model`` (a path) with the skin added to its body ``body`` (default the
     layout's parent, else its frame). A body defined in an ``<include>``d file is found there:
     the includes are then written inline, every element as it was."""
-    body = body or layout.parent or layout.frame
     tree = read_robot_xml(model, "mujoco")
+    merge_into_tree(layout, tree, body, model, **options)
+    return tree
+
+
+def merge_into_tree(layout: Layout, tree: ET.ElementTree, body: str | None, model, **options) -> list[str]:
+    """Add the skin's sites (pads) and touch sensors to body ``body`` of the MJCF ``tree`` read from
+    the file ``model``; returns the site names. See :func:`merge_into_model`."""
+    body = body or layout.parent or layout.frame
     root = tree.getroot()
     find = lambda: next((b for b in root.iter("body") if b.get("name") == body), None)  # noqa: E731
     target = find()
@@ -287,9 +294,16 @@ def merge_into_model(layout: Layout, model, body: str | None = None, **options) 
     if sensor is None:
         sensor = ET.SubElement(root, "sensor")
     before = {id(e) for e in root.iter()}
-    add_skin(layout, target, sensor, positions=pos, normals=nrm, prefix=prefix, **options)
+    out = add_skin(layout, target, sensor, positions=pos, normals=nrm, prefix=prefix, **options)
     indent_added(root, [e for e in root.iter() if id(e) not in before])
-    return tree
+    return out
+
+
+def write_tree(tree: ET.ElementTree, path) -> None:
+    """Write an MJCF tree (written to a temporary file, then renamed)."""
+    with atomic_write(path, "w", encoding="utf-8", newline="\n") as fh:
+        tree.write(fh, encoding="unicode", xml_declaration=False)
+        fh.write("\n")
 
 
 def write(layout: Layout, path, *, model=None, body: str | None = None, footprint: str = "taxel",
@@ -308,7 +322,7 @@ def write(layout: Layout, path, *, model=None, body: str | None = None, footprin
     opts = dict(footprint=footprint, site_radius=site_radius, pad_thickness=pad_thickness)
     if model is not None:
         tree = merge_into_model(layout, model, body, pad=bool(pad), prefix=prefix, **opts)
-        _rebase(tree.getroot(), Path(model).parent, Path(path).parent)
+        rebase(tree.getroot(), Path(model).parent, Path(path).parent)
     else:
         root = ET.Element("mujoco", model=str(layout.meta.get("name") or layout.meta.get("end_effector") or "skin"))
         root.append(ET.Comment(
@@ -325,6 +339,4 @@ def write(layout: Layout, path, *, model=None, body: str | None = None, footprin
                  prefix=prefix or "taxel_", pad=True if pad is None else bool(pad), **opts)
         tree = ET.ElementTree(root)
         ET.indent(tree, space="  ")
-    with atomic_write(path, "w", encoding="utf-8", newline="\n") as fh:
-        tree.write(fh, encoding="unicode", xml_declaration=False)
-        fh.write("\n")
+    write_tree(tree, path)

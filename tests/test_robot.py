@@ -1,0 +1,306 @@
+"""Robot in, skinned robot out (issue 25): read real robots (example-robot-data's UR10 and Panda, a
+humanoid arm with a millimetre CAD forearm placed by a visual origin), lay skin on their own links,
+export the robot with the skin in it and load it back with yourdfpy and MuJoCo: every taxel frame on
+its link's mesh in world coordinates at the zero pose and at 5 random joint configurations."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+from vtcore.errors import InputError
+from vtcore.robot import export_skinned, lay_on_link, link_mesh, load_robot
+from vtcore.robot.samples import FOREARM_VISUAL_ORIGIN, example_robot_data, humanoid_arm
+from vtcore.robot.verify import check_mjcf, check_urdf
+
+pytestmark = pytest.mark.filterwarnings("ignore::UserWarning")
+
+MAX_MM, MAX_DEG = 0.5, 5.0
+
+
+@pytest.fixture(scope="session")
+def robots(tmp_path_factory):
+    """name -> URDF path: UR10 and Panda as example-robot-data ships them, and the humanoid arm."""
+    erd = example_robot_data()
+    return {"ur10": erd / "ur_description" / "urdf" / "ur10_robot.urdf",
+            "panda": erd / "panda_description" / "urdf" / "panda.urdf",
+            "humanoid": humanoid_arm(tmp_path_factory.mktemp("humanoid"))}
+
+
+def packages_of(robots):
+    """Where a ROS user's package path would point yourdfpy for each robot's package:// meshes."""
+    return {"example-robot-data": example_robot_data().parent,
+            "humanoid_description": robots["humanoid"].parents[1]}
+
+
+def configurations(robot, n=5, seed=0):
+    rng = np.random.default_rng(seed)
+    qs = [{}] + [robot.random_configuration(rng) for _ in range(n)]
+    # every joint's value, mimic joints too (MuJoCo's URDF import makes them independent joints)
+    return [{j.name: robot.joint_value(j, q) for j in robot.joints if j.type != "fixed"} for q in qs]
+
+
+@pytest.mark.parametrize("name", ["ur10", "panda", "humanoid"])
+def test_reader_agrees_with_yourdfpy(robots, name):
+    """Link poses at random configurations, geometry origins, scales and resolved mesh files."""
+    import yourdfpy
+
+    robot = load_robot(robots[name])
+    u = yourdfpy.URDF.load(str(robots[name]), load_meshes=False, build_scene_graph=True)
+    assert set(robot.links) == set(u.link_map)
+    for q in configurations(robot):
+        u.update_cfg({k: v for k, v in q.items() if k in u.actuated_joint_names})
+        poses = robot.link_poses(q)
+        for link in robot.links:
+            np.testing.assert_allclose(poses[link], u.get_transform(link, robot.root), atol=1e-9)
+    for link, ln in robot.links.items():
+        theirs = u.link_map[link]
+        for ours, their in ((ln.visuals, theirs.visuals), (ln.collisions, theirs.collisions)):
+            assert len(ours) == len([t for t in their if t.geometry is not None])
+            for g, t in zip(ours, their):
+                np.testing.assert_allclose(g.origin, t.origin if t.origin is not None else np.eye(4), atol=1e-12)
+                if t.geometry.mesh is not None:
+                    assert g.mesh is not None and g.mesh.is_file()
+                    assert g.filename == t.geometry.mesh.filename
+                    np.testing.assert_allclose(g.scale, t.geometry.mesh.scale if t.geometry.mesh.scale is not None
+                                               else 1.0)
+
+
+def test_millimetre_cad_mesh_is_placed_by_its_origin_and_scale(robots):
+    import trimesh
+
+    robot = load_robot(robots["humanoid"])
+    vis = link_mesh(robot, "l_forearm", "visual")
+    cad = trimesh.load(robots["humanoid"].parents[1] / "meshes" / "forearm_cad.stl", process=False)
+    from vtcore.robot.model import pose
+
+    expect = cad.vertices * 1e-3 @ pose(*FOREARM_VISUAL_ORIGIN)[:3, :3].T + FOREARM_VISUAL_ORIGIN[0]
+    np.testing.assert_allclose(vis.vertices[:len(expect)], expect, atol=1e-12)  # the shell, then the cover
+    assert len(robot.link("l_forearm").visuals) == 2
+    col = link_mesh(robot, "l_forearm", "collision")  # another file, another origin, the same place
+    np.testing.assert_allclose(col.bounds, vis.bounds, atol=0.02)
+    assert 0.199 < np.ptp(vis.vertices, axis=0).max() < 0.25  # metres, not millimetres
+
+
+def test_unknown_link_and_missing_geometry_are_named(robots):
+    robot = load_robot(robots["ur10"])
+    with pytest.raises(InputError, match=r"no link named 'forearm'; links: base_link, .*forearm_link"):
+        link_mesh(robot, "forearm")
+    with pytest.raises(InputError, match="no visual geometry.*--geometry collision"):
+        link_mesh(robot, "ee_link")
+
+
+def test_package_paths_resolve_through_a_map(robots, tmp_path):
+    text = robots["humanoid"].read_text().replace("package://humanoid_description/meshes",
+                                                  "package://my_arm_meshes")
+    (tmp_path / "elsewhere").mkdir()
+    (tmp_path / "elsewhere" / "arm.urdf").write_text(text)
+    robot = load_robot(tmp_path / "elsewhere" / "arm.urdf")
+    with pytest.raises(InputError, match="not found.*--package"):
+        link_mesh(robot, "l_forearm")
+    robot = load_robot(tmp_path / "elsewhere" / "arm.urdf",
+                       packages={"my_arm_meshes": robots["humanoid"].parents[1] / "meshes"})
+    assert len(link_mesh(robot, "l_forearm").faces) > 500
+
+
+def skin_every_link(robot, geometry="visual", fill=()):
+    """A hexagon (or, where none fits, one module) on every link with geometry, a fill on the links
+    ``fill``; links that carry no module are returned with the reason."""
+    layouts, refused = [], {}
+    for link, ln in robot.links.items():
+        if not ln.geometry(geometry):
+            continue
+        mesh = link_mesh(robot, link, geometry)
+        for patch in (("fill",) if link in fill else ("hexagon", "triangle")):
+            try:
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore")
+                    lay, rep = lay_on_link(robot, link, patch, mesh=mesh, geometry=geometry)
+            except InputError as exc:
+                refused[link] = str(exc)
+                continue
+            if not len(rep.off_boundary) and rep.strain_max < 0.1:
+                layouts.append(lay)
+                refused.pop(link, None)
+                break
+            refused[link] = f"{patch}: {len(rep.off_boundary)} taxels off the surface, strain {rep.strain_max:.2f}"
+    return layouts, refused
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["ur10", "panda", "humanoid"])
+def test_skinned_robot_loads_with_every_taxel_on_its_link(robots, name, tmp_path):
+    """Done when (issue 25): every link that can carry a module, exported into the robot's own URDF
+    and (through MuJoCo's URDF import) MJCF; at the zero pose and 5 random configurations every taxel
+    frame within 0.5 mm of its link's mesh, z within 5 degrees of the surface normal."""
+    robot = load_robot(robots[name])
+    layouts, refused = skin_every_link(robot, fill={"l_forearm"})  # the CAD forearm filled whole
+    skinned = {lay.frame for lay in layouts}
+    if name == "humanoid":
+        assert len(next(x for x in layouts if x.frame == "l_forearm")) > 400
+    expect = {"ur10": {"base_link", "shoulder_link", "upper_arm_link", "forearm_link", "wrist_1_link",
+                       "wrist_2_link", "wrist_3_link"},
+              "panda": {f"panda_link{i}" for i in range(8)} | {"panda_hand"},
+              "humanoid": {"l_upper_arm", "l_forearm"}}[name]
+    assert expect <= skinned, refused
+    for link, why in refused.items():  # a link too small for a module is named with the reason
+        assert link in why or "no module fits" in why or "off the surface" in why, why
+    records = export_skinned(robots[name], layouts, tmp_path / "skinned.urdf")
+    assert [r["link"] for r in records] == [lay.frame for lay in layouts]
+    configs = configurations(robot)
+    urdf = check_urdf(tmp_path / "skinned.urdf", configs, packages=packages_of(robots))
+    assert set(urdf) == skinned
+    for link, st in urdf.items():
+        assert st["max_mm"] < MAX_MM and st["max_deg"] < MAX_DEG, (link, st)
+    export_skinned(robots[name], layouts, tmp_path / "skinned.xml")
+    meshes = {link: link_mesh(robot, link) for link in skinned}
+    mj = check_mjcf(tmp_path / "skinned.xml", meshes, configs)
+    assert set(mj) == skinned
+    for link, st in mj.items():
+        assert st["max_mm"] < MAX_MM and st["max_deg"] < MAX_DEG, (link, st)
+    # the robot's own elements come back as they were
+    import xml.etree.ElementTree as ET
+
+    own = ET.parse(robots[name]).getroot()
+    out = ET.parse(tmp_path / "skinned.urdf").getroot()
+    canon = lambda e: ET.tostring(e, encoding="unicode").strip()  # noqa: E731
+    assert [canon(e) for e in own] == [canon(e) for e in out][:len(own)]
+
+
+def test_ball_on_a_skinned_link_of_the_posed_robot_reads_mg(robots, tmp_path):
+    """Done when (issue 25): a 0.1 kg ball resting on a skinned link of the fixed robot at a non-zero
+    pose: the touch readings sum to m g within 2 %. The humanoid's forearm, skinned on its collision
+    hull (MuJoCo's contact surface) where the hull faces up at this pose, exported as MJCF (taxel
+    footprint: the link's own geom is the contact surface); the robot is fixed at its pose (joints of
+    huge inertia, gravity compensated) and the ball (rolling friction, as rubber has) settles on the
+    centre taxel."""
+    import mujoco
+
+    robot = load_robot(robots["humanoid"])
+    q = {"l_shoulder_pitch": -0.6, "l_elbow": 0.9}  # the forearm lies level: a ball can rest on it
+    hull = link_mesh(robot, "l_forearm", "collision")
+    up = np.linalg.inv(robot.link_poses(q)["l_forearm"])[:3, :3] @ [0, 0, 1.0]  # world up in the link
+    face = int(np.argmax(hull.face_normals @ up))
+    assert hull.face_normals[face] @ up > 0.999
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        lay, _ = lay_on_link(robot, "l_forearm", "hexagon", hull.triangles_center[face], mesh=hull,
+                             geometry="collision")
+    export_skinned(robots["humanoid"], [lay], tmp_path / "skinned.xml")
+    spec = mujoco.MjSpec.from_file(str(tmp_path / "skinned.xml"))
+    m0 = spec.compile()
+    d0 = mujoco.MjData(m0)
+    for name, v in q.items():
+        d0.qpos[m0.jnt_qposadr[m0.joint(name).id]] = v
+    mujoco.mj_kinematics(m0, d0)
+    centre = int(np.argmin(np.linalg.norm(lay.positions - lay.positions.mean(0), axis=1)))
+    site = m0.site(f"l_forearm_vtskin_{lay.taxel_ids[centre]}").id
+    radius, mass = 0.01, 0.1
+    ball = spec.worldbody.add_body(name="ball", pos=d0.site_xpos[site] + [0, 0, radius + 0.003])
+    ball.add_freejoint()
+    ball.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[radius, 0, 0], mass=mass, condim=6,
+                  friction=[1.0, 0.005, 0.005])
+    m = spec.compile()
+    m.opt.timestep = 1e-3
+    m.dof_armature[:m.nv - 6] = 1e6  # the robot is fixed at its pose
+    m.body_gravcomp[:m.nbody - 1] = 1.0
+    d = mujoco.MjData(m)
+    for name, v in q.items():
+        d.qpos[m.jnt_qposadr[m.joint(name).id]] = v
+    touch = [k for k in range(m.nsensor) if m.sensor(k).name.endswith("_touch")]
+    assert len(touch) == len(lay)
+    sums = []
+    for step in range(2000):
+        mujoco.mj_step(m, d)
+        if step >= 1000:
+            sums.append(d.sensordata[touch].sum())
+    g = float(-m.opt.gravity[2])
+    assert abs(np.mean(sums) - mass * g) / (mass * g) < 0.02, (np.mean(sums), mass * g)
+    assert np.linalg.norm(d.qvel[-6:-3]) < 1e-2  # at rest on the skin
+    assert np.count_nonzero(d.sensordata[touch]) == 1  # under the ball, on the centre taxel alone
+    assert d.sensordata[touch][centre] > 0
+
+
+def test_mjcf_robot_with_a_body_in_an_include(tmp_path):
+    """An MJCF robot whose arm is defined in an <include>d file, meshes under meshdir: read through
+    MuJoCo's compiler, skinned, and exported with the include written inline."""
+    import mujoco
+    import trimesh
+
+    (tmp_path / "assets").mkdir()
+    trimesh.creation.cylinder(radius=0.04, height=0.3, sections=96).export(tmp_path / "assets" / "tube.stl")
+    (tmp_path / "arm.xml").write_text("""<mujoco>
+  <body name="upper arm" pos="0 0 0.5">
+    <joint name="shoulder" type="hinge" axis="0 1 0" range="-1 1"/>
+    <geom type="mesh" mesh="tube" pos="0 0 0.15"/>
+  </body>
+</mujoco>""")
+    (tmp_path / "robot.xml").write_text("""<mujoco model="incl">
+  <compiler meshdir="assets"/>
+  <asset><mesh name="tube" file="tube.stl"/></asset>
+  <worldbody>
+    <!-- the arm lives in its own file -->
+    <include file="arm.xml"/>
+  </worldbody>
+</mujoco>""")
+    robot = load_robot(tmp_path / "robot.xml")
+    assert robot.format == "mjcf" and "upper arm" in robot.links
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        lay, _ = lay_on_link(robot, "upper arm", "hexagon", geometry="collision")
+    assert lay.frame == "upper arm"
+    (tmp_path / "out").mkdir()
+    export_skinned(tmp_path / "robot.xml", [lay], tmp_path / "out" / "skinned.xml")
+    text = (tmp_path / "out" / "skinned.xml").read_text()
+    assert "<include" not in text and "the arm lives in its own file" in text
+    m = mujoco.MjModel.from_xml_path(str(tmp_path / "out" / "skinned.xml"))
+    assert m.nsensor == len(lay) and m.site(0).name.startswith("upper_arm_vtskin_")
+    stats = check_mjcf(tmp_path / "out" / "skinned.xml", {"upper arm": link_mesh(robot, "upper arm", "collision")},
+                       [{}, {"shoulder": 0.7}])
+    assert stats["upper arm"]["max_mm"] < MAX_MM and stats["upper arm"]["max_deg"] < MAX_DEG
+
+
+def test_mjcf_reader_agrees_with_mujoco(robots, tmp_path):
+    """Our forward kinematics of an MJCF (the UR10 through MuJoCo's URDF import) against MuJoCo's."""
+    import mujoco
+
+    from vtcore.robot.export import urdf_as_mjcf
+    from vtcore.layout.io.mjcf import write_tree
+
+    write_tree(urdf_as_mjcf(robots["ur10"], tmp_path / "ur10.xml"), tmp_path / "ur10.xml")
+    robot = load_robot(tmp_path / "ur10.xml")
+    m = mujoco.MjModel.from_xml_path(str(tmp_path / "ur10.xml"))
+    d = mujoco.MjData(m)
+    for q in configurations(robot):
+        d.qpos[:] = 0
+        for name, v in q.items():
+            d.qpos[m.jnt_qposadr[m.joint(name).id]] = v
+        mujoco.mj_kinematics(m, d)
+        poses = robot.link_poses(q)
+        for b in range(1, m.nbody):
+            np.testing.assert_allclose(poses[m.body(b).name][:3, 3], d.xpos[b], atol=1e-9)
+            np.testing.assert_allclose(poses[m.body(b).name][:3, :3], d.xmat[b].reshape(3, 3), atol=1e-9)
+
+
+def test_cli_robot_info_place_export(robots, tmp_path, capsys):
+    from vtcore.cli import main
+    from vtcore.layout import load
+
+    assert main(["robot", "info", str(robots["humanoid"])]) == 0
+    out = capsys.readouterr().out
+    assert "l_forearm: visual" in out and "scale 0.001 0.001 0.001" in out and "mm across" in out
+    assert main(["layout", "place", str(robots["humanoid"]), "--link", "l_forearm", "--patch", "hexagon",
+                 "--out", str(tmp_path / "h.json")]) == 0
+    lay = load(tmp_path / "h.json")
+    assert lay.frame == "l_forearm" and lay.meta["link"] == "l_forearm" and len(lay) == 60
+    assert main(["robot", "export", str(robots["humanoid"]), str(tmp_path / "h.json"),
+                 "--out", str(tmp_path / "arm_skinned.urdf")]) == 0
+    assert "60 taxels on 'l_forearm' (l_forearm_vtskin_" in capsys.readouterr().out
+    assert main(["robot", "export", str(robots["humanoid"]), str(tmp_path / "h.json"), "--prefix", "l_forearm_skin_",
+                 "--out", str(tmp_path / "clash.urdf")]) == 2
+    err = capsys.readouterr().err
+    assert "l_forearm_skin_" in err and "--prefix" in err and not (tmp_path / "clash.urdf").exists()
+    assert main(["layout", "place", str(robots["humanoid"]), "--link", "l_hand", "--out", str(tmp_path / "x.json")]) == 2
+    assert "no link named 'l_hand'; links: torso, l_upper_arm, l_forearm" in capsys.readouterr().err

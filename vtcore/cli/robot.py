@@ -1,0 +1,111 @@
+"""``vtcore robot info|export``: a robot's links and their geometry; the robot with its skins in it.
+
+- ``vtcore robot info ROBOT [--package NAME=FOLDER ...] [--json]``
+- ``vtcore robot export ROBOT LAYOUT [LAYOUT ...] --out FILE [--format urdf|mjcf] [--prefix NAME_ ...]
+  [--footprint taxel|tile] [--pad|--no-pad] [--site-radius M] [--pad-thickness M] [--package NAME=FOLDER]``
+
+Laying skin on a link: ``vtcore layout place ROBOT --link NAME [--geometry visual|collision]``.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import warnings
+
+from ..errors import InputError
+
+
+def packages(values) -> dict:
+    """``NAME=FOLDER`` pairs (``--package``) as a dict."""
+    out = {}
+    for v in values or []:
+        name, sep, folder = v.partition("=")
+        if not sep or not name or not folder:
+            raise InputError(f"give NAME=FOLDER, got {v!r}", key="--package")
+        out[name] = folder
+    return out
+
+
+def _warnings(caught):
+    for w in caught:
+        print(f"vtcore: warning: {w.message}", file=sys.stderr)
+
+
+def cmd_info(args) -> int:
+    from ..robot import describe, load_robot
+
+    robot = load_robot(args.robot, packages(args.package))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        rows = describe(robot)
+    joints = [{"name": j.name, "type": j.type, "parent": j.parent, "child": j.child, "lower": j.lower,
+               "upper": j.upper} for j in robot.joints]
+    if args.json:
+        print(json.dumps({"robot": robot.name, "format": robot.format, "root": robot.root, "links": rows,
+                          "joints": joints, "warnings": [str(w.message) for w in caught]}, indent=1))
+        return 0
+    _warnings(caught)
+    print(f"{args.robot}: robot {robot.name!r} ({robot.format}), {len(robot.links)} links, "
+          f"{len(robot.moving_joints)} moving joints, root {robot.root!r}")
+    for r in rows:
+        if r["kind"] is None:
+            print(f"  {r['link']}: no geometry")
+            continue
+        scale = "" if r["scale"] == [1.0, 1.0, 1.0] else f" scale {' '.join(f'{v:g}' for v in r['scale'])}"
+        what = r["error"] or f"{r['faces']} faces, {1e3 * r['size_m']:.0f} mm across"
+        print(f"  {r['link']}: {r['kind']} {r['source']}{scale}: {what}")
+    return 0
+
+
+def cmd_export(args) -> int:
+    from ..layout import load
+    from ..robot import export_skinned
+
+    opts = {k: getattr(args, k) for k in ("footprint", "pad", "site_radius", "pad_thickness")
+            if getattr(args, k) is not None}
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        layouts = [load(p) for p in args.layouts]
+        if args.prefix and len(args.prefix) != len(layouts):
+            raise InputError(f"{len(args.prefix)} --prefix for {len(layouts)} layouts: give one per layout, "
+                             "in the same order", key="--prefix")
+        records = export_skinned(args.robot, layouts, args.out, format=args.format, prefixes=args.prefix,
+                                 packages=packages(args.package), **opts)
+    _warnings(caught)
+    for r in records:
+        print(f"{args.out}: {r['taxels']} taxels on {r['link']!r} ({r['names'][0]} .. {r['names'][-1]})")
+    return 0
+
+
+def register(sub) -> None:
+    p = sub.add_parser("robot", help="a robot's links and geometry; export a robot with its skins")
+    rsub = p.add_subparsers(dest="robot_command", metavar="ACTION")
+
+    inf = rsub.add_parser("info", help="links with their meshes, size and units; joints")
+    inf.add_argument("robot", metavar="ROBOT", help="URDF or MJCF file")
+    inf.add_argument("--package", action="append", metavar="NAME=FOLDER", help="where a package:// package is")
+    inf.add_argument("--json", action="store_true", help="print a JSON object")
+    inf.set_defaults(func=cmd_info)
+
+    ex = rsub.add_parser("export", help="the robot's file with the skins' taxel frames (URDF) or touch sensors "
+                                        "(MJCF) in their links")
+    ex.add_argument("robot", metavar="ROBOT", help="URDF or MJCF file")
+    ex.add_argument("layouts", metavar="LAYOUT", nargs="+", help="layouts in link frames (vtcore layout place "
+                                                                 "ROBOT --link, or reframe --parent LINK)")
+    ex.add_argument("--out", required=True, metavar="FILE")
+    ex.add_argument("--format", choices=("urdf", "mjcf"), help="default: from --out (.urdf, .xml)")
+    ex.add_argument("--prefix", action="append", metavar="NAME_",
+                    help="start of the taxel names, one per layout (default LINK_vtskin_)")
+    ex.add_argument("--package", action="append", metavar="NAME=FOLDER", help="where a package:// package is")
+    ex.add_argument("--footprint", choices=("taxel", "tile"), help="mjcf: taxel-size sites or tiling pads")
+    ex.add_argument("--pad", action="store_true", default=None, help="mjcf: contact pads under the sites")
+    ex.add_argument("--site-radius", type=float, metavar="METRES", help="mjcf: taxel site radius")
+    ex.add_argument("--pad-thickness", type=float, metavar="METRES", help="mjcf: pad thickness (default 1 mm)")
+    ex.set_defaults(func=cmd_export)
+
+    def _help(args, parser=p):
+        parser.print_help(sys.stderr)
+        return 2
+
+    p.set_defaults(func=_help)

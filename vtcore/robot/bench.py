@@ -1,0 +1,168 @@
+"""``vtcore bench robot``: skin every link of a real robot from its URDF, export it, load it back.
+
+UR10 from example-robot-data: a fill of each link's outer shell (:func:`vtcore.robot.lay_on_link`,
+collision geometry: the closed outer shells; and the visual COLLADA meshes, whose open and sharp
+edges a fill has to step round), each link in a forked child (its own wall and CPU seconds and peak
+resident memory); the merged URDF and MJCF export of all skins; and the accuracy as the consumers
+load them (yourdfpy, MuJoCo: largest taxel distance to its link's mesh and angle to its normal over
+the zero pose and 5 random configurations). Writes ``table.md``, ``table.csv``,
+``accuracy_vs_time.png`` and ``skinned_robot.png`` (the skinned UR10 at a pose).
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import numpy as np
+
+from .._bench import best_time, in_child, save_png, write_table
+
+GOALS = "Goals (issue 25): every UR10 link skinned from its URDF in < 60 s in all; merged URDF and MJCF export < 5 s."
+
+
+def _robot():
+    from .export import load_robot
+    from .samples import example_robot_data
+
+    return load_robot(example_robot_data() / "ur_description" / "urdf" / "ur10_robot.urdf")
+
+
+def _skin_links(robot, geometry, links, rows):
+    from .skin import lay_on_link
+
+    layouts = []
+    for link in links:
+        sec, cpu, mb, res, err = in_child(lambda link=link: lay_on_link(robot, link, "fill", geometry=geometry))
+        lay, rep = res if res is not None else (None, None)
+        rows.append({"case": "fill_link", "geometry": geometry, "link": link,
+                     "faces": None if lay is None else lay.meta.get("placement", {}).get("faces"),
+                     "modules": 0 if lay is None else lay.n_modules, "taxels": 0 if lay is None else len(lay),
+                     "coverage": None if rep is None else rep.coverage, "seconds": sec, "cpu_seconds": cpu,
+                     "peak_mb": mb, "max_mm": None, "max_deg": None, "extra": err or ""})
+        if lay is not None:
+            layouts.append(lay)
+    return layouts
+
+
+def _export_rows(robot, layouts, geometry, out, rows, quick):
+    from .export import export_skinned
+    from .meshes import link_mesh
+    from .samples import example_robot_data
+    from .verify import check_mjcf, check_urdf
+
+    for fmt, ext in (("urdf", "urdf"), ("mjcf", "xml")):
+        path = out / f"ur10_skinned_{geometry}.{ext}"
+        sec, _ = best_time(lambda path=path: export_skinned(robot.path, layouts, path), repeat=1 if quick else 3)
+        rows.append({"case": f"export_{fmt}", "geometry": geometry, "link": "all",
+                     "taxels": sum(len(x) for x in layouts), "seconds": sec, "extra": path.name})
+    rng = np.random.default_rng(0)
+    configs = [{}] + [robot.random_configuration(rng) for _ in range(5)]
+    configs = [{j.name: robot.joint_value(j, q) for j in robot.joints if j.type != "fixed"} for q in configs]
+    urdf = check_urdf(out / f"ur10_skinned_{geometry}.urdf", configs, geometry,
+                      packages={"example-robot-data": example_robot_data().parent})
+    mj = check_mjcf(out / f"ur10_skinned_{geometry}.xml", {x.frame: link_mesh(robot, x.frame, geometry)
+                                                           for x in layouts}, configs)
+    for r in rows:
+        if r["case"] == "fill_link" and r["geometry"] == geometry and r["link"] in urdf:
+            u, m = urdf[r["link"]], mj.get(r["link"], {})
+            r["max_mm"] = max(u["max_mm"], m.get("max_mm", 0.0))
+            r["max_deg"] = max(u["max_deg"], m.get("max_deg", 0.0))
+
+
+def picture(robot, layouts, geometry, path, q=None) -> None:
+    """The skinned robot at joint values ``q``: link meshes grey, taxels coloured by link."""
+    import matplotlib.pyplot as plt
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    from .meshes import link_mesh
+
+    poses = robot.link_poses(q or {})
+    fig = plt.figure(figsize=(7, 7))
+    ax = fig.add_subplot(projection="3d")
+    cmap = plt.get_cmap("tab10")
+    lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
+    for name, ln in robot.links.items():
+        if not ln.geometry(geometry):
+            continue
+        m = link_mesh(robot, name, geometry)
+        t = poses[name]
+        v = m.vertices @ t[:3, :3].T + t[:3, 3]
+        lo, hi = np.minimum(lo, v.min(0)), np.maximum(hi, v.max(0))
+        ax.add_collection3d(Poly3DCollection(v[m.faces], facecolor=(0.8, 0.8, 0.82, 0.25), edgecolor="none"))
+    for k, lay in enumerate(layouts):
+        t = poses[lay.frame]
+        p = lay.positions @ t[:3, :3].T + t[:3, 3]
+        ax.scatter(*p.T, s=2, color=cmap(k % 10), label=f"{lay.frame}: {len(lay)}", depthshade=False)
+    c, r = (lo + hi) / 2, (hi - lo).max() / 2
+    ax.set_xlim(c[0] - r, c[0] + r)
+    ax.set_ylim(c[1] - r, c[1] + r)
+    ax.set_zlim(c[2] - r, c[2] + r)
+    ax.set_box_aspect((1, 1, 1))
+    ax.set_title(f"{robot.name} skinned from its URDF ({geometry} geometry): "
+                 f"{sum(len(x) for x in layouts)} taxels")
+    ax.legend(fontsize=7, markerscale=4, loc="upper left")
+    ax.set_axis_off()
+    save_png(fig, path, dpi=120)
+    plt.close(fig)
+
+
+def run(out: Path, quick: bool = False) -> list[dict]:
+    """Run the robot benchmark into ``out``."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    robot = _robot()
+    rows: list = []
+    t0 = time.perf_counter()
+    kinds = ("collision",) if quick else ("collision", "visual")
+    skins = {}
+    for geometry in kinds:
+        links = [n for n, ln in robot.links.items() if ln.geometry(geometry)]
+        if quick:
+            links = links[:2]
+        start = time.perf_counter()
+        skins[geometry] = _skin_links(robot, geometry, links, rows)
+        rows.append({"case": "all_links", "geometry": geometry, "link": f"{len(links)} links",
+                     "modules": sum(x.n_modules for x in skins[geometry]),
+                     "taxels": sum(len(x) for x in skins[geometry]), "seconds": time.perf_counter() - start,
+                     "cpu_seconds": sum(r["cpu_seconds"] for r in rows if r["case"] == "fill_link"
+                                        and r["geometry"] == geometry),
+                     "peak_mb": max((r["peak_mb"] for r in rows if r["case"] == "fill_link"
+                                     and r["geometry"] == geometry), default=None)})
+        if skins[geometry]:
+            _export_rows(robot, skins[geometry], geometry, out, rows, quick)
+    import os
+
+    write_table(out, rows, title="Robot benchmark: the UR10 skinned from its URDF" + (" (quick)" if quick else ""),
+                notes=[GOALS, f"Machine load (1, 5, 15 min) at the end: {os.getloadavg()}; the whole run took "
+                       f"{time.perf_counter() - t0:.0f} s.",
+                       "fill_link: one fill per link in a forked child (wall and CPU seconds, the child's peak "
+                       "resident MB including the imported libraries); max_mm / max_deg: the largest taxel "
+                       "distance to its link's mesh and angle to the surface normal, yourdfpy and MuJoCo, zero "
+                       "pose and 5 random configurations."],
+                columns=["case", "geometry", "link", "faces", "modules", "taxels", "coverage", "seconds",
+                         "cpu_seconds", "peak_mb", "max_mm", "max_deg", "extra"])
+    fig, ax = plt.subplots(figsize=(6, 4))
+    for geometry, mk in (("collision", "o"), ("visual", "s")):
+        rr = [r for r in rows if r["case"] == "fill_link" and r["geometry"] == geometry and r["max_mm"] is not None]
+        if rr:
+            ax.scatter([r["seconds"] for r in rr], [r["max_mm"] for r in rr], marker=mk, label=geometry)
+            for r in rr:
+                ax.annotate(r["link"].replace("_link", ""), (r["seconds"], r["max_mm"]), fontsize=6)
+    ax.set_xlabel("fill seconds (one link)")
+    ax.set_ylabel("largest taxel distance to the link mesh (mm)")
+    ax.set_title("UR10: fill time and placement accuracy per link")
+    ax.legend()
+    fig.tight_layout()
+    save_png(fig, out / "accuracy_vs_time.png", dpi=110)
+    plt.close(fig)
+    for geometry, layouts in skins.items():
+        if layouts:
+            picture(robot, layouts, geometry, out / f"skinned_robot_{geometry}.png",
+                    {"shoulder_lift_joint": -1.0, "elbow_joint": 1.2, "wrist_1_joint": -0.6})
+    return rows

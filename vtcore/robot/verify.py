@@ -1,0 +1,129 @@
+"""Check a skinned robot the way its consumers load it: every taxel frame on its link's surface.
+
+:func:`check_urdf` loads the exported URDF with yourdfpy (its own mesh loading, origins, scales and
+forward kinematics), :func:`check_mjcf` the exported MJCF with MuJoCo; at each joint configuration
+every taxel frame (a ``*_vtskin_*`` link, or a touch sensor's site) is compared, in world
+coordinates, with its link's mesh placed by that consumer: the distance of its origin to the mesh
+and the angle between its z axis and the normal of the nearest face. The tests hold these under
+0.5 mm and 5 degrees (issue 25) and ``vtcore bench robot`` reports them. yourdfpy and mujoco are
+imported here only (test and benchmark dependencies, not the add-on's).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError
+
+SKIN_MARK = "_vtskin_"
+
+
+def surface_errors(mesh, origins, z_axes) -> tuple[np.ndarray, np.ndarray]:
+    """(N,) mm from each origin (N, 3) to ``mesh`` and (N,) degrees between each z axis (N, 3) and
+    the normal of the nearest face (both in the same frame, metres)."""
+    from ..layout.surface import closest_points
+
+    cp, face, dist = closest_points(mesh, origins)
+    n = mesh.face_normals[face]
+    cos = np.clip(np.einsum("ij,ij->i", n, z_axes / np.linalg.norm(z_axes, axis=1, keepdims=True)), -1, 1)
+    return dist * 1e3, np.degrees(np.arccos(cos))
+
+
+def fine(geom):
+    """A copy of a yourdfpy scene geometry as a mesh; a primitive (cylinder, capsule, sphere) tessellated
+    finely, so that its facets' normals (32 round by default) are not mistaken for a taxel's error."""
+    import trimesh
+
+    p = getattr(geom, "primitive", None)
+    if isinstance(geom, trimesh.primitives.Cylinder):
+        return trimesh.creation.cylinder(radius=p.radius, height=p.height, sections=720, transform=p.transform)
+    if isinstance(geom, trimesh.primitives.Capsule):
+        return trimesh.creation.capsule(radius=p.radius, height=p.height, count=[720, 360], transform=p.transform)
+    if isinstance(geom, trimesh.primitives.Sphere):
+        return trimesh.creation.icosphere(subdivisions=6, radius=p.radius).apply_transform(p.transform)
+    return geom.copy()
+
+
+def _merge(stats: dict, link: str, d, a) -> None:
+    old = stats.get(link, {"taxels": len(d), "max_mm": 0.0, "max_deg": 0.0})
+    stats[link] = {"taxels": len(d), "max_mm": max(old["max_mm"], float(d.max())),
+                   "max_deg": max(old["max_deg"], float(a.max()))}
+
+
+def check_urdf(path, configs, geometry: str = "visual", packages: dict | None = None) -> dict:
+    """Per skinned link of the URDF at ``path``: ``{"taxels", "max_mm", "max_deg"}`` over every
+    configuration of ``configs`` (dicts joint -> value; yourdfpy applies mimic joints itself).
+    packages : package name -> folder, given to yourdfpy as a ROS user's package path would be."""
+    import trimesh
+    import yourdfpy
+
+    def handler(fname):
+        for name, folder in (packages or {}).items():
+            if fname.startswith(f"package://{name}/"):
+                return str(Path(folder) / fname[len(f"package://{name}/"):])
+        return yourdfpy.filename_handler_magic(fname, dir=str(Path(path).parent))
+
+    collision = geometry == "collision"
+    u = yourdfpy.URDF.load(str(path), build_scene_graph=not collision, load_meshes=not collision,
+                           build_collision_scene_graph=collision, load_collision_meshes=collision,
+                           filename_handler=handler)
+    parent_of = {j.child: j.parent for j in u.joint_map.values()}
+    taxels: dict = {}
+    for name in u.link_map:
+        if SKIN_MARK in name:
+            taxels.setdefault(parent_of[name], []).append(name)
+    stats: dict = {}
+    for q in configs:
+        u.update_cfg({k: v for k, v in q.items() if k in u.actuated_joint_names})
+        scene = u.collision_scene if collision else u.scene
+        g = scene.graph
+        parents = g.transforms.parents
+        for link, names in taxels.items():
+            parts = []
+            for node in g.nodes_geometry:
+                if parents.get(node) == link:
+                    t, geom = g[node]
+                    m = fine(scene.geometry[geom])
+                    m.apply_transform(t)
+                    parts.append(m)
+            if not parts:
+                raise InputError(f"yourdfpy loaded no {geometry} mesh of link {link!r}", file=path)
+            mesh = trimesh.util.concatenate(parts)
+            frames = np.array([u.get_transform(n, u.base_link) for n in names])
+            d, a = surface_errors(mesh, frames[:, :3, 3], frames[:, :3, 2])
+            _merge(stats, link, d, a)
+    return stats
+
+
+def check_mjcf(path, link_meshes: dict, configs) -> dict:
+    """Per skinned body of the MJCF at ``path``: ``{"taxels", "max_mm", "max_deg"}`` over every
+    configuration (dicts joint name -> qpos value, mimic joints already expanded), each site
+    against ``link_meshes[body]`` (a trimesh in the body's frame) placed where MuJoCo puts the body."""
+    import mujoco
+
+    m = mujoco.MjModel.from_xml_path(str(path))
+    d = mujoco.MjData(m)
+    sites: dict = {}
+    for s in range(m.nsite):
+        if SKIN_MARK in m.site(s).name:
+            sites.setdefault(m.body(int(m.site_bodyid[s])).name, []).append(s)
+    stats: dict = {}
+    for q in configs:
+        d.qpos[:] = m.qpos0
+        for name, v in q.items():
+            j = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, name)
+            if j >= 0:
+                d.qpos[m.jnt_qposadr[j]] = v
+        mujoco.mj_kinematics(m, d)
+        for body, ids in sites.items():
+            b = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, body)
+            r, p = d.xmat[b].reshape(3, 3), d.xpos[b]
+            mesh = link_meshes[body].copy()
+            t = np.eye(4)
+            t[:3, :3], t[:3, 3] = r, p
+            mesh.apply_transform(t)
+            dist, ang = surface_errors(mesh, d.site_xpos[ids], d.site_xmat[ids].reshape(-1, 3, 3)[:, :, 2])
+            _merge(stats, body, dist, ang)
+    return stats
