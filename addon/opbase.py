@@ -69,6 +69,15 @@ def need_skin(context, message: str, *, taxels: bool = False, attribute: str | N
     return ob
 
 
+def file_path(op, fallback: str, what: str) -> str:
+    """The operator's ``filepath`` (or the panel's ``fallback``) as an absolute path, or cancel
+    with "No <what> given" when both are empty."""
+    path = bpy.path.abspath(op.filepath or fallback)
+    if not path:
+        raise Cancel(f"No {what} given")
+    return path
+
+
 def out_dir(settings) -> Path:
     if settings.out_dir:
         return Path(bpy.path.abspath(settings.out_dir))
@@ -83,7 +92,17 @@ def vt_errors():
 
 
 def skin_frame(ob):
-    """Skin frame of an end-effector object: its world matrix without scale."""
+    """The frame a skin laid on ``ob`` lives in, as ``ob``'s (4, 4) world matrix.
+
+    A robot link object (Import Robot: ``ob.vtskin.link`` set) holds the link's geometry in link
+    coordinates as its mesh data: its frame is its whole matrix, scale included, so a skin laid on
+    it is in the link's frame wherever the object is moved, turned or scaled (the scale only shows
+    it bigger). A taxel object's frame is its matrix (it was created with the frame as matrix). Any
+    other object: its world matrix without scale (the object's scale is part of its geometry, e.g.
+    a millimetre mesh scaled 0.001).
+    """
+    if ob.vtskin.link or skin.is_taxels(ob):
+        return bridge.matrix(ob)
     return bridge.rigid(bridge.matrix(ob))
 
 

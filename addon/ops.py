@@ -3,8 +3,8 @@
 
 from __future__ import annotations
 
-from . import ops_analysis, ops_contact, ops_evaluate, ops_layout, ops_replay, ops_scene
+from . import ops_analysis, ops_contact, ops_evaluate, ops_layout, ops_replay, ops_robot, ops_scene
 from .ops_layout import VTSKIN_OT_lay_patch  # noqa: F401  (tests start a modal fill from the class)
 
-CLASSES = (ops_scene.CLASSES + ops_layout.CLASSES + ops_contact.CLASSES + ops_replay.CLASSES
+CLASSES = (ops_scene.CLASSES + ops_robot.CLASSES + ops_layout.CLASSES + ops_contact.CLASSES + ops_replay.CLASSES
            + ops_analysis.CLASSES + ops_evaluate.CLASSES)

@@ -51,6 +51,7 @@ def _write_edit(context, ee, skin_ob, frame, edit, module):
         skin_ob = skin.new_object(context, f"{ee.name} skin", matrix=frame)
         skin_ob.vtskin.end_effector = ee
         skin_ob.vtskin.module_type = module
+        skin.follow(skin_ob, ee)
     skin.write_layout(skin_ob, edit.layout, edit.triangles, pressure=pressure, response=response, edge=edge)
     n = len(edit.layout)
     bridge.set_attribute(skin_ob.data, "strain", np.zeros(n) if edit.strain is None else edit.strain)
@@ -290,12 +291,13 @@ class VTSKIN_OT_export(Op, bpy.types.Operator):
         path = bpy.path.abspath(self.filepath or s.export_path)
         if not path:
             raise Cancel("No export file given")
-        transform = None
-        if s.export_frame is not None and s.export_frame != ob:
-            transform = np.linalg.inv(bridge.rigid(bridge.matrix(s.export_frame))) @ bridge.matrix(ob)
+        transform = frame = None
+        if s.export_frame is not None and s.export_frame != ob:  # the taxels written in that object's frame
+            transform = np.linalg.inv(skin_frame(s.export_frame)) @ bridge.matrix(ob)
+            frame = skin.frame_name(s.export_frame)
         with failing("Export failed"):
             out = interactive.export_layout(skin.read_layout(ob), skin.triangles(ob), path, s.export_format,
-                                            transform)
+                                            transform, frame)
         self.report({"INFO"}, f"Wrote {out}")
         return {"FINISHED"}
 

@@ -53,6 +53,27 @@ def _skin(context):
     return skin_of(context)
 
 
+class VTSKIN_PT_robot(_Panel, bpy.types.Panel):
+    bl_idname = "VTSKIN_PT_robot"
+    bl_label = "Robot"
+    props = ("robot_file", "robot_geometry", "robot_joints", "robot_packages")
+
+    def draw_more(self, col, s, context):
+        _button(col, "vtskin.import_robot", "IMPORT")
+        ob = context.active_object
+        if ob is not None and ob.vtskin.link:
+            col.label(text=f"Link {ob.vtskin.link} ({ob.vtskin.geometry})")
+        col.separator()
+        col.prop(s, "layout_file")
+        _row(col, s, "layout_format", "layout_units")
+        _button(col, "vtskin.import_layout", "IMPORT")
+        col.separator()
+        col.prop(s, "skinned_path")
+        _row(col, s, "skinned_format", "skinned_prefix")
+        _row(col, s, "skinned_footprint", "skinned_pad", enabled=s.skinned_format == "mjcf")
+        _button(col, "vtskin.export_robot", "EXPORT")
+
+
 class VTSKIN_PT_layout(_Panel, bpy.types.Panel):
     bl_idname = "VTSKIN_PT_layout"
     bl_label = "Skin layout"
@@ -213,7 +234,7 @@ class VTSKIN_PT_scene(_Panel, bpy.types.Panel):
     button = ("vtskin.run_scene", "PLAY")
 
 
-CLASSES = (VTSKIN_PT_layout, VTSKIN_PT_layer, VTSKIN_PT_contact, VTSKIN_PT_evaluate, VTSKIN_PT_replay,
+CLASSES = (VTSKIN_PT_robot, VTSKIN_PT_layout, VTSKIN_PT_layer, VTSKIN_PT_contact, VTSKIN_PT_evaluate, VTSKIN_PT_replay,
            VTSKIN_PT_filters,
            VTSKIN_PT_augment,
            VTSKIN_PT_export, VTSKIN_PT_scene)

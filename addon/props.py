@@ -42,6 +42,11 @@ class VTSKIN_PG_object(bpy.types.PropertyGroup):
     source: StringProperty(name="Source", description="Where the taxels came from (scene file, layout file, placement)")
     end_effector: PointerProperty(name="End-effector", type=bpy.types.Object,
                                   description="The mesh the skin lies on")
+    # A robot link object (Import Robot): its mesh data is the link's geometry in link coordinates
+    link: StringProperty(name="Link", default="", description="The robot link this object is (empty: not a link)")
+    robot_file: StringProperty(name="Robot file", default="", subtype="FILE_PATH",
+                               description="The URDF or MJCF file the link was imported from")
+    geometry: StringProperty(name="Geometry", default="", description="visual or collision: what the mesh shows")
     color_by: EnumProperty(name="Colour by", items=COLOR_BY, default="response",
                            update=_color_by_changed)
     cache: PointerProperty(name="Bake cache", type=bpy.types.Mesh,
@@ -107,7 +112,15 @@ def _codecs():
     return [(k, words.get(k, k), f"vtcore recording kind {k}") for k in KINDS]
 
 
+def _read_formats():
+    from vtcore.layout.io import READ_FORMATS
+
+    return [("AUTO", "Auto", "From the file's name and content")] + [(f, f, f"vtcore layout format {f}")
+                                                                     for f in READ_FORMATS]
+
+
 _CODECS = _codecs()
+_READ_FORMATS = _read_formats()
 _MATERIALS = _materials()
 _FORMATS = _formats()
 
@@ -215,6 +228,31 @@ class VTSKIN_PG_scene(bpy.types.PropertyGroup):
     export_format: EnumProperty(name="Format", items=_FORMATS)
     export_frame: PointerProperty(name="In frame of", type=bpy.types.Object,
                                   description="Write positions in this object's frame (empty: the skin's own)")
+
+    # Robot (Import Robot, Import Layout, Export Skinned Robot)
+    robot_file: StringProperty(name="Robot", subtype="FILE_PATH", description="A URDF or MJCF robot")
+    robot_geometry: EnumProperty(name="Geometry", items=[
+        ("visual", "Visual", "The links' visual meshes (what the robot looks like)"),
+        ("collision", "Collision", "The links' collision meshes (what a simulator touches)")], default="visual")
+    robot_joints: StringProperty(name="Joints", default="",
+                                 description="Joint values to import at, e.g. elbow=0.5, wrist=-1 (empty: zero pose)")
+    robot_packages: StringProperty(name="Packages", default="",
+                                   description="Where package:// packages are: NAME=FOLDER; NAME2=FOLDER2")
+    layout_file: StringProperty(name="Layout", subtype="FILE_PATH",
+                                description="A calibrated layout (json, iCub positions, CySkin JSON, csv, ply)")
+    layout_format: EnumProperty(name="Format", items=_READ_FORMATS, default="AUTO")
+    layout_units: EnumProperty(name="Units", items=[("AUTO", "Auto", "As the file declares (mm detected)"),
+                                                     ("m", "m", "Metres"), ("mm", "mm", "Millimetres")],
+                               default="AUTO")
+    skinned_path: StringProperty(name="File", subtype="FILE_PATH", description="The skinned robot to write")
+    skinned_format: EnumProperty(name="Format", items=[("urdf", "URDF", "One fixed frame per taxel"),
+                                                        ("mjcf", "MJCF", "Sites and touch sensors")], default="urdf")
+    skinned_prefix: StringProperty(name="Prefix", default="",
+                                   description="Start of the taxel names (empty: LINK_vtskin_; {link} for the link)")
+    skinned_footprint: EnumProperty(name="Footprint", items=[
+        ("taxel", "Taxel", "Sites of the taxel's size: contacts between taxels read nothing"),
+        ("tile", "Tile", "Pads and sites tiling the skin: every contact is counted")], default="taxel")
+    skinned_pad: BoolProperty(name="Pads", default=False, description="MJCF: contact pads under the sites")
 
     # Replay
     recording_file: StringProperty(name="Recording", subtype="FILE_PATH",

@@ -67,8 +67,32 @@ def read_layout(ob):
     can = bridge.get_attribute(me, "can_id") if "can_id" in names else None
     normals = np.asarray(normals, np.float64)
     normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-12)
-    return Layout(co.reshape(-1, 3).astype(np.float64), normals, ids, mods, flat, frame=ob.name,
-                  transform=bridge.matrix(ob), can_ids=can)
+    # The taxels are in the skin's own frame (the link it lies on, or its end-effector): that frame
+    # is the layout's, with no transform. Where the object sits in the scene is Blender's business;
+    # an export "in frame of" another object says so explicitly (vtcore.scene.interactive.export_layout).
+    lay = Layout(co.reshape(-1, 3).astype(np.float64), normals, ids, mods, flat, frame=frame_name(ob), can_ids=can)
+    ee = ob.vtskin.end_effector
+    if ee is not None and ee.vtskin.link:
+        lay.meta.update({"link": ee.vtskin.link, "robot": ee.vtskin.robot_file})
+    return lay
+
+
+def frame_name(ob) -> str:
+    """The name of the frame an object's skin is in: a robot link object's link, the end-effector of a
+    taxel object, else the object's own name."""
+    if ob.vtskin.link:
+        return ob.vtskin.link
+    ee = ob.vtskin.end_effector if is_taxels(ob) else None
+    return frame_name(ee) if ee is not None and ee != ob else ob.name
+
+
+def follow(skin_ob, ee) -> None:
+    """Parent a new skin to the robot link object it lies on, so it moves with the link (a joint
+    configuration, the user dragging the robot); other end-effectors keep their skin unparented."""
+    if ee is not None and ee.vtskin.link and skin_ob.parent is None:
+        skin_ob.parent = ee
+        skin_ob.matrix_parent_inverse.identity()
+        skin_ob.matrix_basis.identity()
 
 
 def triangles(ob) -> np.ndarray:

@@ -57,6 +57,8 @@ BUNDLE = {
     "threadpoolctl": "vtcore.scene.runner: one BLAS thread per scene run (the same bytes on any machine)",
     "potpourri3d": "vtcore.layout log-map placement (heat-method log map): Lay Patch, Fill, Move",
     "trimesh": "vtcore.contact objects and proximity, vtcore.layout placement on meshes",
+    "pycollada": "Import Robot: COLLADA (.dae) link meshes through trimesh (the UR and Panda visual meshes); pure "
+                 "Python, on the standard library's ElementTree without lxml",
     # Only two operators need it: Run Scene ([output] plots = true) and Augment Point Cloud.
     "matplotlib": "Run Scene: PNG plots (vtcore.plots); Augment Point Cloud: vtcore.augment.colour_map's colormap",
     "contourpy": "dependency of matplotlib",
@@ -80,7 +82,8 @@ PLATFORMS = {
 }
 
 #: The vtcore modules the add-on's operators reach (checked importable in step 4).
-ADDON_MODULES = ["vtcore", "vtcore.layout", "vtcore.contact", "vtcore.scene", "vtcore.scene.interactive"]
+ADDON_MODULES = ["vtcore", "vtcore.layout", "vtcore.contact", "vtcore.robot", "vtcore.scene",
+                 "vtcore.scene.interactive", "collada"]
 OPTIONAL_MODULES = ["vtcore.filters", "vtcore.augment"]  # checked when present in the repo
 
 #: Python version -> (lock file, blender_version_min, blender_version_max or None). Blender's
@@ -263,10 +266,30 @@ def check_bundle(wheels: list[Path], python: str):
             "c = simulate(e.layout, e.triangles, s.vertices, s.faces, pose, thickness=0.003, force=1.0)\n"
             "assert abs(c.force - 1.0) < 1e-3 and c.edge.any(), (c.force, c.edge.sum())\n"
             "v, rgb = augment(e.layout.positions, e.layout.positions[:5], [1.0, 2, 3, 4, 5])\n"
+            + (f"from vtcore.scene.interactive import import_robot\n"
+               f"rob = import_robot({str(_ur10())!r})\n"  # Import Robot: the UR10's COLLADA visual meshes
+               "assert sum(len(p.faces) for p in rob.links) > 100_000, [p.note for p in rob.links]\n"
+               if _ur10() else "")
+            + 
             "print('bundle ok:', len(r.layout), 'taxels,', sorted(sys.modules.keys() & "
             "{'scipy', 'trimesh', 'sklearn', 'matplotlib', 'tqdm'}))\n")
         env = {k: v for k, v in os.environ.items() if not k.startswith("PYTHON")}
         run([sys.executable, "-I", "-S", "-c", code], cwd=tmp, env=env)
+
+
+def _ur10():
+    """The UR10's URDF of example-robot-data, where the building interpreter has it (the bundle check
+    then imports it as Import Robot does: COLLADA visual meshes through the bundled pycollada)."""
+    try:
+        sys.path.insert(0, str(ROOT))
+        from vtcore.robot.samples import example_robot_data
+
+        p = example_robot_data() / "ur_description" / "urdf" / "ur10_robot.urdf"
+        return p if p.is_file() else None
+    except Exception:  # noqa: BLE001  (not installed: the check runs without it)
+        return None
+    finally:
+        sys.path.remove(str(ROOT))
 
 
 def platform_ok(name: str) -> bool:

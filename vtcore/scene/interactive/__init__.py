@@ -7,7 +7,7 @@ everything is testable without Blender. No algorithm lives here: these are
 thin compositions of ``vtcore.layout``, ``vtcore.contact``, ``vtcore.filters``
 and ``vtcore.augment``.
 
-One module per concern (``skin``, ``contact``, ``live``, ``evaluate``, ``augment``, ``scenes``); this package
+One module per concern (``skin``, ``contact``, ``live``, ``evaluate``, ``augment``, ``scenes``, ``robot``); this package
 re-exports their public names, so the add-on reads ``interactive.<function>``. A new
 front-end action goes in the module of its concern (or a new one, re-exported here).
 """
@@ -19,6 +19,8 @@ from .augment import augment, probes_from_file  # noqa: F401
 from .contact import Contact, SkinEdges, bake, edges, sensor_response, simulate, soft_layer  # noqa: F401
 from .evaluate import SkinMap, evaluate_skin  # noqa: F401
 from .live import LiveFrame, LiveTouch, LiveWorker  # noqa: F401
+from .robot import (LinkPart, RobotImport, export_skinned_robot, import_layout, import_robot,  # noqa: F401
+                    parse_joint_values, parse_packages)
 from .scenes import SceneOutput, run_scene_file  # noqa: F401
 from .skin import (LayoutEdit, export_layout, lay_patch, merge, move_module, remove_modules,  # noqa: F401
                    selection_anchor, skin_triangles)

@@ -266,20 +266,24 @@ def move_module(layout: Layout, module: int, vertices, triangles, at, direction=
                   extra=[f"kept though refused (forced): {p}" for p in forced])
 
 
-def export_layout(layout: Layout, triangles, path, format: str | None = None, transform=None) -> Path:
+def export_layout(layout: Layout, triangles, path, format: str | None = None, transform=None,
+                  frame: str | None = None) -> Path:
     """Write ``layout`` (with its skin mesh faces) to ``path`` in a layout format.
 
-    transform : optional (4, 4) rigid transform from the skin frame to the
-    frame the file should use (another object's frame).
+    transform : optional (4, 4) rigid pose of the layout's frame in the frame ``frame`` (another
+    object's, a robot link): the taxels are written in that frame (positions ``R p + t``), which
+    becomes the layout's frame (a URDF's parent link, a merged MJCF's body), with no transform left.
     """
     from ...layout import save
 
     tri = np.asarray(triangles, np.int64).reshape(-1, 3)
     out = layout.subset(slice(None))
+    if transform is not None:
+        out = out.posed(transform, frame or "parent").in_parent()
     if len(tri):
         out.meta["faces"] = tri
     if len(out) == 0:
         raise InputError("the skin has no taxels", key="layout")
     path = Path(path)
-    save(out, path, format, transform=transform)
+    save(out, path, format)
     return path
