@@ -1,8 +1,12 @@
-"""Task ``replay``: a recorded CAN log onto the scene's layout, through the edge filter.
+"""Task ``replay``: a recording (a CAN log or a CySkin text recording) onto the scene's layout,
+through the edge filter.
 
 The log (``[task] log``, any python-can format) is decoded with ``codec`` into the
 layout's taxel order (``vtcore.can.decode_log``); what could not be used is counted
-by reason in the metrics (``rejected_<reason>``) and in ``report.md``. Wire values
+by reason in the metrics (``rejected_<reason>``) and in ``report.md``. With
+``codec = "cyskin-txt"`` the file is a CySkin text recording (line 1 the channel UIDs, then
+``row time v1 ... vN``), joined to the layout by UID (``vtcore.can.read_cyskin_txt``); the
+metrics count its rows, matched UIDs and rejected lines. Wire values
 become counts (iCub: ``(240 - wire) * 4``; cyskin16: the 16-bit value), a per-taxel
 baseline (median of the first ``baseline_rows`` received samples, as the iCub
 skinManager does over its first seconds) is removed, and masked samples hold the
@@ -28,8 +32,10 @@ from ..schema import Field, Section
 from ..sections.layout import build_layout
 
 PARAMS = Section({
-    "log": Field("path", doc="CAN log to replay (.log candump, .asc, .blf, .trc, .csv)"),
-    "codec": Field("str", default="cyskin16", choices=("icub", "cyskin16"), doc="how the frames are coded"),
+    "log": Field("path", doc="recording to replay: a CAN log (.log candump, .asc, .blf, .trc, .csv) or, with "
+                 "codec cyskin-txt, a CySkin text recording"),
+    "codec": Field("str", default="cyskin16", choices=("icub", "cyskin16", "cyskin-txt"),
+                   doc="how the frames are coded (cyskin-txt: a CySkin text recording, counts as recorded)"),
     "period": Field("float", default=0.0, ge=0, unit="s", doc="sampling period; 0: estimated from the log"),
     "window": Field("int", default=8, ge=1, doc="periods a row waits for late frames"),
     "boards": Field("list", default=[], item=Field("int", ge=0, le=15),
@@ -50,10 +56,14 @@ def run(scene, ctx) -> TaskResult:
 
     p = scene["task"]
     layout = build_layout(scene)
-    res = decode_log(p["log"], p["codec"], layout=layout, period=p["period"] or None, window=p["window"],
-                     boards=p["boards"] or None)
-    s = res.summary
-    wire, mask = res.frames, res.mask
+    if p["codec"] == "cyskin-txt":
+        timestamps, wire, mask, text, metrics = _read_cyskin_txt(p, layout)
+        summary = dict(metrics)
+    else:
+        res = decode_log(p["log"], p["codec"], layout=layout, period=p["period"] or None, window=p["window"],
+                         boards=p["boards"] or None)
+        timestamps, wire, mask = res.timestamps, res.frames, res.mask
+        text, metrics, summary = res.summary.text(), dict(res.summary.metrics()), res.summary.as_dict()
     counts = icub_wire_to_counts(wire) if p["codec"] == "icub" else wire.astype(np.float64)
     counts = np.where(mask, counts, 0.0)
     base = baseline_first(counts, mask, p["baseline_rows"])
@@ -61,8 +71,7 @@ def run(scene, ctx) -> TaskResult:
     response = np.where(hold(mask.astype(float), mask) > 0, response, 0.0)
 
     edge_resp = edge = None
-    sections = ["## Replay summary\n\n```\n" + s.text() + "\n```"]
-    metrics = dict(s.metrics())
+    sections = ["## Replay summary\n\n```\n" + text + "\n```"]
     try:
         from ...filters import edge_filter, relative_threshold
     except ImportError:  # the filters package is optional for this task
@@ -79,13 +88,13 @@ def run(scene, ctx) -> TaskResult:
         sections.append("vtcore.filters.edge_filter is not available: no edge output.")
     n_cells = max(mask.size, 1)
     metrics.update({
-        "taxels": len(layout), "rows_decoded": int(len(res.timestamps)),
-        "duration_s": float(res.timestamps[-1] - res.timestamps[0]) if len(res.timestamps) else 0.0,
+        "taxels": len(layout), "rows_decoded": int(len(timestamps)),
+        "duration_s": float(timestamps[-1] - timestamps[0]) if len(timestamps) else 0.0,
         "masked_fraction": float((~mask).sum() / n_cells),
         "response_max": float(response.max()) if response.size else 0.0,
     })
     arrays = {"positions": layout.positions, "normals": layout.normals, "taxel_ids": layout.taxel_ids,
-              "timestamps": res.timestamps, "wire": wire, "mask": mask, "frames": counts, "response": response}
+              "timestamps": timestamps, "wire": wire, "mask": mask, "frames": counts, "response": response}
     if edge is not None:
         arrays.update({"edge_response": edge_resp, "edge": edge})
     figures = {}
@@ -100,9 +109,29 @@ def run(scene, ctx) -> TaskResult:
             figures["edge"] = taxel_map(layout.flat, edge_resp[row] * edge[row],
                                         title=f"{scene.name}: edge response above threshold, row {row}",
                                         label="Eq. 6")
-        figures["timeline"] = _timeline(res.timestamps, response, mask, edge, scene.name)
+        figures["timeline"] = _timeline(timestamps, response, mask, edge, scene.name)
     return TaskResult(metrics=metrics, arrays=arrays, figures=figures, sections=sections,
-                      extra={"replay_summary": s.as_dict()})
+                      extra={"replay_summary": summary})
+
+
+def _read_cyskin_txt(p, layout):
+    """(timestamps (T,), counts (T, N), mask (T, N), summary text, metrics) of a CySkin text recording
+    in the layout's taxel order."""
+    from ...can import read_cyskin_txt
+    from ...can.recording import report_text
+    from ...errors import InputError
+
+    if p["boards"]:
+        raise InputError("board addresses apply to the icub codec only", key="task.boards")
+    rec = read_cyskin_txt(p["log"], layout=layout)
+    r = rec.report
+    if not r["matched_uids"]:
+        raise InputError(f"none of the {r['recorded_uids']} recorded UIDs is a taxel of the layout (another skin?)",
+                         file=p["log"], key="task.log")
+    metrics = {"rows": int(r["rows"]), "recorded_uids": int(r["recorded_uids"]), "matched_uids": int(r["matched_uids"]),
+               "unmatched_uids": len(r["unmatched_uids"]), "unrecorded_taxels": len(r.get("unrecorded_taxels", [])),
+               "rejected_lines": len(r["rejected_lines"]), "masked_samples": int((~rec.mask).sum())}
+    return rec.timestamps, rec.frames, rec.mask, report_text(r), metrics
 
 
 def _timeline(ts, response, mask, edge, name):
@@ -125,4 +154,4 @@ def _timeline(ts, response, mask, edge, name):
 
 
 register_task(TaskSpec("replay", run, PARAMS, sections=("layout",),
-                       doc="replay a CAN log onto the layout, through the edge filter"))
+                       doc="replay a CAN log or a CySkin text recording onto the layout, through the edge filter"))
