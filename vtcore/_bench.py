@@ -34,6 +34,37 @@ def best_time(fn: Callable, repeat: int = 3, clock: str = "wall"):
     return best, out
 
 
+def in_child(fn):
+    """``(seconds, cpu seconds, peak resident MB, result, error)`` of ``fn()`` in a forked child
+    (CPU time is what other processes' load on the shared machine does not inflate; the peak is the
+    child's own, so cases do not inherit each other's high-water mark). An exception becomes the
+    ``error`` text: a case that fails is a row that says so."""
+    import multiprocessing as mp
+    import resource
+    import warnings
+
+    def work(q):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            t0 = time.perf_counter()
+            try:
+                res = fn()
+                err = None
+            except Exception as exc:  # noqa: BLE001  (reported in the row)
+                res, err = None, f"{type(exc).__name__}: {exc}"
+            sec = time.perf_counter() - t0
+        ru = resource.getrusage(resource.RUSAGE_SELF)
+        q.put((sec, ru.ru_utime + ru.ru_stime, ru.ru_maxrss / 1024.0, res, err))
+
+    ctx = mp.get_context("fork")
+    q = ctx.Queue()
+    p = ctx.Process(target=work, args=(q,))
+    p.start()
+    out = q.get()
+    p.join()
+    return out
+
+
 def _cell(v) -> str:
     if v is None:
         return "-"

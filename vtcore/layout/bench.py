@@ -31,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._bench import best_time, save_png, write_table
+from .._bench import best_time, in_child, save_png, write_table
 
 
 def _cylinder_mesh(radius, length, faces_target):
@@ -194,35 +194,6 @@ def _maker_rows(quick):
     return rows
 
 
-def _in_child(fn):
-    """``(seconds, cpu seconds, peak resident MB, result, error)`` of ``fn()`` in a forked child
-    (CPU time is what other processes' load on the shared machine does not inflate)."""
-    import multiprocessing as mp
-    import resource
-    import time
-
-    def work(q):
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            t0 = time.perf_counter()
-            try:
-                res = fn()
-                err = None
-            except Exception as exc:  # a case that fails is a row that says so
-                res, err = None, f"{type(exc).__name__}: {exc}"
-            sec = time.perf_counter() - t0
-        ru = resource.getrusage(resource.RUSAGE_SELF)
-        q.put((sec, ru.ru_utime + ru.ru_stime, ru.ru_maxrss / 1024.0, res, err))
-
-    ctx = mp.get_context("fork")
-    q = ctx.Queue()
-    p = ctx.Process(target=work, args=(q,))
-    p.start()
-    out = q.get()
-    p.join()
-    return out
-
-
 def _fill_summary(lay, rep):
     return {"modules": lay.n_modules, "coverage": rep.coverage, "charts": rep.charts,
             "overlaps": len(rep.overlaps), "strain_max": rep.strain_max, "seam_modules": rep.seam_modules}
@@ -236,7 +207,7 @@ def _fill_rows(quick, on_row=None):
     rows = []
 
     def row(case, method, setting, n, fn, acc="coverage"):
-        sec, cpu, mb, res, err = _in_child(fn)
+        sec, cpu, mb, res, err = in_child(fn)
         r = {"case": case, "method": method, "setting": setting, "n": n, "seconds": sec, "cpu_seconds": cpu,
              "peak_mb": mb,
              "accuracy_name": acc, "accuracy": (res or {}).get(acc, float("nan")),
