@@ -1,0 +1,88 @@
+"""Render docs/img/robot_forearm_frames.png: the humanoid forearm (a CAD mesh in millimetres placed
+in link ``l_forearm`` by a visual origin) with a skin laid on its loose CAD mesh, exported into the
+robot's URDF without and with the frame's pose, as yourdfpy reads the file back (left: the taxels
+~0.2 m off the link, as the issue found them; right: on it), and the same skin laid through the
+robot (``vtcore layout place ROBOT --link``), which needs no pose at all.
+
+Run: ``.venv/bin/python scripts/render_robot_docs.py`` (needs yourdfpy). Prints the distances.
+The skinned UR10 picture is the benchmark's (``vtcore bench robot``, ``skinned_robot_collision.png``).
+"""
+
+from __future__ import annotations
+
+import sys
+import tempfile
+import warnings
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+from vtcore.layout import place, save  # noqa: E402
+from vtcore.layout.io.urdf import taxel_poses  # noqa: E402,F401  (the writer's own frames)
+from vtcore.robot import export_skinned, lay_on_link, link_mesh, load_robot  # noqa: E402
+from vtcore.robot.model import pose  # noqa: E402
+from vtcore.robot.samples import FOREARM_VISUAL_ORIGIN, humanoid_arm  # noqa: E402
+from vtcore.robot.verify import surface_errors  # noqa: E402
+
+
+def frames_in_link(path):
+    import yourdfpy
+
+    u = yourdfpy.URDF.load(str(path), load_meshes=False)
+    names = [n for n in u.link_map if "_vtskin_" in n]
+    return np.array([u.get_transform(n, "l_forearm") for n in names])
+
+
+def main():
+    import trimesh
+
+    with tempfile.TemporaryDirectory() as tmp, warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        tmp = Path(tmp)
+        urdf = humanoid_arm(tmp)
+        robot = load_robot(urdf)
+        mesh = link_mesh(robot, "l_forearm")
+        cad = trimesh.load(urdf.parents[1] / "meshes" / "forearm_cad.stl", process=False)
+        cad.apply_scale(1e-3)
+        loose, _ = place(cad, "hexagon", (0.0, -0.036, -0.04), (0, 0, 1))  # in the CAD frame
+        loose.frame = "forearm_cad"
+        t = pose(*FOREARM_VISUAL_ORIGIN)
+        save(loose, tmp / "wrong.urdf", "urdf", model=urdf, parent="l_forearm")  # the frame's pose not given
+        save(loose, tmp / "right.urdf", "urdf", model=urdf, parent="l_forearm", transform=t)
+        born, _ = lay_on_link(robot, "l_forearm", "fill", (pose(*FOREARM_VISUAL_ORIGIN) @ [0, -0.036, -0.04, 1])[:3])
+        export_skinned(urdf, [born], tmp / "born.urdf")
+        panels = [("exported without the frame's pose", frames_in_link(tmp / "wrong.urdf")),
+                  ("exported with --transform (the visual origin)", frames_in_link(tmp / "right.urdf")),
+                  ("laid through the robot: born in the link", frames_in_link(tmp / "born.urdf"))]
+        fig = plt.figure(figsize=(13, 4.6))
+        for k, (title, f) in enumerate(panels):
+            d, a = surface_errors(mesh, f[:, :3, 3], f[:, :3, 2])
+            print(f"{title}: {len(f)} taxels, distance to the link mesh median {np.median(d):.1f} mm, "
+                  f"max {d.max():.2f} mm; normal angle max {a.max():.1f} deg")
+            ax = fig.add_subplot(1, 3, k + 1, projection="3d")
+            ax.plot_trisurf(*mesh.vertices.T, triangles=mesh.faces, color=(0.8, 0.8, 0.82, 0.3), linewidth=0)
+            ax.quiver(*f[:, :3, 3].T, *(0.012 * f[:, :3, 2]).T, color="tab:blue", linewidth=0.6)
+            ax.scatter(*f[:, :3, 3].T, s=3, color="tab:red")
+            pts = np.vstack([mesh.vertices, f[:, :3, 3]])
+            c, r = (pts.min(0) + pts.max(0)) / 2, np.ptp(pts, axis=0).max() / 2
+            ax.set_xlim(c[0] - r, c[0] + r)
+            ax.set_ylim(c[1] - r, c[1] + r)
+            ax.set_zlim(c[2] - r, c[2] + r)
+            ax.set_box_aspect((1, 1, 1))
+            ax.set_title(f"{title}\nmedian {np.median(d):.1f} mm off the link", fontsize=9)
+            ax.set_axis_off()
+        fig.suptitle("Taxel frames of link l_forearm as yourdfpy reads the exported URDF (CAD mesh in mm, "
+                     "placed by its visual origin)", fontsize=10)
+        out = ROOT / "docs" / "img" / "robot_forearm_frames.png"
+        fig.savefig(out, dpi=110, bbox_inches="tight")
+        print(out)
+
+
+if __name__ == "__main__":
+    main()
