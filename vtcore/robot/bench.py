@@ -28,15 +28,16 @@ def _robot():
     return load_robot(example_robot_data() / "ur_description" / "urdf" / "ur10_robot.urdf")
 
 
-def _skin_links(robot, geometry, links, rows):
+def _skin_links(robot, geometry, links, rows, patch="fill"):
+    from .meshes import link_mesh
     from .skin import lay_on_link
 
     layouts = []
     for link in links:
-        sec, cpu, mb, res, err = in_child(lambda link=link: lay_on_link(robot, link, "fill", geometry=geometry))
+        sec, cpu, mb, res, err = in_child(lambda link=link: lay_on_link(robot, link, patch, geometry=geometry))
         lay, rep = res if res is not None else (None, None)
-        rows.append({"case": "fill_link", "geometry": geometry, "link": link,
-                     "faces": None if lay is None else lay.meta.get("placement", {}).get("faces"),
+        rows.append({"case": "fill_link" if patch == "fill" else f"{patch}_link", "geometry": geometry, "link": link,
+                     "faces": len(link_mesh(robot, link, geometry).faces),
                      "modules": 0 if lay is None else lay.n_modules, "taxels": 0 if lay is None else len(lay),
                      "coverage": None if rep is None else rep.coverage, "seconds": sec, "cpu_seconds": cpu,
                      "peak_mb": mb, "max_mm": None, "max_deg": None, "extra": err or ""})
@@ -64,7 +65,7 @@ def _export_rows(robot, layouts, geometry, out, rows, quick):
     mj = check_mjcf(out / f"ur10_skinned_{geometry}.xml", {x.frame: link_mesh(robot, x.frame, geometry)
                                                            for x in layouts}, configs)
     for r in rows:
-        if r["case"] == "fill_link" and r["geometry"] == geometry and r["link"] in urdf:
+        if r["case"].endswith("_link") and r["geometry"] == geometry and r["link"] in urdf:
             u, m = urdf[r["link"]], mj.get(r["link"], {})
             r["max_mm"] = max(u["max_mm"], m.get("max_mm", 0.0))
             r["max_deg"] = max(u["max_deg"], m.get("max_deg", 0.0))
@@ -123,16 +124,16 @@ def run(out: Path, quick: bool = False) -> list[dict]:
     skins = {}
     for geometry in kinds:
         links = [n for n, ln in robot.links.items() if ln.geometry(geometry)]
-        if quick:
+        if quick:  # the command's smoke run: one hexagon on each of two links
             links = links[:2]
         start = time.perf_counter()
-        skins[geometry] = _skin_links(robot, geometry, links, rows)
+        skins[geometry] = _skin_links(robot, geometry, links, rows, "hexagon" if quick else "fill")
         rows.append({"case": "all_links", "geometry": geometry, "link": f"{len(links)} links",
                      "modules": sum(x.n_modules for x in skins[geometry]),
                      "taxels": sum(len(x) for x in skins[geometry]), "seconds": time.perf_counter() - start,
-                     "cpu_seconds": sum(r["cpu_seconds"] for r in rows if r["case"] == "fill_link"
+                     "cpu_seconds": sum(r["cpu_seconds"] for r in rows if r["case"].endswith("_link")
                                         and r["geometry"] == geometry),
-                     "peak_mb": max((r["peak_mb"] for r in rows if r["case"] == "fill_link"
+                     "peak_mb": max((r["peak_mb"] for r in rows if r["case"].endswith("_link")
                                      and r["geometry"] == geometry), default=None)})
         if skins[geometry]:
             _export_rows(robot, skins[geometry], geometry, out, rows, quick)
@@ -149,7 +150,8 @@ def run(out: Path, quick: bool = False) -> list[dict]:
                          "cpu_seconds", "peak_mb", "max_mm", "max_deg", "extra"])
     fig, ax = plt.subplots(figsize=(6, 4))
     for geometry, mk in (("collision", "o"), ("visual", "s")):
-        rr = [r for r in rows if r["case"] == "fill_link" and r["geometry"] == geometry and r["max_mm"] is not None]
+        rr = [r for r in rows if r["case"].endswith("_link") and r["geometry"] == geometry
+              and r.get("max_mm") is not None]
         if rr:
             ax.scatter([r["seconds"] for r in rr], [r["max_mm"] for r in rr], marker=mk, label=geometry)
             for r in rr:

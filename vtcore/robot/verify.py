@@ -66,7 +66,7 @@ def check_urdf(path, configs, geometry: str = "visual", packages: dict | None = 
         return yourdfpy.filename_handler_magic(fname, dir=str(Path(path).parent))
 
     collision = geometry == "collision"
-    u = yourdfpy.URDF.load(str(path), build_scene_graph=not collision, load_meshes=not collision,
+    u = yourdfpy.URDF.load(str(path), build_scene_graph=True, load_meshes=not collision,
                            build_collision_scene_graph=collision, load_collision_meshes=collision,
                            filename_handler=handler)
     parent_of = {j.child: j.parent for j in u.joint_map.values()}
