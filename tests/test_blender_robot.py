@@ -147,7 +147,7 @@ def test_export_of_a_moved_hand_is_in_its_own_frame(tmp_path):
 
     from addon import bridge
 
-    box = trimesh.creation.box(extents=(0.06, 0.06, 0.06))
+    box = trimesh.creation.box(extents=(0.12, 0.12, 0.06))  # a hand's back: the hexagon lies on its top
     me = bpy.data.meshes.new("hand")
     bridge.write_mesh(me, box.vertices, box.faces)
     hand = bpy.data.objects.new("hand", me)
