@@ -139,6 +139,14 @@ class VTSKIN_OT_evaluate_skin(Op, bpy.types.Operator):
         show = s.map_show if s.map_show in m.colours else "threshold"
         show_map(context.scene, show)
         self.report({"INFO"}, m.lines[1] + "; " + m.lines[-1])
+        # the maps live on the mesh's own vertices: a collision hull's few long faces show a map as
+        # blotches, so say so (splitting faces is the user's call: it edits the robot's mesh)
+        edges = np.linalg.norm(verts[tri[:, [1, 2, 0]]] - verts[tri], axis=2)
+        median_edge = float(np.median(edges)) if edges.size else 0.0
+        if median_edge > 3 * s.map_spacing:
+            self.report({"WARNING"}, f"{ee.name}: its edges ({median_edge * 1e3:.3g} mm median) are much longer "
+                        f"than the map's {s.map_spacing * 1e3:.3g} mm spacing, so the map shows coarsely: subdivide "
+                        "the mesh (Edit Mode > Subdivide) and evaluate again")
         return {"FINISHED"}
 
 
