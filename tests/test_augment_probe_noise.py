@@ -77,3 +77,23 @@ def test_contrast_scales_set_every_pair_and_leave_the_caps():
     assert full.stiffness(cap)[0] == empty.stiffness(cap)[0] == BOTTLE_CAP_STIFFNESS
     with pytest.raises(InputError, match="contrast"):
         contrast_scales(0.0)
+
+
+def test_the_rigid_floor_is_the_skin_layer_alone():
+    """No object gives a smaller displacement than the skin's own layer on a rigid plate at p̄*; a
+    measured one below what the measurement reads there is non-physical."""
+    from vtcore.augment.probe_noise import rigid_floor, rigid_plate
+    from vtcore.augment.probing import ContactProber
+    from vtcore.contact import SoftLayer
+
+    layer = SoftLayer(thickness=0.003)
+    floor = rigid_floor(ContactProber(rigid_plate(), layer, target=4000.0, counts_per_pa=2.0))
+    ball = make_seed000_object("tennis_ball")
+    k = lambda kf, mesh, r: float(kf(r.contact_point_object[None])[0])
+    v, n = np.array([[0.0335, 0.0, 0.0335]]), np.array([[1.0, 0.0, 0.0]])
+    p, vss = ContactProber(ball, layer, target=4000.0, counts_per_pa=2.0, stiffness=k)(v, n)
+    assert 0 < floor < float((v - vss)[0] @ n[0])                 # a compliant ball moves more than the layer
+    noise = ProbeNoise(detect_counts=400.0, approach_speed=2e-3, position_sigma=0.0)
+    assert noise.expected(1e-3, 4000.0) == pytest.approx(0.9e-3 - 0.05e-3)
+    with pytest.raises(InputError, match="rigid plate"):
+        rigid_floor(lambda vv, nn: (np.array([np.nan]), vv))
