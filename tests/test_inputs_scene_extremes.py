@@ -266,3 +266,15 @@ def test_time_budget_is_a_setting(monkeypatch):
     monkeypatch.setenv("VTCORE_TIME_BUDGET", "soon")
     with pytest.raises(InputError, match="VTCORE_TIME_BUDGET"):
         time_budget()
+
+
+@pytest.mark.parametrize("setting, needle", [
+    ("end_effector.size=[-1e308, 1e308]", "end_effector.size[0]: must be >= 0.001"),  # hung in subdivide_to_size
+    ("end_effector.size=[0.05, 1e308]", "end_effector.size[1]: must be <= 100.0"),
+    ("end_effector.radius=1e308", "end_effector.radius: must be <= 100.0"),
+])
+def test_primitive_end_effectors_span_what_a_skin_is_laid_on(tiny, setting, needle):
+    """Found by the long scene fuzz: a plane 1e308 m wide hung trimesh's subdivision (its edge lengths
+    overflow to infinity). Primitives take the size range of mesh files (1 mm .. 100 m)."""
+    rc, _, err = run("run", tiny, "--check", "--set", setting)
+    one_error(rc, err, f"{tiny}: ", needle)

@@ -71,9 +71,11 @@ def _names():
 
 
 def _finite_xml(path: Path) -> None:
-    """Every number in the XML's attributes is finite (no nan/inf written into a robot file)."""
+    """Every number in the XML's numeric attributes is finite (no nan/inf written into a robot file;
+    a frame may be *named* "nan")."""
     text = path.read_text(encoding="utf-8")
-    assert not re.search(r'="[^"]*\b(nan|inf)\b', text, re.I), "non-finite number in " + path.name
+    hit = re.search(r'\b(pos|quat|size|zaxis|xyz|rpy|rgba)="[^"]*\b(nan|inf)', text, re.I)
+    assert not hit, f"non-finite number in {path.name}: {hit.group(0) if hit else ''}"
 
 
 def check_output(fmt: str, out: Path, n_taxels: int | None) -> None:

@@ -123,7 +123,8 @@ def single_threaded_blas():
 #: Keys of the library functions a scene's values reach, as the scene names them: an error raised
 #: deep inside (``grid.spacing`` in vtcore.contact) names the value the user set.
 SCENE_KEYS = {"grid.spacing": "layer.grid_spacing", "thickness": "layer.thickness",
-              "samples_per_taxel": "layer.samples_per_taxel", "geometry": "layer.geometry"}
+              "samples_per_taxel": "layer.samples_per_taxel", "geometry": "layer.geometry",
+              "direction": "task.direction"}
 
 
 def nonfinite_arrays(arrays: dict, documented: dict | None = None) -> dict[str, int]:

@@ -24,7 +24,7 @@ import numpy as np
 
 from ...errors import InputError
 from ...layout import Layout, make_patch, wrap_on_sphere
-from ...layout.meshinput import load_mesh
+from ...layout.meshinput import SURFACE_SIZE_M, load_mesh
 from ...layout.modules import MODULES, PITCH
 from ..budget import MAX_STRIP_MODULES
 from ..registry import register_section
@@ -55,10 +55,15 @@ def _patch_ok(v: str) -> str | None:
 
 END_EFFECTOR = Section({
     "shape": Field("str", default="sphere", choices=SHAPES, doc="end-effector body"),
-    "radius": Field("float", default=0.05, gt=0, unit="m", doc="radius of a sphere, cylinder or disc"),
-    "length": Field("float", default=0.12, gt=0, unit="m", doc="length of a cylinder (along y)"),
-    "size": Field("vec", default=[0.1, 0.1], length=2, unit="m", doc="x and y size of a plane"),
-    "thickness": Field("float", default=0.01, gt=0, unit="m", doc="thickness of a plane or disc"),
+    # primitives span what a skin is laid on (SURFACE_SIZE_M, as a mesh file): a plane 1e308 m wide hung
+    # in trimesh's subdivision, its edges' lengths overflowing to infinity
+    "radius": Field("float", default=0.05, ge=SURFACE_SIZE_M[0], le=SURFACE_SIZE_M[1], unit="m",
+                    doc="radius of a sphere, cylinder or disc"),
+    "length": Field("float", default=0.12, ge=SURFACE_SIZE_M[0], le=SURFACE_SIZE_M[1], unit="m",
+                    doc="length of a cylinder (along y)"),
+    "size": Field("vec", default=[0.1, 0.1], length=2, unit="m", doc="x and y size of a plane",
+                  item=Field("float", ge=SURFACE_SIZE_M[0], le=SURFACE_SIZE_M[1])),
+    "thickness": Field("float", default=0.01, gt=0, le=SURFACE_SIZE_M[1], unit="m", doc="thickness of a plane or disc"),
     "mesh": Field("path", default=None, doc="mesh file for shape = \"mesh\""),
     "scale": Field("float", default=1.0, gt=0, doc="factor from the mesh file's unit to metres (0.001 for mm)"),
     "resolution": Field("float", default=0.004, gt=0, unit="m", doc="largest edge of a primitive's mesh"),
