@@ -231,3 +231,28 @@ def test_dead_taxels_leave_their_surface_covered_and_blind(hexagon):
     assert few.summary()["covered_area_cm2"] == pytest.approx(full.summary()["covered_area_cm2"])
     assert few.summary()["blind_area_covered_cm2"] > 0.5 * few.summary()["covered_area_cm2"]
     assert full.summary()["blind_area_covered_cm2"] < 0.1 * full.summary()["covered_area_cm2"]
+
+
+def test_finger_lies_along_a_link_by_default():
+    """Without probe_axis the pad follows the surface's flattest direction: along a cylinder's axis
+    (the map is the one with probe_axis = the axis), none on a plane."""
+    from vtcore.evaluate.samples import flattest_directions, sample_surface
+    from vtcore.layout.cadmeshes import full_cylinder
+
+    lay, _ = ring_skin()
+    mesh = full_cylinder(0.02, 0.08, 0.0015)
+    s = sample_surface(mesh, lay.positions, lay.normals, spacing=0.002, margin=0.0)
+    d = flattest_directions(s.positions, s.normals)
+    side = np.abs(s.normals[:, 2]) < 0.1
+    assert np.nanmedian(np.abs(d[side, 2])) > 0.99 and np.isfinite(d[side]).mean() > 0.9
+    flat = np.column_stack([np.random.default_rng(0).uniform(-0.02, 0.02, (50, 2)), np.zeros(50)])
+    assert np.isnan(flattest_directions(flat, np.tile(UP, (50, 1)))).all()
+    st = dict(two_point=False, draws=8)
+    auto = evaluate(lay, mesh, LAYER, Settings(**st), NOISE, spacing=0.002, margin=0.0)
+    along = evaluate(lay, mesh, LAYER, Settings(**st, probe_axis=(0, 0, 1)), NOISE, spacing=0.002, margin=0.0)
+    across = evaluate(lay, mesh, LAYER, Settings(**st, probe_axis=(0, 0, 1), probe=Probe(yaw=np.pi / 2)), NOISE,
+                      spacing=0.002, margin=0.0)
+    m = side & s.covered
+    err = np.abs(auto.detection.threshold[m] / along.detection.threshold[m] - 1)
+    assert np.median(err) < 0.03  # the fitted direction is a few degrees off the axis here and there
+    assert np.median(np.abs(across.detection.threshold[m] / along.detection.threshold[m] - 1)) > 0.05

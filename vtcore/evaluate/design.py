@@ -16,7 +16,7 @@ from ..errors import InputError
 from .maps import Detection, Localisation, detection_threshold, localisation_error, neighbours
 from .noise import SensorNoise, sensor_noise
 from .probe import Probe, ResponseTable, default_forces, response_table
-from .samples import SurfaceSamples, cover_radius, sample_surface
+from .samples import SurfaceSamples, cover_radius, flattest_directions, sample_surface
 from .two_point import TwoPoint, two_point_discrimination
 
 _TABLES: dict = {}
@@ -34,8 +34,10 @@ class Settings:
     between its points (None: 2 x the sample spacing), step and max_separation of the separations,
     directions over half a turn. model, spreading, table_spacing, table_forces : the contact solve of
     the table (its cell, m, and how many forces from 0.02 N to force_max, log-spaced).
-    dead : taxel ids that read nothing. probe_axis : (3,) the direction the probe's x (and the first
-    two-point direction) follows on the surface (None: vtcore's default tangent). error_cap : m, the localisation error shown where nothing is
+    dead : taxel ids that read nothing. probe_axis : (3,) the direction the probe's long axis (and the
+    first two-point orientation) follows on the surface; None: on a mesh (:func:`evaluate`) the
+    surface's flattest direction where it has one (a finger lies along a link, not across it), else
+    vtcore's default tangent. error_cap : m, the localisation error shown where nothing is
     detected.
     """
 
@@ -171,11 +173,13 @@ def table_for(settings: Settings, layer) -> ResponseTable:
 
 
 def evaluate_points(layout, points, normals, layer, settings: Settings | None = None,
-                    noise: SensorNoise | None = None, *, two_point_points=None) -> PointMaps:
+                    noise: SensorNoise | None = None, *, two_point_points=None, axes=None) -> PointMaps:
     """The maps at ``points (M, 3)`` with outward unit ``normals (M, 3)`` (the layout's frame, metres).
 
     layout : vtcore.layout.Layout; layer : vtcore.contact.SoftLayer. two_point_points : indices of the
     points where the two-point map is computed (None: all; the others take the nearest one's value).
+    axes : (M, 3) per point, the direction the probe's long axis follows (NaN rows: the default), in
+    place of ``settings.probe_axis``.
     """
     from ..layout import skin_mesh
 
@@ -199,7 +203,8 @@ def evaluate_points(layout, points, normals, layer, settings: Settings | None = 
     # taxels farther than where the largest force still reads a twentieth of the detection level
     # cannot decide a threshold (the log-log step below the crossing included): the neighbourhood
     reach = table.radius(len(table.forces) - 1, DETECTION_FRACTION * noise.threshold_pa)
-    nb = neighbours(pos, nrm, points, normals, reach, settings.probe.yaw, axis=settings.probe_axis)
+    axis = settings.probe_axis if axes is None else np.asarray(axes, float).reshape(-1, 3)
+    nb = neighbours(pos, nrm, points, normals, reach, settings.probe.yaw, axis=axis)
     det = detection_threshold(table, nb, noise)
     seconds["detection"] = time.perf_counter() - t0
     t0 = time.perf_counter()
@@ -219,7 +224,8 @@ def evaluate_points(layout, points, normals, layer, settings: Settings | None = 
             sub = two_point_discrimination(table, pos, nrm, adj, points[sel], normals[sel], noise,
                                            settings.reference_force, directions=settings.two_point_directions,
                                            step=settings.two_point_step, max_separation=settings.max_separation,
-                                           yaw=settings.probe.yaw, axis=settings.probe_axis,
+                                           yaw=settings.probe.yaw,
+                                           axis=axis if axes is None else axis[sel],
                                            min_separation=settings.probe.width())
             tp = _spread(sub, sel, points)
         seconds["two_point"] = time.perf_counter() - t0
@@ -270,6 +276,10 @@ def evaluate(layout, mesh, layer, settings: Settings | None = None, noise: Senso
     sel = None
     if settings.two_point:
         sel = thin_out(samples, settings.two_point_spacing or 2 * spacing)
-    pm = evaluate_points(layout, samples.positions, samples.normals, layer, settings, noise, two_point_points=sel)
+    axes = None
+    if settings.probe_axis is None:  # a finger lies along a link: the surface's flattest direction
+        axes = flattest_directions(samples.positions, samples.normals)
+    pm = evaluate_points(layout, samples.positions, samples.normals, layer, settings, noise, two_point_points=sel,
+                         axes=axes)
     pm.seconds = {"samples": t_samples, **pm.seconds}
     return DesignMap(**{k: getattr(pm, k) for k in pm.__dataclass_fields__}, samples=samples)

@@ -58,17 +58,19 @@ class Neighbours:
 def frames(normals: np.ndarray, yaw: float = 0.0, axis=None) -> tuple[np.ndarray, np.ndarray]:
     """Tangent frames ``(e1, e2)`` (M, 3) of unit ``normals`` (M, 3), turned by ``yaw`` radians.
 
-    axis : (3,) or None: ``e1`` (before the yaw) is ``axis`` projected on the tangent plane (a link's
-    long axis: the probe's orientation then means the same all round the link), else, and where the
-    normal is within 5 degrees of ``axis``, vtcore's default tangent (world x, or y near x).
+    axis : (3,), (M, 3) (one per point; NaN rows: none) or None: ``e1`` (before the yaw) is ``axis``
+    projected on the tangent plane (a link's long axis: the probe's orientation then means the same all
+    round the link), else, and where the normal is within 5 degrees of ``axis``, vtcore's default
+    tangent (world x, or y near x).
     """
     t1, t2 = tangent_frames(normals)
     if axis is not None:
-        a = np.asarray(axis, float).reshape(3)
-        a = a / max(np.linalg.norm(a), 1e-300)
-        t = a[None, :] - normals * (normals @ a)[:, None]
+        a = np.broadcast_to(np.asarray(axis, float).reshape(-1, 3), normals.shape)
+        good = np.all(np.isfinite(a), axis=1)
+        a = np.where(good[:, None], a, 0.0)
+        t = a - normals * np.einsum("mc,mc->m", normals, a)[:, None]
         tn = np.linalg.norm(t, axis=1, keepdims=True)
-        ok = tn[:, 0] > np.sin(np.deg2rad(5.0))
+        ok = good & (tn[:, 0] > np.sin(np.deg2rad(5.0)) * np.linalg.norm(a, axis=1))
         t1 = np.where(ok[:, None], t / np.maximum(tn, 1e-300), t1)
         t2 = np.where(ok[:, None], np.cross(normals, t1), t2)
     c, s = np.cos(yaw), np.sin(yaw)

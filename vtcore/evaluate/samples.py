@@ -169,3 +169,50 @@ def vertex_samples(samples: SurfaceSamples, vertices: np.ndarray, vertex_normals
     out, dist = idx[rows, pick], d[rows, pick]
     ok = dist <= 1.5 * samples.spacing * np.sqrt(3)
     return np.where(ok, out, 0), ok
+
+
+#: below this curvature (1/m: a radius of 0.5 m) a surface has no direction a finger would follow
+FLAT_CURVATURE = 2.0
+
+
+def flattest_directions(points: np.ndarray, normals: np.ndarray, k: int = 12) -> np.ndarray:
+    """(M, 3) unit tangent of least curvature at each point (a cylinder's axis), NaN where the surface
+    is flat (both curvatures under :data:`FLAT_CURVATURE`) or curves alike every way (the smaller over
+    the larger above 0.8: a sphere): there a finger has no preferred direction.
+
+    The shape operator is fitted per point by least squares to its ``k`` nearest points on the same
+    side (normals within 60 degrees): the change of the normal against the change of position, both in
+    the point's tangent plane; its eigenvector of the smaller |eigenvalue| is the direction.
+    """
+    from scipy.spatial import cKDTree
+
+    from ..geometry import tangent_frames
+
+    points = np.asarray(points, float).reshape(-1, 3)
+    normals = np.asarray(normals, float).reshape(-1, 3)
+    m = len(points)
+    out = np.full((m, 3), np.nan)
+    if m < 4:
+        return out
+    k = min(int(k), m)
+    _, idx = cKDTree(points).query(points, k=k)
+    t1, t2 = tangent_frames(normals)
+    dp = points[idx] - points[:, None, :]
+    dn = normals[idx] - normals[:, None, :]
+    same = np.einsum("mkc,mc->mk", normals[idx], normals) > 0.5
+    w = same.astype(float)
+    a = np.stack([np.einsum("mkc,mc->mk", dp, t1), np.einsum("mkc,mc->mk", dp, t2)], axis=-1)   # (M, k, 2)
+    b = np.stack([np.einsum("mkc,mc->mk", dn, t1), np.einsum("mkc,mc->mk", dn, t2)], axis=-1)
+    ata = np.einsum("mk,mki,mkj->mij", w, a, a) + 1e-12 * np.eye(2)
+    atb = np.einsum("mk,mki,mkj->mij", w, a, b)
+    st = np.linalg.solve(ata, atb)                  # (M, 2, 2): dn = dp @ S^T
+    s = 0.5 * (st + np.swapaxes(st, 1, 2))
+    vals, vecs = np.linalg.eigh(s)                  # ascending eigenvalues, (M, 2), (M, 2, 2)
+    small = np.argmin(np.abs(vals), axis=1)
+    big = np.abs(vals).max(axis=1)
+    ratio = np.abs(vals).min(axis=1) / np.maximum(big, 1e-300)
+    v = vecs[np.arange(m), :, small]                # (M, 2) the flattest direction's coordinates
+    d = v[:, :1] * t1 + v[:, 1:] * t2
+    ok = (big > FLAT_CURVATURE) & (ratio < 0.8) & (w.sum(axis=1) >= 4)
+    out[ok] = d[ok] / np.linalg.norm(d[ok], axis=1, keepdims=True)
+    return out

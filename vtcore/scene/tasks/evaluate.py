@@ -41,7 +41,8 @@ PARAMS = Section({
     "probe_length": Field("float", default=None, gt=0, unit="m", doc="finger pad length, tip to tip"),
     "probe_yaw": Field("float", default=0.0, unit="deg", doc="probe turn about the normal from probe_axis"),
     "probe_axis": Field("vec", default=None, length=3,
-                        doc="direction the probe's long axis follows on the surface (a link's axis)"),
+                        doc="direction the probe's long axis follows on the surface (default: the surface's "
+                            "flattest direction, along a link)"),
     "dead": Field("list", default=[], item=Field("int"), doc="taxel ids that read nothing"),
     "taxels": Field("int", default=None, ge=1, doc="keep a random subset of this many taxels (Fig. 10)"),
     "sensor_profile": Field("str", default="cyskin", doc="sensor profile (name or file) for noise and k"),
