@@ -150,3 +150,65 @@ def test_live_touch_survives_save_and_reload(skinned, tmp_path):
         assert after.any() and not np.allclose(before, after)
     finally:
         bpy.context.scene.vtskin.live_touch = False
+
+
+def test_maps_on_a_real_robot_link_with_a_legend():
+    """The issue's real-link case through the add-on: the UR5 (example-robot-data) imported with Import
+    Robot at a bent pose, its forearm link's collision hull subdivided (as the coarse-mesh warning asks),
+    a patch laid on it, Evaluate Skin and Legend: the maps on the link's own vertices are vtcore's, a
+    firm finger press is felt on the skin and not far from it, the legend names the map and its unit."""
+    import sysconfig
+
+    from vtcore.layout.repair import refine
+    from vtcore.scene import interactive
+
+    from addon import bridge, ops_evaluate, skin
+
+    urdf = (Path(sysconfig.get_paths()["purelib"]) / "cmeel.prefix" / "share" / "example-robot-data" / "robots"
+            / "ur_description" / "urdf" / "ur5_robot.urdf")
+    if not urdf.is_file():
+        pytest.skip("example-robot-data is not installed")
+    s = bpy.context.scene.vtskin
+    s.robot_file, s.robot_geometry, s.robot_joints = str(urdf), "collision", "shoulder_lift_joint=-0.8, elbow_joint=1.1"
+    assert bpy.ops.vtskin.import_robot() == {"FINISHED"}
+    fore = next(o for o in bpy.data.objects if o.vtskin.link == "forearm_link")
+    assert not np.allclose(bridge.matrix(fore), np.eye(4))  # posed: the link frame is not the world's
+    import trimesh
+
+    local = trimesh.Trimesh(*bridge.read_mesh(fore, world=False), process=False)  # the link frame
+    me = fore.data
+    fine = refine(local, 0.004)  # Edit Mode > Subdivide, where the hull's faces are long
+    bridge.write_mesh(me, fine.vertices, fine.faces)
+    # the cursor on the forearm's tube, half-way along it (link frame: the tube runs along z)
+    from vtcore.layout.surface import closest_points
+
+    cp, _, _ = closest_points(fine, np.array([[0.2, 0.0, 0.2]]))
+    m = bridge.matrix(fore)
+    bpy.context.scene.cursor.location = m[:3, :3] @ cp[0] + m[:3, 3]
+    bpy.context.view_layer.objects.active = fore
+    assert bpy.ops.vtskin.lay_patch() == {"FINISHED"}
+    ob = next(o for o in bpy.data.objects if o.vtskin.role == "TAXELS")
+    assert ob.vtskin.end_effector == fore
+    s.thickness, s.map_spacing, s.map_margin, s.map_two_point = 0.003, 0.004, 0.04, False
+    bpy.context.view_layer.objects.active = ob
+    assert bpy.ops.vtskin.evaluate_skin() == {"FINISHED"}
+    thr = attr(fore, "threshold_n")
+    ev, cov, blind = attr(fore, "evaluated"), attr(fore, "covered"), attr(fore, "blind")
+    assert thr.shape == (len(fore.data.vertices),) and np.all(np.isfinite(thr)) and thr.min() > 0
+    assert cov.sum() > 20 and (ev & ~cov).any() and not ev.all()
+    # vtcore called directly on the link's vertices in the skin's frame gives the same maps
+    v, t = ops_evaluate.mesh_in_skin_frame(fore, ob)
+    ref = interactive.evaluate_skin(skin.read_layout(ob), v, t, thickness=0.003, spacing=0.004, margin=0.04,
+                                    two_point=False, counts_per_pa=s.counts_per_pa)
+    np.testing.assert_allclose(thr, ref.values["threshold_n"], rtol=1e-6)
+    # on the skin a firm (5 N) finger press is felt almost everywhere; well off it, nowhere
+    assert np.median(thr[cov]) < s.map_reference_force and blind[cov].mean() < 0.3
+    from scipy.spatial import cKDTree
+
+    d, _ = cKDTree(skin.read_layout(ob).positions).query(v)  # skin frame, as v
+    far = ev & (d > 0.035)  # the 40 mm pad centred there ends 15 mm short of every taxel
+    assert far.any() and blind[far].all()
+    assert "Detection threshold (N" in fore.vtskin.map_legend
+    assert bpy.ops.vtskin.map_legend() == {"FINISHED"}
+    texts = [o.data.body for o in bpy.data.collections[ops_evaluate.LEGEND].objects if o.type == "FONT"]
+    assert any("Detection threshold (N)" in x for x in texts) and any(x.startswith("red:") for x in texts)
