@@ -138,7 +138,7 @@ class VTSKIN_OT_evaluate_skin(Op, bpy.types.Operator):
         use_map_material(ee)
         show = s.map_show if s.map_show in m.colours else "threshold"
         show_map(context.scene, show)
-        self.report({"INFO"}, m.lines[1] + "; " + m.lines[-1])
+        self.report({"INFO"}, "; ".join(x for x in m.lines if x.startswith(("threshold", "blind:"))))
         # the maps live on the mesh's own vertices: a collision hull's few long faces show a map as
         # blotches, so say so (splitting faces is the user's call: it edits the robot's mesh)
         edges = np.linalg.norm(verts[tri[:, [1, 2, 0]]] - verts[tri], axis=2)

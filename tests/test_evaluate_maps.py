@@ -256,3 +256,26 @@ def test_finger_lies_along_a_link_by_default():
     err = np.abs(auto.detection.threshold[m] / along.detection.threshold[m] - 1)
     assert np.median(err) < 0.03  # the fitted direction is a few degrees off the axis here and there
     assert np.median(np.abs(across.detection.threshold[m] / along.detection.threshold[m] - 1)) > 0.05
+
+
+def test_a_press_past_the_read_out_ceiling_reads_a_flat_top(hexagon):
+    """The sensor clips at its 16-bit ceiling (as Simulate and the scene's sensor do): a gain at which a 5 N
+    finger pad drives taxels past it gives flat-topped readings, flagged, in the map and press by press
+    alike; detection (k sigma, far below the ceiling) does not change."""
+    hot = SensorNoise(191.16, 5.0, 10.0)              # 10 counts/Pa: ~100k counts under the pad at 5 N
+    unclipped = SensorNoise(191.16, 5.0, 10.0, max_counts=1e12)
+    assert hot.counts(1e5) == 65535.0 and hot.threshold_pa == pytest.approx(191.16 * 5 / 10)
+    pts = hexagon.positions[[0, 7, 21]] + [0.0012, 0.0017, 0.0]
+    nrm = np.tile(UP, (3, 1))
+    st = Settings(two_point=False, draws=64)
+    pm = evaluate_points(hexagon, pts, nrm, LAYER, st, hot)
+    pu = evaluate_points(hexagon, pts, nrm, LAYER, st, unclipped)
+    assert pm.localisation.saturated.all() and not pu.localisation.saturated.any()
+    np.testing.assert_array_equal(pm.detection.threshold, pu.detection.threshold)
+    assert np.abs(pm.localisation.error_noise_free - pu.localisation.error_noise_free).max() > 1e-4
+    ref = reference_points(hexagon, pts, nrm, LAYER, st, hot)
+    assert ref.readings.max() == 65535.0
+    np.testing.assert_allclose(pm.localisation.error_noise_free, ref.localisation.error_noise_free, atol=5e-5)
+    # a ceiling below k sigma: nothing is ever detected, clearly
+    deaf = SensorNoise(191.16, 5.0, 10.0, max_counts=900.0)
+    assert deaf.threshold_pa == np.inf

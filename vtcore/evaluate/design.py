@@ -102,6 +102,8 @@ class DesignMap(PointMaps):
         cov = s.covered
         thr = self.detection.threshold
         out["undetectable_covered_fraction"] = _share(~self.detection.detectable[cov], s.areas[cov])
+        if self.localisation.saturated is not None:
+            out["saturated_covered_fraction"] = _share(self.localisation.saturated[cov], s.areas[cov])
         for name, values, ok, scale in (
                 ("threshold_n", thr, self.detection.detectable, 1.0),
                 ("localisation_mm", self.localisation.error, self.localisation.located, 1e3),

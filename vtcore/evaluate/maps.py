@@ -180,7 +180,9 @@ def detection_threshold(table: ResponseTable, nb: Neighbours, noise: SensorNoise
 class Localisation:
     """error : (M,) m, expected over the detecting draws (``error_cap`` where none detects);
     detect_rate : (M,) share of draws with at least one taxel above k sigma; located : (M,) bool;
-    error_noise_free : (M,) m, the estimator on the mean readings (``error_cap`` when none reaches k sigma)."""
+    error_noise_free : (M,) m, the estimator on the mean readings (``error_cap`` when none reaches k sigma);
+    saturated : (M,) bool, some taxel's mean reading is at the read-out's ceiling (the press is too firm for
+    the sensor there: its readings are flat-topped)."""
 
     error: np.ndarray
     detect_rate: np.ndarray
@@ -188,6 +190,7 @@ class Localisation:
     error_noise_free: np.ndarray
     error_cap: float
     draws: int
+    saturated: np.ndarray | None = None
 
 
 def centroid_error(counts: np.ndarray, nb_dx: np.ndarray, nb_dy: np.ndarray, gate: float,
@@ -219,6 +222,7 @@ def localise(mean: np.ndarray, nb: Neighbours, noise: SensorNoise, *, draws: int
     if int(draws) < 1:
         raise InputError(f"must be >= 1, got {draws}", key="draws")
     gate = noise.threshold_counts
+    saturated = (mean >= noise.max_counts).any(axis=1) if mean.shape[1] else np.zeros(mean.shape[0], bool)
     nf_err, nf_det = centroid_error(mean, nb.dx, nb.dy, gate)
     # a taxel whose mean is more than PRUNE_SIGMAS deviations below the gate passes it in a draw with
     # odds below 3.4e-6: the draws keep only the others (the same columns for the same readings)
@@ -239,7 +243,8 @@ def localise(mean: np.ndarray, nb: Neighbours, noise: SensorNoise, *, draws: int
         for s in range(0, m, step):
             sl = slice(s, s + step)
             z = rng.standard_normal((int(draws), min(step, m - s), kk), dtype=np.float32)
-            c = np.maximum(mean[sl][None] + noise.sigma * z, 0.0)
+            # the read-out clips at 0 (baseline-subtracted recordings) and at its 16-bit ceiling
+            c = np.clip(mean[sl][None] + noise.sigma * z, 0.0, noise.max_counts)
             c[:, nb.index[sl] < 0] = 0.0
             e, det = centroid_error(c, nb.dx[sl][None], nb.dy[sl][None], gate)
             n_det = det.sum(axis=0)
@@ -250,4 +255,5 @@ def localise(mean: np.ndarray, nb: Neighbours, noise: SensorNoise, *, draws: int
         err = nf_err
     located = rate > 0
     return Localisation(np.where(located, np.minimum(err, error_cap), error_cap), rate, located,
-                        np.where(nf_det, np.minimum(nf_err, error_cap), error_cap), float(error_cap), int(draws))
+                        np.where(nf_det, np.minimum(nf_err, error_cap), error_cap), float(error_cap), int(draws),
+                        saturated)

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..contact.sensor import MAX_COUNTS
 from ..errors import InputError
 
 #: Fallbacks where no profile is named (``profile=None``) or it lacks the value.
@@ -33,6 +34,8 @@ class SensorNoise:
     sigma : counts, per-taxel noise standard deviation. k : noise deviations. counts_per_pa : the
     transfer's slope at 0 (counts / Pa). p_half : Pa or None: a saturating transfer that reaches half its
     ceiling there (vtcore.contact.sensor.gain), None: linear. source : where each number came from.
+    max_counts : the read-out's ceiling (the AD7147's 16-bit range, as Simulate and the scene's sensor
+    clip): a reading never exceeds it, so a press that drives taxels past it reads a flat top.
     """
 
     sigma: float = MEASURED_SIGMA_COUNTS
@@ -40,11 +43,12 @@ class SensorNoise:
     counts_per_pa: float = DEFAULT_GAIN
     source: str = ""
     p_half: float | None = None
+    max_counts: float = MAX_COUNTS
 
     def __post_init__(self):
         if self.p_half is not None and not (np.isfinite(self.p_half) and self.p_half > 0):
             raise InputError(f"must be a finite number > 0 Pa, got {self.p_half}", key="sensor.p_half")
-        for name, lo in (("sigma", 0.0), ("k", 0.0), ("counts_per_pa", 0.0)):
+        for name, lo in (("sigma", 0.0), ("k", 0.0), ("counts_per_pa", 0.0), ("max_counts", 0.0)):
             v = float(getattr(self, name))
             if not (np.isfinite(v) and v > lo) and not (name == "sigma" and v == 0):
                 raise InputError(f"must be a finite number > {lo:g}, got {v}", key=f"sensor.{name}")
@@ -60,16 +64,19 @@ class SensorNoise:
         """The same at the taxel, as stress (Pa): the transfer's inverse at k sigma (``inf`` where a
         saturating transfer's ceiling stays below it: no stress is ever detected)."""
         t = self.threshold_counts
+        if t >= self.max_counts:
+            return float("inf")
         if self.p_half is None:
             return t / self.counts_per_pa
         ceiling = self.counts_per_pa * self.p_half
         return t * self.p_half / (ceiling - t) if ceiling > t else float("inf")
 
     def counts(self, pressure):
-        """Mean readings (counts) of taxel stresses ``pressure`` (Pa, any shape): the sensor's transfer."""
+        """Mean readings (counts) of taxel stresses ``pressure`` (Pa, any shape): the sensor's transfer, up to
+        the read-out's ceiling."""
         from ..contact.sensor import gain
 
-        return gain(pressure, self.counts_per_pa, self.p_half)
+        return np.minimum(gain(pressure, self.counts_per_pa, self.p_half), self.max_counts)
 
 
 def sensor_noise(sigma: float | None = None, k: float | None = None, counts_per_pa: float | None = None,

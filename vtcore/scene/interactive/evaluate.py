@@ -4,8 +4,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-
-
 from ...errors import InputError
 from ...layout import Layout
 from .common import as_trimesh
@@ -61,8 +59,15 @@ def evaluate_skin(layout: Layout, mesh_vertices, mesh_triangles, *, thickness: f
              f"{s['threshold_covered_p95_n']:.3g} N)",
              f"localisation median {s['localisation_covered_median_mm']:.3g} mm (p95 "
              f"{s['localisation_covered_p95_mm']:.3g} mm)"]
+    # the numbers hinge on the sensor: say which one (a front end's gain is its own setting, the command's
+    # the profile's fitted one)
+    lines.insert(1, f"a taxel detects above {noise.k:g} x {noise.sigma:.0f} counts = {noise.threshold_pa:.3g} Pa "
+                    f"(gain {noise.counts_per_pa:.3g} counts/Pa{'' if counts_per_pa is None else ', as set'})")
     if "two_point_covered_median_mm" in s:
         lines.append(f"two-point median {s['two_point_covered_median_mm']:.3g} mm")
     lines.append(f"blind: {s['blind_area_covered_cm2']:.3g} of {s['covered_area_cm2']:.3g} cm^2 covered, "
                  f"{s['blind_area_margin_cm2']:.3g} cm^2 of the margin")
+    if s.get("saturated_covered_fraction", 0.0) > 0:
+        lines.append(f"{st.reference_force:g} N drives taxels to the read-out's ceiling on "
+                     f"{s['saturated_covered_fraction'] * 100:.0f} % of the skin (readings clipped)")
     return SkinMap(vm, colours, legends, s, lines)

@@ -166,13 +166,25 @@ def run(scene, ctx) -> TaskResult:
         f"{dm.samples.spacing * 1e3:g} mm, covered = within {dm.samples.cover * 1e3:.3g} mm of a taxel, "
         f"margin {dm.samples.margin * 1e3:g} mm beyond it. Estimator: the reading-weighted centroid of the "
         f"taxels above k sigma, expected over {st.draws} noise draws. Method and its limits: docs/evaluate.md.",
-        "", markdown_table(summary_rows(dm)), "", "Blind spots:", "", markdown_table(blind_rows(dm)), "",
+        "", markdown_table(summary_rows(dm)), "", *saturation_note(dm), "Blind spots:", "",
+        markdown_table(blind_rows(dm)), "",
         f"`maps.ply`: the end-effector mesh (edges split to the spacing) with per-vertex `threshold_n`, `localisation_mm`, `two_point_mm`, "
         f"`detect_rate`, `blind`, `evaluated`, `covered`, coloured by {legend.title.lower()} "
         f"({'; '.join(legend.lines()[1:])}).", ""]
     figures = {"histograms": histograms(dm), "maps": map_figure(dm, layout.positions[~np.isin(layout.taxel_ids,
                                                                                               st.dead)])}
     return TaskResult(metrics, arrays, figures, sections, files=["maps.ply"])
+
+
+def saturation_note(dm) -> list[str]:
+    """A paragraph when the reference force drives taxels to the read-out's ceiling somewhere (else none)."""
+    share = dm.summary().get("saturated_covered_fraction", 0.0)
+    if not share:
+        return []
+    return [f"At the reference force {dm.settings.reference_force:g} N some taxel reads the read-out's ceiling "
+            f"({dm.noise.max_counts:.0f} counts) on {share * 100:.0f} % of the covered surface: the sensor clips "
+            "there, and so do these maps (localisation and two-point read flat-topped blobs). A lighter reference "
+            "force, a thicker layer or a lower gain keeps the readings in range.", ""]
 
 
 def sweep_summary(scene, rows, grid_keys) -> str:
