@@ -40,7 +40,7 @@ def test_eq7_turns_the_motion_and_never_speeds_it_up():
     assert base.time_to_target == pytest.approx((0.4 - 0.003) / speed, abs=2 * dt)   # 3 mm: the arrival tolerance
 
 
-@pytest.mark.parametrize("controller", ["augmented", "reactive", "impedance"])
+@pytest.mark.parametrize("controller", ["augmented", "reactive", "impedance", "straight"])
 def test_commanded_speed_never_exceeds_nominal_in_clutter(controller):
     r = reach((0, 0), (0.4, 0), obstacles(), controller=controller, speed=0.02, rng=1)
     assert r.reached and r.speed_cmd.max() <= 0.02 * (1 + 1e-12)

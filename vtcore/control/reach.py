@@ -28,6 +28,10 @@ controllers, as the paper compares them, on the same robot and skin:
 - ``impedance`` (the paper's other baseline, "joint impedance control with very low
   gains"): the reference moves along the straight line at nominal speed regardless of
   contact; the robot is a soft spring (``k_low``) to it and is pushed aside by obstacles.
+- ``straight`` (not in the paper; a control for attributing differences): the same straight
+  reference on the augmented and reactive runs' robot (``k_robot``), no Eq. 7 and no tactile
+  reaction. Against it, ``reactive`` shows what the reaction alone does and ``augmented`` what
+  Eq. 7 adds on top; against ``impedance`` it shows what the low gains alone do.
 
 The robot is quasi-static: the link's position is the equilibrium between a Cartesian
 spring to the commanded reference (``k_robot``, or ``k_low`` for the impedance run) and the
@@ -46,7 +50,7 @@ from ..errors import InputError
 from ..tolerances import EPS, LENGTH_TOL
 from .link_skin import CORNER_RADIUS, LinkSkin
 
-CONTROLLERS = ("augmented", "reactive", "impedance")
+CONTROLLERS = ("augmented", "reactive", "impedance", "straight")
 
 
 @dataclass
@@ -178,7 +182,7 @@ def reach(start, goal, obstacles: list[Obstacle], *, controller: str = "augmente
 
     skin : the link's skin (its radius is the link's). gamma : m/s per colour unit of Eq. 7;
     default ``speed / c_max`` (the stiffest obstacle's deviation weighs as much as the goal).
-    k_robot, k_low : N/m, the robot's stiffness to its reference (reactive/augmented; impedance).
+    k_robot, k_low : N/m, the robot's stiffness to its reference (augmented, reactive, straight; impedance).
     react_threshold, react_full : peak taxel counts above which the reactive controller reacts to a
     contact, and at which it backs away at nominal speed (:func:`react`). rng : seed of the skin's read noise.
     """
@@ -208,7 +212,7 @@ def reach(start, goal, obstacles: list[Obstacle], *, controller: str = "augmente
         if float(np.hypot(*(b - x))) < tolerance:
             reached, t_hit = True, i * dt
             break
-        if controller == "impedance":                           # the straight reference, whatever happens
+        if controller in ("impedance", "straight"):             # the straight reference, whatever happens
             ref = a + min(speed * (i + 1) * dt, length) * (b - a) / max(length, EPS)
             v = (ref - (rec["ref"][-1] if rec["ref"] else a)) / dt
         else:

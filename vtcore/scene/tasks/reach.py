@@ -56,7 +56,8 @@ PARAMS = Section({
                                  "stiffest obstacle turns the motion (equal: 45 degrees); the speed stays nominal"),
     "controllers": Field("list", default=list(CONTROLLERS), item=Field("str", choices=CONTROLLERS),
                          doc="augmented (Eqs. 6-7 over the reactive controller), reactive (the paper's [39], our "
-                             "model), impedance (very low gains)"),
+                             "model), impedance (very low gains), straight (not in the paper: the straight reference "
+                             "on the same stiff robot, no reaction, to attribute the differences)"),
     "link_radius": Field("float", default=0.025, gt=0, unit="m", doc="the skin-covered extra link (outer radius)"),
     "skin_length": Field("float", default=0.05, gt=0, unit="m",
                          doc="length of the link's skin that meets the (vertical) obstacles"),
@@ -182,7 +183,7 @@ def run_metrics(runs, p) -> dict:
         m[f"{name}_layer_bottomed"] = bool(r.layer_bottomed)
     if "augmented" in runs:
         a_int, a_t = m["augmented_contact_intensity_mean"], m["augmented_time_to_target_s"]
-        for base in ("reactive", "impedance"):
+        for base in ("reactive", "impedance", "straight"):
             if base in runs:
                 b = m[f"{base}_contact_intensity_mean"]
                 m[f"{base}_intensity_excess_pct"] = 100.0 * (b - a_int) / a_int if a_int > 0 else float("nan")
@@ -207,9 +208,12 @@ def _table(runs, m, skin, noise_source) -> str:
                               ("augmented_slower_than_reactive_pct", "augmented slower than reactive (%)",
                                PAPER["augmented_slower_pct"]),
                               ("augmented_slower_than_impedance_pct", "augmented slower than impedance (%)",
-                               PAPER["augmented_slower_pct"])):
+                               PAPER["augmented_slower_pct"]),
+                              ("straight_intensity_excess_pct", "straight (not in the paper) intensity above "
+                               "augmented (%)", None),
+                              ("augmented_slower_than_straight_pct", "augmented slower than straight (%)", None)):
         if key in m:
-            lines.append(f"| {label} | {m[key]:.1f} | {paper:.1f} |")
+            lines.append(f"| {label} | {m[key]:.1f} | {'-' if paper is None else f'{paper:.1f}'} |")
     lines += ["", f"Contact intensity: per {skin.rate:g} Hz skin frame, the summed counts of the link's "
                   f"{skin.taxels} taxels above {skin.detect_k:g} noise deviations ({skin.detect_k * skin.noise:.0f} "
                   f"counts), averaged over the run's frames; skin noise {skin.noise:g} counts from {noise_source}."]
@@ -225,7 +229,7 @@ def _figure(runs, clouds, obstacles, eps, m, p):
         ax.scatter(pts[band, 0] * 1e3, pts[band, 1] * 1e3, c=colour_map(pred[band], 0.0, p["c_max"]) / 255, s=3)
     for o, e in zip(obstacles, eps):
         ax.add_patch(plt.Circle(np.asarray(o.centre) * 1e3, e * 1e3, fill=False, ls=":", color="0.5"))
-    styles = {"augmented": "-", "reactive": "--", "impedance": "-."}
+    styles = {"augmented": "-", "reactive": "--", "impedance": "-.", "straight": ":"}
     for name, r in runs.items():
         label = f"{name}: {m[name + '_contact_intensity_mean']:.0f} counts, {r.time_to_target:.1f} s"
         ax.plot(r.position[:, 0] * 1e3, r.position[:, 1] * 1e3, styles[name], label=label)
