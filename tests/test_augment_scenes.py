@@ -94,13 +94,14 @@ def test_path_following_steps_vs_smooth(tmp_path):
 def test_reach_clutter(tmp_path):
     out = run_scene(SCENES / "reach_clutter.toml", tmp_path)
     m = out["metrics"]
-    assert all(m[f"{c}_reached"] for c in ("augmented", "reactive", "impedance"))
-    assert all(m[f"{c}_speed_max_m_s"] <= 0.02 * (1 + 1e-12) for c in ("augmented", "reactive", "impedance"))
+    controllers = ("augmented", "reactive", "impedance", "straight")
+    assert all(m[f"{c}_reached"] for c in controllers)
+    assert all(m[f"{c}_speed_max_m_s"] <= 0.02 * (1 + 1e-12) for c in controllers)
     assert m["augmented_pole_contact_max_n"] == 0 < m["reactive_pole_contact_max_n"]
     assert m["pole_colour"] > 5 * m["prism_colour"]
     assert m["pole_radius_eps_m"] == pytest.approx(0.07)
     assert {"reactive_intensity_excess_pct", "impedance_intensity_excess_pct",
-            "augmented_slower_than_reactive_pct"} <= set(m)
+            "augmented_slower_than_reactive_pct", "straight_intensity_excess_pct"} <= set(m)
     assert "| reactive intensity above augmented (%) |" in (tmp_path / "report.md").read_text()
 
 
