@@ -35,6 +35,9 @@ from ..errors import InputError
 
 #: radius of curvature (m) taken for a box's vertical edge (a sponge prism's corner is not a knife)
 CORNER_RADIUS = 0.002
+#: m: the link radius and skin length accepted (a finger's to a robot arm's; 1e308 made the ring count
+#: int(inf), a kilometre a skin of 1e11 taxels)
+SIZE_M = (1e-3, 2.0)
 
 
 @dataclass
@@ -94,6 +97,10 @@ class LinkSkin:
             v = float(getattr(self, key))
             if not (np.isfinite(v) and v > 0):
                 raise InputError(f"must be > 0, got {v}", key=key)
+        for key in ("radius", "length"):
+            v = float(getattr(self, key))
+            if not SIZE_M[0] <= v <= SIZE_M[1]:
+                raise InputError(f"must be {SIZE_M[0]:g} .. {SIZE_M[1]:g} m (a robot link's skin), got {v:g}", key=key)
         if not (self.noise >= 0 and self.detect_k >= 0):
             raise InputError("noise and detect_k must be >= 0", key="noise")
         n = max(3, int(round(2 * np.pi * self.radius / self.pitch)))

@@ -31,8 +31,28 @@ from typing import Callable
 import numpy as np
 
 from ..errors import InputError
+from ..inputs import need_memory, need_time
 from ..tolerances import EPS
 from .response_table import ResponseTable, contact_response_table  # noqa: F401  (the plant's table)
+
+#: Optimistic CPU seconds of one control step (measured 1.6 us with the series plant; the contact table's
+#: per-taxel plant costs more): the time guard refuses only loops that surely exceed the budget.
+STEP_S = 1e-6
+#: float64 values one step keeps besides its per-taxel noise (time, arc length, contact point (3),
+#: colour, set-point, response, true and expected response, indentation, ...), rounded up.
+STEP_VALUES = 16
+
+
+def check_steps(length: float, speed: float, dt: float, taxels: int = 1, *, key: str = "dt", file=None,
+                remedy: str | None = None) -> None:
+    """Refuse, before any array is sized, a path of ``length / speed / dt`` control steps (x ``taxels``
+    noise columns) that needs more time or memory than the budgets; a dt or speed of 1e-320 is
+    infinitely many steps, not an ``int(inf)``."""
+    steps = float(length) / float(speed) / float(dt)
+    what = f"a {length:g} m path at {speed:g} m/s with a {dt:g} s control period"
+    remedy = remedy or f"raise {key} or the speed, or shorten the path"
+    need_memory(8.0 * (max(int(taxels), 1) + STEP_VALUES) * steps, key=key, what=what, file=file, remedy=remedy)
+    need_time(steps, STEP_S, key=key, what=what, file=file, remedy=remedy)
 
 
 def force_setpoint(c, p_max: float, c_max: float) -> np.ndarray:
@@ -69,6 +89,29 @@ class ForceController:
     noise: float = 8.0
     dt: float = 2e-3
     setpoint_period: float = 1e-2
+
+    def __post_init__(self):
+        why = position_loop_problem(self.omega, self.zeta, self.dt)
+        if why:
+            raise InputError(why, key="omega")
+
+
+def position_loop_problem(omega: float, zeta: float, dt: float) -> str | None:
+    """Why the robot's position loop, integrated every ``dt`` s (semi-implicit Euler of the second-order
+    lag, :func:`follow_path`), is unstable at ``omega`` rad/s and damping ``zeta``, or None. Unstable:
+    the update's spectral radius exceeds 1, so the indentation grows without bound to infinity, then NaN
+    (omega x dt near 2 and beyond, or a large zeta x omega x dt); omega 1e308 overflowed outright."""
+    w, z, dt = float(omega), float(zeta), float(dt)
+    grow = float("inf")
+    if np.isfinite(w * dt) and w * dt <= 2.0 and np.isfinite(z * w * dt):
+        d = 2.0 * z * w * dt
+        a = np.array([[1.0 - (w * dt) ** 2, dt * (1.0 - d)], [-w * w * dt, 1.0 - d]])
+        grow = float(np.max(np.abs(np.linalg.eigvals(a))))
+    if grow < 1.0:
+        return None
+    how = f"it grows {grow:.3g} times a step" if np.isfinite(grow) else f"omega x dt = {w * dt:.3g}, zeta {z:g}"
+    return (f"the robot's position loop (omega {w:g} rad/s, zeta {z:g}) is unstable at a {dt:g} s control period "
+            f"({how}); lower omega, zeta or dt")
 
 
 @dataclass
@@ -179,6 +222,8 @@ def follow_path(start, end, query: Callable[[np.ndarray], np.ndarray],
     ctl = controller or ForceController()
     rng = np.random.default_rng(rng)
     direction = (b - a) / length
+    per_taxel = response is not None and response.taxels is not None
+    check_steps(length, speed, ctl.dt, response.taxels.shape[2] if per_taxel else 1)
     steps = int(np.ceil(length / speed / ctl.dt)) + 1
     t = np.arange(steps) * ctl.dt
     s = np.minimum(t * speed, length)
@@ -190,7 +235,6 @@ def follow_path(start, end, query: Callable[[np.ndarray], np.ndarray],
     colour = colour_q[np.minimum(np.arange(steps) // every, len(q_idx) - 1)]
     setpoint = force_setpoint(colour, p_max, c_max)
     plant, u = _plant(response, plant_c, gap, x, s, setpoint[0])
-    per_taxel = response is not None and response.taxels is not None
     noise = rng.normal(0.0, ctl.noise, (steps, response.taxels.shape[2]) if per_taxel else steps)
 
     # sequential in time (a controller), vectorised over nothing else: a plain loop is the clear way

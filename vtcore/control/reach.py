@@ -47,10 +47,29 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import InputError
+from ..inputs import need_memory, need_time
 from ..tolerances import EPS, LENGTH_TOL
 from .link_skin import CORNER_RADIUS, LinkSkin
 
 CONTROLLERS = ("augmented", "reactive", "impedance", "straight")
+#: s: a run that has not reached B by then stops (the control loop's length)
+MAX_TIME_S = 120.0
+#: Optimistic CPU seconds of one control step (measured ~350 us: the equilibrium solve and the skin read,
+#: 2-core machine at load 20): the time guard refuses only loops that surely exceed the budget.
+STEP_S = 1e-4
+#: Bytes one control step keeps (its record: measured ~650 B with tracemalloc, rounded up).
+STEP_BYTES = 1000
+
+
+def check_steps(dt: float, max_time: float = MAX_TIME_S, runs: int = 1, *, key: str = "dt", file=None) -> None:
+    """Refuse, before the loop, ``runs`` control loops of ``max_time / dt`` steps that need more time or
+    memory than the budgets (:func:`vtcore.inputs.need_time`, ``need_memory``; a dt of 1e-320 is
+    infinitely many steps, not an ``int(inf)``)."""
+    steps = float(max_time) / float(dt) * max(int(runs), 1)
+    what = f"{runs} control loop(s) of {max_time:g} s at a {dt:g} s period"
+    remedy = f"raise {key}"
+    need_memory(steps * STEP_BYTES, key=key, what=what, file=file, remedy=remedy)
+    need_time(steps, STEP_S, key=key, what=what, file=file, remedy=remedy)
 
 
 @dataclass
@@ -177,7 +196,7 @@ def react(v, frame, skin: LinkSkin, speed: float, threshold: float, full: float)
 def reach(start, goal, obstacles: list[Obstacle], *, controller: str = "augmented", skin: LinkSkin | None = None,
           r_max: float = 0.07, gamma: float | None = None, speed: float = 0.02, k_robot: float = 3000.0,
           k_low: float = 300.0, react_threshold: float = 10000.0, react_full: float = 40000.0, dt: float = 0.01, tolerance: float = 0.003,
-          max_time: float = 120.0, rng=None) -> ReachResult:
+          max_time: float = MAX_TIME_S, rng=None) -> ReachResult:
     """Move the link from ``start`` to ``goal`` (2,) metres among ``obstacles`` with ``controller``.
 
     skin : the link's skin (its radius is the link's). gamma : m/s per colour unit of Eq. 7;
@@ -191,6 +210,7 @@ def reach(start, goal, obstacles: list[Obstacle], *, controller: str = "augmente
     if not (speed > 0 and dt > 0 and k_robot > 0 and k_low > 0 and 0 <= react_threshold < react_full):
         raise InputError("speed, dt, k_robot and k_low must be > 0 and 0 <= react_threshold < react_full",
                          key="speed")
+    check_steps(dt, max_time)
     skin = skin or LinkSkin()
     rng = np.random.default_rng(rng)
     a, b = np.asarray(start, float), np.asarray(goal, float)

@@ -124,7 +124,7 @@ def single_threaded_blas():
 #: deep inside (``grid.spacing`` in vtcore.contact) names the value the user set.
 SCENE_KEYS = {"grid.spacing": "layer.grid_spacing", "thickness": "layer.thickness",
               "samples_per_taxel": "layer.samples_per_taxel", "geometry": "layer.geometry",
-              "direction": "task.direction"}
+              "direction": "task.direction", "dt": "task.dt"}
 
 
 def nonfinite_arrays(arrays: dict, documented: dict | None = None) -> dict[str, int]:

@@ -82,6 +82,7 @@ def contact_prober(scene, ctx, obj):
     decides whether stress spreads through the layer.
     """
     from ...augment.probing import ContactProber
+    from ..budget import check_run_sizes
     from ..sections.layer import build_layer, layer_options
 
     comp = ctx.pipeline.get("object_compliance")          # unlisted: a rigid object, no deflection
@@ -89,13 +90,15 @@ def contact_prober(scene, ctx, obj):
     sensor = ctx.pipeline.stage("sensor")
     opts = layer_options(scene)
     model = opts.pop("model", "finite_layer")
-    return ContactProber(obj, build_layer(scene), target=scene["task"]["target_response"],
-                         counts_per_pa=scene["task"]["counts_per_pa"],
-                         sensor=gain.counts if gain is not None else None,
-                         stiffness=comp.stiffness if comp is not None else None,
-                         readout=(lambda f: ctx.pipeline.apply("sensor", f, ctx)) if sensor else None,
-                         readings=scene["task"]["readings"], spread=ctx.pipeline.has("soft_layer"), model=model,
-                         press_kw=opts)
+    prober = ContactProber(obj, build_layer(scene), target=scene["task"]["target_response"],
+                           counts_per_pa=scene["task"]["counts_per_pa"],
+                           sensor=gain.counts if gain is not None else None,
+                           stiffness=comp.stiffness if comp is not None else None,
+                           readout=(lambda f: ctx.pipeline.apply("sensor", f, ctx)) if sensor else None,
+                           readings=scene["task"]["readings"], spread=ctx.pipeline.has("soft_layer"), model=model,
+                           press_kw=opts)
+    check_run_sizes(scene, len(prober.layout))   # task.readings copies of each probe's pressure go through the sensor
+    return prober
 
 
 #: the probe-noise keys every seed-000 task that probes shares (same meaning, same defaults)

@@ -20,9 +20,12 @@ from ...augment.objects import BOTTLE, bottle_radius_at
 from ...augment.cloud import colour_map
 from ...augment.experiment import voxel_filter
 from ...augment.plots import view_coordinates
-from ...control.path_following import ForceController, contact_response_table, follow_path
+from ...control.path_following import (ForceController, check_steps, contact_response_table, follow_path,
+                                       position_loop_problem)
 from ...errors import InputError
+from ...inputs import need_time
 from ...plots import pyplot
+from ..budget import CONTACT_FRAME_S
 from ..registry import TaskSpec, register_task
 from ..runner import TaskResult
 from ..schema import Field, Section
@@ -79,6 +82,14 @@ PARAMS = Section({
 
 def run(scene, ctx) -> TaskResult:
     p = scene["task"]
+    # before the probing: the speed is to blame if the path is too long even at the default control period
+    slowest = max(p["dt"], PARAMS.fields["dt"].default)
+    check_steps(p["length"], p["speed"], slowest, key="task.speed", file=scene.path,
+                remedy="raise task.speed or shorten task.length")
+    check_steps(p["length"], p["speed"], p["dt"], key="task.dt", file=scene.path, remedy="raise task.dt")
+    unstable = position_loop_problem(p["omega"], p["zeta"], p["dt"])
+    if unstable:
+        raise scene.error("task.omega", unstable.replace("omega, zeta or dt", "task.omega, task.zeta or task.dt"))
     groove = {k: p[k] for k in ("groove_depth", "groove_width") if p[k] is not None}
     try:
         obj = make_seed000_object(p["object"], **groove)
@@ -173,7 +184,9 @@ def loop_noise(scene, ctx, p) -> tuple[float, str]:
 def stations(p, z0, layout) -> np.ndarray:
     """Arc lengths (m) of the contact solves: ``p["stations"]`` evenly, plus ``ring_stations``-spaced
     ones wherever the module (its largest extent from the centre, plus the ring's width) overlaps
-    the bottle's ring, so that the table sees the module bridge it or drop into it."""
+    the bottle's ring, so that the table sees the module bridge it or drop into it. Each is a contact
+    solve: their number is held to the time budget first (a ring_stations of 1e-320 is unbounded)."""
+    need_time(p["stations"], CONTACT_FRAME_S, key="task.stations", what=f"{p['stations']} contact solves")
     even = np.linspace(0.0, p["length"], p["stations"])
     if not p["ring_stations"] > 0:
         return even
@@ -183,6 +196,9 @@ def stations(p, z0, layout) -> np.ndarray:
     lo, hi = max(s_ring - reach_m - width, 0.0), min(s_ring + reach_m + width, p["length"])
     if hi <= lo:
         return even
+    n_ring = (hi - lo) / p["ring_stations"]
+    need_time(p["stations"] + n_ring, CONTACT_FRAME_S, key="task.ring_stations",
+              what=f"{p['stations']} + {n_ring:.3g} contact solves (every {p['ring_stations']:g} m across the ring)")
     dense = np.arange(lo, hi + 1e-12, p["ring_stations"])
     s = np.unique(np.round(np.concatenate([even, dense]), 9))
     return s[np.concatenate([[True], np.diff(s) > 1e-6])]

@@ -16,8 +16,10 @@ import numpy as np
 
 from ...augment import ClusterPropagation, CompliantObject, ProbeModel, SmoothPropagation, colour_map
 from ...augment.experiment import probe_object
+from ...control.link_skin import SIZE_M as LINK_M
 from ...control.link_skin import LinkSkin
-from ...control.reach import CONTROLLERS, Obstacle, influence_radii, reach
+from ...control.reach import CONTROLLERS, Obstacle, check_steps, influence_radii, reach
+from ...layout.io import MAX_COORDINATE_M
 from ...plots import pyplot
 from ..registry import TaskSpec, register_task
 from ..runner import TaskResult
@@ -29,17 +31,21 @@ from .augment import PROBE_NOISE_KEYS, contact_prober, probe_noise
 #: seed 000, Sect. 5.3: contact intensity above the augmented run's, and the augmented run's slowdown
 PAPER = {"reactive_intensity_excess_pct": 55.8, "impedance_intensity_excess_pct": 33.5, "augmented_slower_pct": 40.0}
 
+#: m: positions and sizes of the task plane within a kilometre, as layout coordinates (a goal of 1e308
+#: made the controllers' paths NaN)
+KM = MAX_COORDINATE_M
+
 PARAMS = Section({
-    "start": Field("vec", default=[0.0, 0.0], length=2, unit="m", doc="A, in the task plane"),
-    "goal": Field("vec", default=[0.4, 0.0], length=2, unit="m", doc="B"),
-    "plane_height": Field("float", default=0.15, gt=0, unit="m", doc="height of the task plane"),
-    "pole_centre": Field("vec", default=[0.2, 0.03], length=2, unit="m"),
-    "pole_radius": Field("float", default=0.012, gt=0, unit="m"),
+    "start": Field("vec", default=[0.0, 0.0], length=2, ge=-KM, le=KM, unit="m", doc="A, in the task plane"),
+    "goal": Field("vec", default=[0.4, 0.0], length=2, ge=-KM, le=KM, unit="m", doc="B"),
+    "plane_height": Field("float", default=0.15, gt=0, le=KM, unit="m", doc="height of the task plane"),
+    "pole_centre": Field("vec", default=[0.2, 0.03], length=2, ge=-KM, le=KM, unit="m"),
+    "pole_radius": Field("float", default=0.012, gt=0, le=KM, unit="m"),
     "pole_stiffness": Field("float", default=2e5, gt=0, unit="N/m", doc="metal pole (fixed)"),
-    "prism_centre": Field("vec", default=[0.2, -0.05], length=2, unit="m"),
-    "prism_half_size": Field("vec", default=[0.03, 0.03], length=2, unit="m"),
+    "prism_centre": Field("vec", default=[0.2, -0.05], length=2, ge=-KM, le=KM, unit="m"),
+    "prism_half_size": Field("vec", default=[0.03, 0.03], length=2, gt=0, le=KM, unit="m"),
     "prism_stiffness": Field("float", default=300.0, gt=0, unit="N/m", doc="sponge"),
-    "height": Field("float", default=0.3, gt=0, unit="m", doc="height of both obstacles"),
+    "height": Field("float", default=0.3, gt=0, le=KM, unit="m", doc="height of both obstacles"),
     "touches": Field("int", default=8, ge=1, doc="probes per obstacle"),
     "probe": Field("str", default="contact", choices=("contact", "series"),
                    doc="contact: the contact simulator's probe ([layer], object_compliance, gain); "
@@ -49,7 +55,7 @@ PARAMS = Section({
     "readings": Field("int", default=10, ge=1),
     "propagation": Field("str", default="cluster", choices=("cluster", "smooth"),
                          doc="the paper notes both give the same uniform colours here"),
-    "r_max": Field("float", default=0.07, gt=0, unit="m", doc="Eq. 6 (paper: 0.07 m)"),
+    "r_max": Field("float", default=0.07, gt=0, le=KM, unit="m", doc="Eq. 6 (paper: 0.07 m)"),
     "speed": Field("float", default=0.02, gt=0, unit="m/s", doc="nominal speed; no controller exceeds it"),
     "deviation_speed": Field("float", default=0.02, gt=0, unit="m/s",
                              doc="gamma c_max of Eq. 7, weighed against the nominal speed: it sets how far the "
@@ -58,8 +64,9 @@ PARAMS = Section({
                          doc="augmented (Eqs. 6-7 over the reactive controller), reactive (the paper's [39], our "
                              "model), impedance (very low gains), straight (not in the paper: the straight reference "
                              "on the same stiff robot, no reaction, to attribute the differences)"),
-    "link_radius": Field("float", default=0.025, gt=0, unit="m", doc="the skin-covered extra link (outer radius)"),
-    "skin_length": Field("float", default=0.05, gt=0, unit="m",
+    "link_radius": Field("float", default=0.025, ge=LINK_M[0], le=LINK_M[1], unit="m",
+                         doc="the skin-covered extra link (outer radius)"),
+    "skin_length": Field("float", default=0.05, ge=LINK_M[0], le=LINK_M[1], unit="m",
                          doc="length of the link's skin that meets the (vertical) obstacles"),
     "robot_stiffness": Field("float", default=3000.0, gt=0, unit="N/m",
                              doc="Cartesian stiffness to the commanded reference, augmented and reactive runs "
@@ -71,7 +78,8 @@ PARAMS = Section({
                                    "layer compressed by this fraction (assumption: the linear-elastic limit)"),
     "react_full_compression": Field("float", default=0.6, gt=0, le=1,
                                     doc="... and backs away at the nominal speed from this compression on"),
-    "dt": Field("float", default=0.01, gt=0, unit="s", doc="control period (the skin reads at 20 Hz)"),
+    "dt": Field("float", default=0.01, gt=0, le=1.0, unit="s",
+                 doc="control period (the skin reads at 20 Hz); the loops are held to the time and memory budgets"),
     "c_max": Field("float", default=2.0e7, gt=0, doc="shared colour scale of the picture"),
     **{k: AUGMENT.fields[k] for k in PROBE_NOISE_KEYS},
 })
@@ -91,6 +99,7 @@ def run(scene, ctx) -> TaskResult:
     import trimesh
 
     p = scene["task"]
+    check_steps(p["dt"], runs=len(set(p["controllers"])), key="task.dt", file=scene.path)   # before the probing
     hgt, zp = p["height"], p["plane_height"]
     if zp >= hgt:
         raise scene.error("task.plane_height", f"must be below the obstacles' height {hgt} m, got {zp}")
