@@ -73,7 +73,17 @@ def _surface_height(xy, z, X, Y):
         res = z - s * (As @ coef)
     if len(z) >= 4 and np.ptp(xy[:, 0]) > 0 and np.ptp(xy[:, 1]) > 0 and np.abs(res).max() > 1e-12:
         try:
-            base = base + CloughTocher2DInterpolator(xy, res, fill_value=0.0)(X, Y)
+            from scipy.spatial import ConvexHull
+
+            # only cells inside the taxels' hull are interpolated (the rest keeps the smooth fit, as
+            # fill_value=0 did): scipy's simplex search falls back to a scan of every triangle for a
+            # point outside the hull, 1.9 s for a 100 x 100 grid over 124 taxels against 8 ms here
+            eq = ConvexHull(xy).equations
+            q = np.column_stack([X.ravel(), Y.ravel()])
+            inside = (q @ eq[:, :2].T + eq[:, 2] <= 1e-12 * max(float(np.abs(xy).max()), 1.0)).all(axis=1)
+            add = np.zeros(len(q))
+            add[inside] = CloughTocher2DInterpolator(xy, res, fill_value=0.0)(q[inside])
+            base = base + add.reshape(X.shape)
         except Exception:  # degenerate (collinear) taxels: keep the smooth fit
             pass
     return base
