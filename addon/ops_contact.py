@@ -56,6 +56,8 @@ class VTSKIN_OT_simulate(Op, bpy.types.Operator):
         display.ensure_display(ob)
         self.report({"INFO"}, f"{c.force:.3g} N, indentation {c.indentation * 1e3:.2f} mm, "
                     f"{int(c.edge.sum())} edge taxels")
+        if c.warning:
+            self.report({"WARNING"}, c.warning)
         return {"FINISHED"}
 
 
@@ -106,6 +108,8 @@ class VTSKIN_OT_bake(Op, bpy.types.Operator):
         display.ensure_display(ob)
         bake.apply(ob, current)
         self.report({"INFO"}, f"Baked {len(frames)} frames on {ob.name}")
+        if res.get("warning"):
+            self.report({"WARNING"}, res["warning"])
         return {"FINISHED"}
 
 
@@ -123,4 +127,37 @@ class VTSKIN_OT_clear_bake(Op, bpy.types.Operator):
         return {"FINISHED"}
 
 
-CLASSES = (VTSKIN_OT_simulate, VTSKIN_OT_bake, VTSKIN_OT_clear_bake)
+class VTSKIN_OT_add_fingerpad(Op, bpy.types.Operator):
+    """Add a finger pad (a capsule lying on the skin, as a real one-finger press) and make it the indenter"""
+
+    bl_idname = "vtskin.add_fingerpad"
+    bl_label = "Add Finger Pad"
+    bl_options = {"REGISTER", "UNDO"}
+
+    radius: bpy.props.FloatProperty(name="Radius", default=0.008, min=1e-4, max=0.1, unit="LENGTH",
+                                    description="Half the pad's width (an adult fingertip: ~8 mm)")
+    length: bpy.props.FloatProperty(name="Length", default=0.04, min=2e-4, max=0.5, unit="LENGTH",
+                                    description="Tip to tip, at least twice the radius")
+    bend_radius: bpy.props.FloatProperty(name="Bend Radius", default=0.0, min=0.0, max=10.0, unit="LENGTH",
+                                         description="0: straight; else the radius its axis bends to "
+                                                     "(to lie along a convex skin of radius R: R + layer + radius)")
+
+    def run(self, context):
+        from vtcore.scene import interactive
+
+        with failing("Could not build the finger pad"):
+            verts, faces = interactive.indenter_mesh("fingerpad", radius=self.radius, length=self.length,
+                                                     bend_radius=self.bend_radius)
+        # built pressed face up, resting on z = 0: turned over (pi about x) it faces a skin below it,
+        # its back at the 3D cursor
+        verts = verts * np.array([1.0, -1.0, -1.0])
+        m = np.eye(4)
+        m[:3, 3] = np.asarray(context.scene.cursor.location, float)
+        ob = skin.new_object(context, "FingerPad", role="NONE", matrix=m)
+        bridge.write_mesh(ob.data, verts, faces)
+        context.scene.vtskin.indenter = ob
+        self.report({"INFO"}, f"Finger pad {self.radius * 2e3:.3g} x {self.length * 1e3:.3g} mm is the indenter")
+        return {"FINISHED"}
+
+
+CLASSES = (VTSKIN_OT_simulate, VTSKIN_OT_bake, VTSKIN_OT_clear_bake, VTSKIN_OT_add_fingerpad)

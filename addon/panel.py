@@ -136,6 +136,7 @@ class VTSKIN_PT_contact(_Panel, bpy.types.Panel):
     props = ("indenter", "geometry")
 
     def draw_more(self, col, s, context):
+        _button(col, "vtskin.add_fingerpad", "HAND")
         row = col.row(align=True)
         row.prop(s, "use_force")
         _row(row, s, "force", enabled=s.use_force)

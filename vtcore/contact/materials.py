@@ -104,3 +104,26 @@ class SoftLayer:
         """Oedometric modulus E (1 - nu) / ((1 + nu)(1 - 2 nu)), pascals: a thin layer's stiffness x h."""
         nu = self.poisson
         return self.young_modulus * (1 - nu) / ((1 + nu) * (1 - 2 * nu))
+
+
+class LargeDeformationWarning(UserWarning):
+    """A press compresses its layer beyond what the linear model describes (:data:`LARGE_COMPRESSION`)."""
+
+
+#: largest compression of a layer (share of its thickness) that linear elasticity describes fairly:
+#: silicones stiffen and Poisson's ratio stops being constant well before, and the papers' and this
+#: project's model are linear (docs/contact.md, 'Large deformation')
+LARGE_COMPRESSION = 0.30
+
+
+def compression_note(max_compression: float, thickness: float, what: str = "the press") -> str | None:
+    """A one-line warning when ``max_compression`` (m) exceeds :data:`LARGE_COMPRESSION` of
+    ``thickness`` (m), else None: the result then leaves linear elasticity behind."""
+    if not thickness > 0:
+        return None
+    ratio = float(max_compression) / float(thickness)
+    if ratio <= LARGE_COMPRESSION:
+        return None
+    return (f"{what} compresses the {thickness * 1e3:.3g} mm layer by {ratio:.0%} of its thickness (more than "
+            f"{LARGE_COMPRESSION:.0%}): outside linear elasticity, where real silicone stiffens; read the "
+            "stresses as qualitative (docs/contact.md, 'Large deformation')")

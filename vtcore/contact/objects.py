@@ -27,7 +27,9 @@ DEFAULTS: dict[str, dict] = {
     # a finger pad lying on the skin: a capsule 16 mm wide (an adult index fingertip is ~15-20 mm wide)
     # and 40 mm from tip to tip (the pad and part of the middle phalanx, as the footprints of real
     # one-finger presses on a CySkin patch show: ~4x longer than wide, shared/data/cyskin_gesture)
-    "fingerpad": {"radius": 0.008, "length": 0.04, "sections": 64},
+    # bend_radius: 0 = straight; > radius: the pad's axis bent on an arc of that radius, the pressed
+    # face concave (a soft finger pad lying along a convex skin wraps around it)
+    "fingerpad": {"radius": 0.008, "length": 0.04, "sections": 64, "bend_radius": 0.0},
 }
 
 
@@ -37,6 +39,11 @@ SIZE_RANGE_M = (1e-6, 1e3)
 
 def _positive(kind, dims):
     for k, v in dims.items():
+        if k == "bend_radius":
+            if not (np.isfinite(v) and (v == 0 or v > dims.get("radius", 0))):
+                raise InputError(f"{kind}: bend_radius must be 0 (straight) or larger than the radius "
+                                 f"({dims.get('radius')} m), got {v}", key=k)
+            continue
         if k in ("subdivisions", "sections"):
             if int(v) != v or v < (0 if k == "subdivisions" else 8):
                 raise InputError(f"{kind}: {k} must be an integer >= {0 if k == 'subdivisions' else 8}, got {v}",
@@ -67,20 +74,47 @@ def _halfcylinder(radius, length, sections):
     return trimesh.Trimesh(v, np.vstack([cap0, cap1, side]), process=True)
 
 
-def fingerpad(radius: float, length: float, sections: int = 64):
+def fingerpad(radius: float, length: float, sections: int = 64, bend_radius: float = 0.0):
     """A finger pad: a capsule of ``radius`` (m), ``length`` (m, tip to tip, >= 2 radius) lying along
     x on z = 0, centred on the z axis. ``sections`` points around its axis (and half as many
-    latitude steps per cap): 64 keeps the facets' sag below 0.02 mm at r = 8 mm."""
+    latitude steps per cap): 64 keeps the facets' sag below 0.02 mm at r = 8 mm.
+
+    bend_radius : m, 0 for a straight pad; else the axis follows an arc of that radius (> radius)
+    whose centre lies above the pad (+z, the pressed side), so the pressed face is concave: a
+    pad laid along a convex skin of radius R wraps it for ``bend_radius = R + radius`` (the
+    layer's outer surface R, the pad's axis one radius further out).
+    """
     import trimesh
 
     if length < 2 * radius:
         raise InputError(f"fingerpad: length ({length} m, tip to tip) must be at least twice the radius "
                          f"({2 * radius} m)", key="length")
-    m = trimesh.creation.capsule(height=length - 2 * radius, radius=radius,
-                                 count=[int(sections), max(int(sections) // 2, 4)])
-    # trimesh's capsule runs along z, centred at the origin: lay it along x, resting on z = 0
+    # a solid of revolution about z (then laid along x) with rings every ~0.5 mm along the straight
+    # part too: trimesh's capsule has none there, and a bent pad needs vertices to bend
+    half = length / 2 - radius
+    n_cap = max(int(sections) // 4, 4)
+    a = np.linspace(0.0, np.pi / 2, n_cap + 1)
+    n_mid = max(int(np.ceil(2 * half / 5e-4)), 1) if half > 0 else 0
+    top = np.column_stack([radius * np.sin(a), half + radius * np.cos(a)])[::-1]     # from the rim up to the tip
+    mid = np.column_stack([np.full(max(n_mid - 1, 0), radius), np.linspace(half, -half, n_mid + 1)[1:-1]])
+    bottom = np.column_stack([radius * np.cos(a), -half - radius * np.sin(a)])        # from the rim to the tip
+    prof = np.vstack([top[::-1], mid, bottom]) if half > 0 else np.vstack([top[::-1], bottom[1:]])
+    m = trimesh.creation.revolve(prof, sections=int(sections))
+    if m.volume < 0:
+        m.invert()
+    # the solid runs along z, centred at the origin: lay it along x, resting on z = 0
     m.apply_transform(np.array([[0, 0, 1, 0], [0, 1, 0, 0], [-1, 0, 0, 0], [0, 0, 0, 1.0]]))
     m.apply_translation((0, 0, radius))
+    if bend_radius:
+        # bend: axial coordinate x -> angle x / R_b about a line parallel to y at z = radius + R_b;
+        # a point z' = z - radius off the axis keeps its distance R_b - z' from that line
+        v = np.asarray(m.vertices, float).copy()
+        phi = v[:, 0] / bend_radius
+        rho = bend_radius - (v[:, 2] - radius)
+        v[:, 0] = rho * np.sin(phi)
+        v[:, 2] = radius + bend_radius - rho * np.cos(phi)
+        v[:, 2] -= v[:, 2].min()
+        m = trimesh.Trimesh(v, m.faces, process=False)
     return m
 
 
@@ -130,7 +164,7 @@ def make_object(kind: str, **dims) -> "trimesh.Trimesh":
         mesh = trimesh.creation.box(extents=(d["length"], d["width"], d["thickness"]))
         mesh.apply_translation((0, 0, d["thickness"] / 2))
     elif kind == "fingerpad":
-        mesh = fingerpad(d["radius"], d["length"], d["sections"])
+        mesh = fingerpad(d["radius"], d["length"], d["sections"], d["bend_radius"])
     elif kind == "mug":
         r, w = d["radius"], d["wall"]
         if w >= r:
@@ -167,4 +201,37 @@ def placement_pose(mesh, *, xy=(0.0, 0.0), yaw: float = 0.0, top: float = 0.0, g
     t = np.array([xy[0], xy[1], top + gap - v[:, 2].min()])
     pose = np.eye(4)
     pose[:3, :3], pose[:3, 3] = r, t
+    return pose
+
+
+def surface_pose(mesh, point, normal, axis=None, *, gap: float = 0.0, flip: bool = True) -> np.ndarray:
+    """4x4 pose that lays ``mesh`` on a skin point: its pressed face towards the skin, its x axis
+    (a finger pad's or cuboid's length) along ``axis``, lowest point ``gap`` m above ``point``.
+
+    point : (3,) m, on the layer's outer surface. normal : (3,), the skin's outward normal there.
+    axis : (3,) or None, direction for the object's x axis (projected on the tangent plane; None:
+    any tangent). flip : as in :func:`placement_pose` (the object's +z face meets the skin).
+    The object approaches along ``-normal`` (``press(..., direction=-normal)``).
+    """
+    from ..geometry import tangent_basis
+
+    n = np.asarray(normal, float).reshape(3)
+    if not np.all(np.isfinite(n)) or np.linalg.norm(n) < 1e-12:
+        raise InputError(f"normal must be a non-zero 3-vector, got {normal}", key="normal")
+    n = n / np.linalg.norm(n)
+    t1 = None
+    if axis is not None:
+        a = np.asarray(axis, float).reshape(3)
+        a = a - (a @ n) * n
+        if np.linalg.norm(a) > 1e-9:
+            t1 = a / np.linalg.norm(a)
+    if t1 is None:
+        t1 = tangent_basis(n)[0]
+    down = -n if flip else n                   # where the object's +z points
+    t2 = np.cross(down, t1)
+    r = np.column_stack([t1, t2, down])        # object x -> t1, y -> t2, z -> down
+    v = np.asarray(mesh.vertices, float) @ r.T
+    pose = np.eye(4)
+    pose[:3, :3] = r
+    pose[:3, 3] = np.asarray(point, float).reshape(3) + (gap - (v @ n).min()) * n
     return pose

@@ -16,7 +16,8 @@ from __future__ import annotations
 
 from ..._progress import Job, keep_going  # noqa: F401  (Job: the add-on runs a long fill in one)
 from .augment import augment, probes_from_file  # noqa: F401
-from .contact import Contact, SkinEdges, bake, edges, sensor_response, simulate, soft_layer  # noqa: F401
+from .contact import (Contact, SkinEdges, bake, edges, indenter_mesh, sensor_response, simulate,  # noqa: F401
+                      soft_layer)
 from .evaluate import SkinMap, evaluate_skin  # noqa: F401
 from .live import LiveFrame, LiveTouch, LiveWorker  # noqa: F401
 from .robot import (LinkPart, RobotImport, export_skinned_robot, import_layout, import_robot,  # noqa: F401

@@ -18,7 +18,9 @@ class Contact:
 
     pressure : (N,) Pa at the taxels. response : (N,) counts (gain, then 16-bit clip).
     edge_response : (N,) Eq. 6 of seed 002 on the response. edge : (N,) bool.
-    force : N. indentation : m. contact_area : m^2.
+    force : N. indentation : m. contact_area : m^2. compression : the largest compression of the
+    layer as a share of its thickness. warning : a sentence when it exceeds 30 % (outside linear
+    elasticity), else "".
     """
 
     pressure: np.ndarray
@@ -28,6 +30,8 @@ class Contact:
     force: float
     indentation: float
     contact_area: float
+    compression: float = 0.0
+    warning: str = ""
 
 
 def soft_layer(thickness: float, material: str = "ecoflex_00_20"):
@@ -102,8 +106,11 @@ def simulate(layout: Layout, triangles, indenter_vertices, indenter_triangles, p
                 model=model)
     response = sensor_response(res.pressure, counts_per_pa)
     er, edge = _edges(layout, triangles, response, edge_fraction)
+    from ...contact.materials import compression_note
+
     return Contact(res.pressure, response, er, edge, float(res.force), float(res.indentation),
-                   float(res.contact_area))
+                   float(res.contact_area), float(res.max_compression / layer.thickness),
+                   compression_note(res.max_compression, layer.thickness) or "")
 
 
 def bake(layout: Layout, triangles, indenter_vertices, indenter_triangles, poses, *, thickness: float,
@@ -116,7 +123,8 @@ def bake(layout: Layout, triangles, indenter_vertices, indenter_triangles, poses
     force per frame, 0 for no contact). callback(i, T) is called after each frame.
     geometry : as for :func:`simulate`.
     Returns ``pressure``, ``response``, ``edge_response`` (T, N) float, ``edge``
-    (T, N) bool and ``force`` (T,) newtons.
+    (T, N) bool, ``force`` (T,) newtons, ``compression`` (T,) (largest compression / thickness) and
+    ``warning`` (a sentence when a frame compresses the layer by more than 30 %, else "").
     """
     from ...contact import press
     from ...errors import UnreachableTargetError
@@ -130,6 +138,7 @@ def bake(layout: Layout, triangles, indenter_vertices, indenter_triangles, poses
     f = None if forces is None else np.broadcast_to(np.asarray(forces, float), (t,))
     pressure = np.zeros((t, n))
     force = np.zeros(t)
+    compression = np.zeros(t)
     prev = None
     for i in range(t):  # frames depend on each other through the warm start
         target = None if f is None else float(f[i])
@@ -141,11 +150,17 @@ def bake(layout: Layout, triangles, indenter_vertices, indenter_triangles, poses
             except UnreachableTargetError as exc:
                 raise InputError(f"frame {i}: {exc}", key="force") from exc
             pressure[i], force[i], prev = res.pressure, res.force, res
+            compression[i] = res.max_compression / layer.thickness
         if callback is not None:
             callback(i, t)
     response = sensor_response(pressure, counts_per_pa)
     er, edge = _edges(layout, triangles, response, edge_fraction)
-    return {"pressure": pressure, "response": response, "edge_response": er, "edge": edge, "force": force}
+    from ...contact.materials import compression_note
+
+    worst = int(np.argmax(compression)) if t else 0
+    note = compression_note(compression[worst] * layer.thickness, layer.thickness, f"frame {worst}") if t else None
+    return {"pressure": pressure, "response": response, "edge_response": er, "edge": edge, "force": force,
+            "compression": compression, "warning": note or ""}
 
 
 def edges(layout: Layout, triangles, response, edge_fraction: float = 0.3):
@@ -154,3 +169,16 @@ def edges(layout: Layout, triangles, response, edge_fraction: float = 0.3):
 
 
 # ---------------------------------------------------------------------------
+
+
+def indenter_mesh(kind: str = "fingerpad", **dims):
+    """An indenter to press with, as arrays for the add-on: ``(vertices (V, 3) m, triangles (F, 3))``.
+
+    kind : a :data:`vtcore.contact.objects.DEFAULTS` kind ("fingerpad": radius, length tip to tip,
+    bend_radius; "sphere", "cube", ...). Built as it rests on a table, pressed face up (+z); the
+    add-on turns it over towards the skin.
+    """
+    from ...contact.objects import make_object
+
+    m = make_object(kind, **dims)
+    return np.asarray(m.vertices, np.float64), np.asarray(m.faces, np.int64)

@@ -34,6 +34,8 @@ _DIMS = {
     "extents": Field("vec", default=None, length=3, unit="m"),
     "subdivisions": Field("int", default=None, ge=0, le=7),
     "sections": Field("int", default=None, ge=8, le=4096),
+    "bend_radius": Field("float", default=None, ge=0, unit="m",
+                         doc="fingerpad: radius of its bent axis (0 straight; > radius: wraps a convex skin)"),
 }
 
 KEYFRAME = Section({

@@ -21,9 +21,12 @@ the contact centre (:func:`profile_cut`): ``profile_s``, ``profile_surface_press
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
 from ...contact import press, press_sequence, probe
+from ...contact.materials import LargeDeformationWarning, compression_note
 from ...plots import pyplot, skin_3d, taxel_map
 from ...tolerances import EPS
 from ..registry import TaskSpec, register_task
@@ -276,6 +279,7 @@ def run(scene, ctx) -> TaskResult:
         "solver_iterations": int(sum(r.iterations for r in results)),
         "solver_converged": bool(all(r.converged for r in results)),
         "bottomed_out": bool(any(r.bottomed_out for r in results)),
+        "compression_max": float(max(r.max_compression for r in results) / layer.thickness),
     }
     if disp is not None:
         metrics["displacement_mm"] = float(disp[-1]) * 1e3
@@ -314,6 +318,10 @@ def run(scene, ctx) -> TaskResult:
     notes = [f"Contact model `{opts['model']}`, layer {layer.thickness * 1e3:g} mm of {layer.material} "
              f"(E = {layer.young_modulus / 1e3:.1f} kPa, nu = {layer.poisson}; {layer.source}). "
              f"Mode: {mode}, {len(frames)} frames."]
+    big = compression_note(max(r.max_compression for r in results), layer.thickness, f"pressing {obj['name']}")
+    if big:
+        notes.append(f"**Warning:** {big}.")
+        warnings.warn(big, LargeDeformationWarning, stacklevel=2)
     return TaskResult(metrics=metrics, arrays=arrays, figures=figures, sections=notes)
 
 
