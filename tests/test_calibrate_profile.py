@@ -141,15 +141,11 @@ def test_fingerpad_is_a_closed_capsule_lying_along_x():
     assert np.isclose(v[:, 2].min(), 0.003) and np.ptp(v[:, 1]) > np.ptp(v[:, 0])   # yawed: long along y
 
 
-def test_fingerpad_in_a_scene_presses_an_elongated_footprint(tmp_path):
-    from vtcore.scene import run_scene
-
-    p = tmp_path / "s.toml"
-    p.write_text("""
+PRESS = """
 [scene]
-name = "finger"
+name = "p"
 task = "press"
-seed = 1
+seed = 4
 [end_effector]
 shape = "plane"
 [layout]
@@ -157,22 +153,62 @@ patch = "hexagon"
 [layer]
 thickness = 0.003
 extent = 0.04
-grid_spacing = 0.001
+grid_spacing = 0.002
+samples_per_taxel = 1
 [[objects]]
 kind = "fingerpad"
-radius = 0.008
-length = 0.04
-yaw = 0.0
 [task]
-force = 2.0
-readings = 1
-[effects.soft_layer]
+force = 1.0
+readings = 400
+[effects.gain]
+{gain}
+[effects.noise]
+{noise}
 [output]
 plots = false
-""")
+"""
+
+
+def test_fingerpad_in_a_scene_presses_an_elongated_footprint(tmp_path):
+    from vtcore.scene import run_scene
+
+    p = tmp_path / "s.toml"
+    p.write_text(PRESS.format(gain="counts_per_pa = 1.0", noise="sigma = 0.0").replace("readings = 400", "readings = 1")
+                 .replace('kind = "fingerpad"', 'kind = "fingerpad"\nradius = 0.008\nlength = 0.04\nyaw = 0.0')
+                 .replace("force = 1.0", "force = 2.0"))
     res = run_scene(p, tmp_path / "out")
     arr = np.load(tmp_path / "out" / "arrays.npz")
     pres, pos = arr["pressure"][-1], arr["positions"]
     on = pres > 0.05 * pres.max()
     assert np.isclose(res["metrics"]["force_n"], 2.0, rtol=1e-3)
     assert np.ptp(pos[on, 0]) > 2 * np.ptp(pos[on, 1])   # long along x (yaw 0)
+
+
+def test_scene_effects_take_the_profile(tmp_path):
+    from vtcore.scene import run_scene
+
+    p = tmp_path / "s.toml"
+    p.write_text(PRESS.format(gain='profile = "cyskin"', noise='profile = "cyskin"'))
+    res = run_scene(p, tmp_path / "out")
+    prof = load_profile("cyskin")
+    arr = np.load(tmp_path / "out" / "arrays.npz")
+    counts = arr["frames"]
+    clean = arr["pressure"][0] * prof.response.counts_per_pa
+    # the hexagon's UIDs are not the recorded skin's: every taxel gets the profile's median sigma
+    assert abs(np.std(counts - clean[None], axis=0).mean() / prof.noise_sigma - 1) < 0.1
+    assert res["metrics"]["force_n"] > 0
+
+
+@pytest.mark.parametrize("gain, noise, key", [
+    ('profile = "cyskin"\ncounts_per_pa = 2.0', "sigma = 5.0", "effects.gain.counts_per_pa"),
+    ("counts_per_pa = 1.0", 'profile = "cyskin"\nsigma = 5.0', "effects.noise.sigma"),
+    ('profile = "nope"', "sigma = 5.0", "effects.gain.profile"),
+])
+def test_a_profile_and_a_number_for_the_same_value_is_an_error(tmp_path, gain, noise, key):
+    from vtcore.scene import run_scene
+
+    p = tmp_path / "s.toml"
+    p.write_text(PRESS.format(gain=gain, noise=noise))
+    with pytest.raises(InputError) as e:
+        run_scene(p, tmp_path / "out")
+    assert key in str(e.value)

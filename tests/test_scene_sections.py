@@ -9,6 +9,7 @@ from vtcore.contact.press import GEOMETRIES
 from vtcore.scene import load_scene
 from vtcore.scene.registry import EFFECTS, discover
 from vtcore.scene.schema import Field, Section
+from vtcore.scene.sections.layer import DEFAULTS as LAYER_DEFAULTS
 from vtcore.scene.sections.layer import LAYER, build_layer, layer_options
 
 
@@ -43,5 +44,6 @@ def test_a_scene_without_a_layer_table_gets_the_default_layer(tmp_path):
     p.write_text('[scene]\ntask = "press"\n[[objects]]\nkind = "sphere"\n')
     scene = load_scene(p)
     layer = build_layer(scene)
-    assert layer.thickness == LAYER.fields["thickness"].default
+    # no key and no [layer] profile: the layer section's stated defaults (3 mm)
+    assert layer.thickness == LAYER_DEFAULTS["thickness"] == 0.003
     assert layer_options(scene)["geometry"] == "plane"

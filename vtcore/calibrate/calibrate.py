@@ -15,22 +15,26 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .. import __version__
+from ..errors import InputError
 from ..contact.profile import profile_toml
 from .noise import NoiseFit, censored_normal_fit, summarise
 from .recordings import (GUARD_FRAMES, K_DETECT, MIN_ACTIVE, RADIUS_M, LoadedRecording, contact_frames,
-                         idle_segments, neighbourhoods)
+                         detection_sigma, first_baselines, idle_segments, neighbourhoods,
+                         recording_baselines)
 
 
 @dataclass
 class NoiseCalibration:
     """What the noise stage found. fit : the per-taxel :class:`NoiseFit` (layout order).
     contacts : list of (T_i,) bool per recording. sigma : (N,) counts used for detection (the
-    fit, the median where a taxel is not identified). summary : medians, IQRs and intervals."""
+    fit, the median where a taxel is not identified). summary : medians, IQRs and intervals.
+    baselines : (R, N) counts, each recording's idle offsets (recording_baselines)."""
 
     fit: NoiseFit
     contacts: list
     sigma: np.ndarray
     summary: dict = field(default_factory=dict)
+    baselines: np.ndarray | None = None     # (R, N) counts, each recording's idle offsets
 
 
 def fit_noise(recs: list[LoadedRecording], layout, *, k: float = K_DETECT, min_active: int = MIN_ACTIVE,
@@ -43,13 +47,21 @@ def fit_noise(recs: list[LoadedRecording], layout, *, k: float = K_DETECT, min_a
     """
     pos = np.asarray(layout.positions, float)
     near = neighbourhoods(pos, radius)
-    contacts = [np.zeros(len(r.timestamps), bool) for r in recs]
+    # round 0: the noise of every frame, each recording's baseline from a low quantile of its own
+    # readings (a press covers at most ~60 % of a file's frames, so the 30th percentile is idle)
+    owners: list = []
+    fit = censored_normal_fit(idle_segments(recs, [np.zeros(len(r.timestamps), bool) for r in recs], guard, owners))
+    base = first_baselines(recs)
+    # the pressed taxels' first sigma absorbs the press: round 0 detects with the median over taxels
+    sigma = np.full(len(pos), float(np.nanmedian(fit.sigma)))
     for _ in range(max(1, rounds)):
-        fit = censored_normal_fit(idle_segments(recs, contacts, guard))
+        contacts = [contact_frames(r.counts, detection_sigma(sigma), pos, k=k, min_active=min_active,
+                                   radius=radius, near=near, baseline=base[i]) for i, r in enumerate(recs)]
+        owners = []
+        fit = censored_normal_fit(idle_segments(recs, contacts, guard, owners))
         med = float(np.nanmedian(fit.sigma))
         sigma = np.where(np.isfinite(fit.sigma), fit.sigma, med)
-        contacts = [contact_frames(r.counts, sigma, pos, k=k, min_active=min_active, radius=radius, near=near)
-                    for r in recs]
+        base = recording_baselines(fit, owners, len(recs), sigma)
     rng = np.random.default_rng(0)
     summary = {name: summarise(getattr(fit, name), rng) for name in ("sigma", "offset", "drift", "lag1", "censored")}
     with np.errstate(all="ignore"), warnings.catch_warnings():
@@ -60,7 +72,7 @@ def fit_noise(recs: list[LoadedRecording], layout, *, k: float = K_DETECT, min_a
     summary["recorded"] = int(np.any([r.recorded for r in recs], axis=0).sum())
     summary["idle_frames"] = int(sum((~c).sum() for c in contacts))
     summary["contact_frames"] = int(sum(c.sum() for c in contacts))
-    return NoiseCalibration(fit, contacts, sigma, summary)
+    return NoiseCalibration(fit, contacts, sigma, summary, base)
 
 
 def noise_document(noise: NoiseCalibration, layout, *, name: str, sources: list[str], k: float = K_DETECT,
@@ -134,27 +146,37 @@ class Calibration:
         return out
 
 
-def calibrate(paths, layout, *, name: str | None = None, k: float = K_DETECT, response: bool = False, warn=None,
+def recording_name(path) -> str:
+    """How a profile names a recording: its folder and file (``1_finger/sample_12.txt``)."""
+    from pathlib import Path
+
+    return "/".join(Path(path).parts[-2:])
+
+
+def calibrate(paths, layout, *, name: str | None = None, k: float = K_DETECT, response: bool = True, warn=None,
               holdout=()) -> Calibration:
     """Fit a sensor profile to CySkin text recordings on ``layout``.
 
     paths : recording files (untouched and touched alike: the noise comes from every idle frame,
-    the response from the contact frames of the recordings not in ``holdout``).
+    the response from the contact frames). holdout : recordings left out of the whole calibration
+    (named in the profile's ``[response] held_out``, so ``vtcore validate`` reports them apart).
     """
     from pathlib import Path
 
     from .recordings import load_recordings
 
-    recs = load_recordings(list(paths), layout, warn=warn)
+    held = {str(Path(h).resolve()) for h in holdout}
+    use = [p for p in paths if str(Path(p).resolve()) not in held]
+    if not use:
+        raise InputError("every recording is held out: nothing to calibrate on", key="--holdout")
+    recs = load_recordings(use, layout, warn=warn)
     noise = fit_noise(recs, layout, k=k)
     doc, comments = noise_document(noise, layout, name=name or "profile",
-                                   sources=["/".join(Path(p).parts[-3:]) for p in paths], k=k)
+                                   sources=["/".join(Path(p).parts[-3:]) for p in use], k=k)
     resp = None
     if response:
         from .response import fit_response
 
-        held = {str(Path(h).resolve()) for h in holdout}
-        use = [i for i, r in enumerate(recs) if str(Path(r.path).resolve()) not in held]
-        resp = fit_response([recs[i] for i in use], [noise.contacts[i] for i in use], layout, noise.sigma, k=k)
-        doc["response"], comments["response"] = resp.table(held_out=sorted(held))
+        resp = fit_response(recs, noise.contacts, layout, noise.fit.sigma, noise.baselines, k=k)
+        doc["response"], comments["response"] = resp.table(held_out=sorted(recording_name(h) for h in holdout))
     return Calibration(doc, comments, noise, resp)

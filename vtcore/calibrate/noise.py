@@ -12,10 +12,9 @@ Tobit log-likelihood is concave, so Newton's method with step halving converges 
 start; it runs on all taxels at once with (N, 3, 3) Hessians (a per-taxel scipy optimiser
 would be a Python loop over 600+ taxels; plain EM crawls where most samples are clipped).
 
-One offset per taxel for all segments: the acquisition re-zeroes each file, but on the shared
-idle recordings the offsets of a taxel differ between files by a median 0.2 sigma, which
-inflates sigma by about 2 %; a separate offset per file would be unidentifiable for the taxels
-that read 0 throughout a file (116 of 3,170 file-taxel pairs there).
+One offset per taxel and segment: the acquisition re-zeroes each file, and after a press a
+taxel's baseline can sit elsewhere (pooling the offsets of the shared touched recordings' idle
+stretches inflated the median sigma from ~190 to ~260 counts).
 """
 
 from __future__ import annotations
@@ -41,13 +40,16 @@ class NoiseFit:
 
     sigma : (N,) counts, white-noise standard deviation (NaN where a taxel has fewer than
         ``min_observed`` samples above the clip: it reads 0 nearly always, sigma is not identifiable).
-    offset : (N,) counts, mean of the unclipped reading (the acquisition's own baseline error).
+    offset : (N,) counts, mean of the unclipped reading (the acquisition's own baseline error),
+        averaged over the segments where the taxel rose above the clip at least once.
     drift : (N,) counts/s, linear trend within a segment (time centred per segment).
     sigma_se, offset_se, drift_se : (N,) standard errors from the inverse observed information.
     censored : (N,) fraction of samples at or below the clip level. n : (N,) samples used.
     lag1 : (N,) lag-1 correlation of the unclipped noise from the sign sequence (Sheppard:
         rho = sin(pi/2 r_sign), exact for a zero-median Gaussian process; pairs within a segment).
     iterations : Newton iterations run. converged : bool (every identifiable taxel).
+    segment_offset : (S, N) counts, each segment's own offset (NaN where the taxel never rose above
+        the clip in that segment, or is not identified).
     """
 
     sigma: np.ndarray
@@ -61,6 +63,7 @@ class NoiseFit:
     lag1: np.ndarray
     iterations: int
     converged: bool
+    segment_offset: np.ndarray | None = None
 
 
 def _stack(segments):
@@ -91,9 +94,10 @@ def _stack(segments):
     return np.concatenate(ys), np.concatenate(ts), np.concatenate(vs), np.concatenate(seg)
 
 
-def _loglik(delta, theta, X, yy, cens, w, clip):
-    """Per-taxel Tobit log-likelihood (N,) in Olsen's parameters: delta (N, 2), theta (N,)."""
-    xd = X @ delta.T                                   # (T, N)
+def _loglik(off, dt, theta, onehot, tc, yy, cens, w, clip):
+    """Per-taxel Tobit log-likelihood (N,) in Olsen's parameters: off (S, N) segment offsets / sigma,
+    dt (N,) drift / sigma, theta (N,) = 1 / sigma."""
+    xd = onehot @ off + tc[:, None] * dt                  # (T, N)
     lp, _ = _log_mills(theta * clip - xd)
     r = theta * yy - xd
     ll = np.where(cens, lp, np.log(theta) - 0.5 * r * r)
@@ -102,77 +106,111 @@ def _loglik(delta, theta, X, yy, cens, w, clip):
 
 def censored_normal_fit(segments, *, clip: float = 0.0, min_observed: int = 5, max_iter: int = 100,
                         tol: float = 1e-9, fit_drift: bool = True) -> NoiseFit:
-    """Fit ``y = offset + drift (t - t_seg) + N(0, sigma^2)`` per taxel, observed as ``max(y, clip)``.
+    """Fit ``y = offset_s + drift (t - t_s) + N(0, sigma^2)`` per taxel, observed as ``max(y, clip)``.
 
     segments : list of ``(values (T, N), timestamps (T,) s, valid (T, N) bool)``: runs of idle
-        frames in counts (a file, or a stretch of one away from any contact). ``valid`` False
-        (an unrecorded taxel) drops the sample.
+        frames in counts (a file, or a stretch of one away from any contact). Each segment has its
+        own offset per taxel (the acquisition re-zeroes each file, and after a press a taxel's
+        baseline can sit elsewhere); sigma and the drift rate are shared. ``valid`` False (an
+        unrecorded taxel) drops the sample.
     clip : the level the recorder clips at (counts): a sample ``<= clip`` means ``y <= clip``.
     min_observed : taxels with fewer samples above the clip get NaN (not identifiable).
     fit_drift : fit the within-segment slope (else drift is 0).
+
+    A segment in which a taxel never rises above the clip says only that its offset there lies far
+    below: its likelihood is maximal as that offset goes to minus infinity, where it carries no
+    information about sigma, so such (segment, taxel) pairs are left out (the exact limit). The
+    Newton step uses the Hessian's arrow shape (diagonal in the segment offsets, dense in drift and
+    sigma) through its Schur complement, vectorised over taxels.
     """
     y, tc, ok, sid = _stack(segments)
-    n_t, n_tax = y.shape
-    X = np.column_stack([np.ones(n_t), tc if fit_drift else np.zeros(n_t)])   # (T, 2)
-    w = ok.astype(float)
-    cens = ok & (y <= clip)
+    if not fit_drift:
+        tc = np.zeros_like(tc)
+    _, sid = np.unique(sid, return_inverse=True)
+    n_seg = int(sid.max()) + 1
+    onehot = np.zeros((len(y), n_seg))
+    onehot[np.arange(len(y)), sid] = 1.0                 # (T, S)
+    cens0 = ok & (y <= clip)
+    obs_seg = onehot.T @ (ok & ~cens0).astype(float)     # (S, N) samples above the clip per segment
+    live = obs_seg > 0                                   # (S, N) pairs that carry information
+    w = ok.astype(float) * (onehot @ live.astype(float))  # drop the samples of dead pairs
+    cens = cens0 & (w > 0)
     yy = np.where(ok, y, 0.0)
-    n = w.sum(axis=0)
-    n_obs = ((~cens) & ok).sum(axis=0)
+    n = ok.sum(axis=0).astype(float)
+    n_obs = ((~cens0) & ok).sum(axis=0)
     ident = n_obs >= min_observed
-    # start: the naive moments (sigma floored at 1 count)
-    mu0 = (w * yy).sum(0) / np.maximum(n, 1)
-    sd0 = np.sqrt(np.maximum((w * (yy - mu0) ** 2).sum(0) / np.maximum(n, 1), 1.0))
+    n_tax = y.shape[1]
+    # start: per-segment means of the observed samples, sigma from the naive spread (floored at 1)
+    wsum = onehot.T @ w
+    mu0 = (onehot.T @ (w * yy)) / np.maximum(wsum, 1)     # (S, N)
+    sd0 = np.sqrt(np.maximum((w * (yy - onehot @ mu0) ** 2).sum(0) / np.maximum(w.sum(0), 1), 1.0))
     theta = 1.0 / sd0
-    delta = np.column_stack([mu0 * theta, np.zeros(n_tax)])
-    ll = _loglik(delta, theta, X, yy, cens, w, clip)
-    ridge = np.diag([0.0, 0.0 if fit_drift else 1.0, 0.0])   # keeps the unused drift column regular
+    off = mu0 * theta
+    dt = np.zeros(n_tax)
+    ll = _loglik(off, dt, theta, onehot, tc, yy, cens, w, clip)
     it, converged = 0, False
-    XX = X[:, :, None] * X[:, None, :]                  # (T, 2, 2)
+    wu_ = w * (~cens)
     for it in range(1, max_iter + 1):
-        xd = X @ delta.T
+        xd = onehot @ off + tc[:, None] * dt
         a = theta * clip - xd
         _, lam = _log_mills(a)
-        k = lam * (a + lam)                             # in (0, 1): the censored curvature
+        k = lam * (a + lam)                              # in (0, 1): the censored curvature
         r = theta * yy - xd
-        wc, wu = w * cens, w * (~cens)
-        g_d = X.T @ (wu * r - wc * lam)                 # (2, N)
-        g_t = (wu * (1.0 / theta - r * yy) + wc * lam * clip).sum(0)
-        H_dd = -np.einsum("tij,tn->nij", XX, wu + wc * k)
-        H_dt = (X.T @ (wu * yy + wc * k * clip)).T      # (N, 2)
-        H_tt = -(wu * (1.0 / theta**2 + yy * yy) + wc * k * clip * clip).sum(0)
-        H = np.zeros((n_tax, 3, 3))
-        H[:, :2, :2], H[:, :2, 2], H[:, 2, :2], H[:, 2, 2] = H_dd, H_dt, H_dt, H_tt
-        H -= ridge + 1e-12 * np.eye(3)
-        g = np.column_stack([g_d.T, g_t])
-        g[~ident] = 0.0
-        step = -np.linalg.solve(H, g[..., None])[..., 0]   # Newton: H is negative definite
+        wc = w * cens
+        q = wu_ + wc * k                                 # (T, N) curvature weight of a location shift
+        e = wu_ * r - wc * lam                           # (T, N) score of a location shift
+        cy = wu_ * yy + wc * k * clip                    # (T, N) cross term with theta
+        g_a = onehot.T @ e                               # (S, N)
+        g_b = np.stack([(e * tc[:, None]).sum(0), (wu_ * (1.0 / theta - r * yy) + wc * lam * clip).sum(0)], 1)
+        A = -(onehot.T @ q)                              # (S, N) diagonal block
+        A = np.where(live, A, -1.0)                      # dead pairs: a dummy, zero-gradient coordinate
+        g_a = np.where(live, g_a, 0.0)
+        B = np.stack([-(onehot.T @ (q * tc[:, None])), onehot.T @ cy], axis=2)   # (S, N, 2)
+        B = np.where(live[..., None], B, 0.0)
+        C = np.empty((n_tax, 2, 2))
+        C[:, 0, 0] = -(q * tc[:, None] ** 2).sum(0) - (0.0 if fit_drift else 1.0)
+        C[:, 0, 1] = C[:, 1, 0] = (cy * tc[:, None]).sum(0)
+        C[:, 1, 1] = -(wu_ * (1.0 / theta**2 + yy * yy) + wc * k * clip * clip).sum(0)
+        # Schur complement of the diagonal block: (C - B' A^-1 B) y = -g_b + B' A^-1 g_a
+        ainv = 1.0 / A
+        S_ = C - np.einsum("sni,sn,snj->nij", B, ainv, B) - 1e-12 * np.eye(2)
+        rhs = -g_b + np.einsum("sni,sn,sn->ni", B, ainv, g_a)
+        step_b = np.linalg.solve(S_, rhs[..., None])[..., 0]          # (N, 2)
+        step_a = ainv * (-g_a - np.einsum("sni,ni->sn", B, step_b))   # (S, N)
+        step_a[:, ~ident] = 0.0
+        step_b[~ident] = 0.0
+        if not fit_drift:
+            step_b[:, 0] = 0.0
         t_len = np.ones(n_tax)
-        for _ in range(30):                             # step halving, per taxel, keeping theta > 0
-            nd = delta + t_len[:, None] * step[:, :2]
-            nt = theta + t_len * step[:, 2]
+        for _ in range(40):                             # step halving, per taxel, keeping theta > 0
+            no = off + t_len * step_a
+            nd = dt + t_len * step_b[:, 0]
+            nt = theta + t_len * step_b[:, 1]
             bad = nt <= 0
             nt = np.where(bad, theta, nt)
-            nll = _loglik(nd, nt, X, yy, cens, w, clip)
+            nll = _loglik(no, nd, nt, onehot, tc, yy, cens, w, clip)
             worse = bad | ~(nll >= ll - 1e-12 * np.abs(ll))
             if not worse.any():
                 break
             t_len = np.where(worse, t_len / 2, t_len)
-        delta, theta, gain = nd, nt, nll - ll
+        off, dt, theta, gain = no, nd, nt, nll - ll
         ll = nll
-        if np.all(np.abs(gain[ident]) <= tol * (1 + np.abs(ll[ident]))) and \
-                np.all(np.abs(step[ident]).max(axis=1) * t_len[ident] <= 1e-7 * (1 + np.abs(theta[ident]))):
+        size = np.maximum(np.abs(step_a).max(axis=0), np.abs(step_b).max(axis=1)) * t_len
+        if np.all(np.abs(gain[ident]) <= tol * (1 + np.abs(ll[ident]))) and np.all(size[ident] <= 1e-7):
             converged = True
             break
     sigma = 1.0 / theta
-    off, drift = delta[:, 0] * sigma, delta[:, 1] * sigma
-    # standard errors: the inverse observed information mapped back by the delta method
-    cov = np.linalg.inv(-H)                             # (N, 3, 3) in (delta, theta)
-    J = np.zeros((n_tax, 3, 3))                         # d(offset, drift, sigma) / d(delta, theta)
-    J[:, 0, 0] = J[:, 1, 1] = sigma
-    J[:, 0, 2], J[:, 1, 2], J[:, 2, 2] = -off * sigma, -drift * sigma, -sigma * sigma
-    cv = J @ cov @ np.transpose(J, (0, 2, 1))
-    se = np.sqrt(np.maximum(np.diagonal(cv, axis1=1, axis2=2), 0.0))
+    # standard errors: the inverse observed information of (drift/sigma, theta) after the offsets
+    # (the Schur complement), mapped back by the delta method; the offsets' own errors from A
+    cov_b = np.linalg.inv(-S_)
+    drift = dt * sigma
+    se_sigma = np.sqrt(np.maximum(cov_b[:, 1, 1], 0)) * sigma * sigma
+    se_drift = np.sqrt(np.maximum(cov_b[:, 0, 0] * sigma**2 + drift**2 * sigma**2 * cov_b[:, 1, 1]
+                                  - 2 * drift * sigma**2 * cov_b[:, 0, 1], 0))
+    seg_n = onehot.T @ w
+    wts = seg_n / np.maximum(seg_n.sum(axis=0), 1)
+    offset = (wts * off).sum(axis=0) * sigma             # sample-weighted mean offset over the live segments
+    se_off = np.sqrt((wts**2 * np.where(live, -1.0 / A, 0.0)).sum(axis=0)) * sigma
     # lag-1 correlation of the sign within segments
     sgn = np.where(y > clip, 1.0, -1.0)
     same = (sid[1:] == sid[:-1])[:, None] & ok[1:] & ok[:-1]
@@ -183,13 +221,14 @@ def censored_normal_fit(segments, *, clip: float = 0.0, min_observed: int = 5, m
     def nan_unless(v):
         return np.where(ident, v, np.nan)
 
-    return NoiseFit(sigma=nan_unless(sigma), offset=nan_unless(off),
+    return NoiseFit(sigma=nan_unless(sigma), offset=nan_unless(offset),
                     drift=nan_unless(drift) if fit_drift else np.where(ident, 0.0, np.nan),
-                    sigma_se=nan_unless(se[:, 2]), offset_se=nan_unless(se[:, 0]),
-                    drift_se=nan_unless(se[:, 1]) if fit_drift else np.where(ident, 0.0, np.nan),
-                    censored=np.where(n > 0, (cens & ok).sum(axis=0) / np.maximum(n, 1), np.nan), n=n,
+                    sigma_se=nan_unless(se_sigma), offset_se=nan_unless(se_off),
+                    drift_se=nan_unless(se_drift) if fit_drift else np.where(ident, 0.0, np.nan),
+                    censored=np.where(n > 0, (cens0 & ok).sum(axis=0) / np.maximum(n, 1), np.nan), n=n,
                     lag1=nan_unless(np.sin(np.pi / 2 * np.clip(r_sign, -1, 1))), iterations=it,
-                    converged=converged)
+                    converged=converged,
+                    segment_offset=np.where(live & ident[None, :], off * sigma[None, :], np.nan))
 
 
 def summarise(values, rng=None, n_boot: int = 2000) -> dict:

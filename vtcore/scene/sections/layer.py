@@ -18,14 +18,17 @@ from ..registry import register_section
 from ..schema import Field, Section
 
 LAYER = Section({
-    "thickness": Field("float", default=3e-3, gt=0, unit="m", doc="soft layer thickness"),
-    "material": Field("str", default="ecoflex_00_20", choices=tuple(MATERIALS), doc="layer material"),
+    "profile": Field("str", default=None,
+                     doc="sensor profile whose fitted layer ([response]: thickness, material, modulus, base) "
+                         "this layer is, unless a key below says otherwise (\"cyskin\" or a .toml file)"),
+    "thickness": Field("float", default=None, gt=0, unit="m", doc="soft layer thickness (default 3 mm)"),
+    "material": Field("str", default=None, choices=tuple(MATERIALS), doc="layer material (default Ecoflex 00-20)"),
     "young_modulus": Field("float", default=None, ge=1.0, le=1e12, unit="Pa",
                            doc="overrides the material's E (1 Pa..1 TPa; silicones 1e4-1e6, steel 2e11)"),
     "poisson": Field("float", default=None, ge=0, lt=0.5, doc="overrides the material's Poisson ratio"),
     "extent": Field("float", default=None, gt=0, unit="m", doc="radius of the layer (seed 001: 0.04)"),
-    "base": Field("str", default="bonded", choices=BASES,
-                  doc="the layer's interface with the end-effector: glued, or a pad that slides"),
+    "base": Field("str", default=None, choices=BASES,
+                  doc="the layer's interface with the end-effector: glued (the default), or a pad that slides"),
     "model": Field("str", default="finite_layer", choices=MODELS,
                    doc="contact model (see docs/contact.md)"),
     "grid_spacing": Field("float", default=1e-3, gt=0, le=0.01, unit="m",
@@ -40,9 +43,37 @@ LAYER = Section({
 register_section("layer", Field("table", default=None, section=LAYER))
 
 
+DEFAULTS = {"thickness": 3e-3, "material": "ecoflex_00_20", "base": "bonded"}
+
+
+def layer_values(scene) -> dict:
+    """The ``[layer]`` keys with the profile's fitted layer and the defaults filled in (explicit keys win)."""
+    t = dict(scene["layer"] or LAYER.defaults())
+    if t.get("profile"):
+        from ...contact.profile import load_profile
+
+        try:
+            prof = load_profile(t["profile"])
+        except ValueError as exc:
+            raise scene.error("layer.profile", getattr(exc, "reason", str(exc))) from None
+        r = prof.response
+        if r is None:
+            raise scene.error("layer.profile", f"profile {prof.name!r} ({prof.path}) has no [response]: no fitted "
+                                               "layer to take")
+        fitted = {"thickness": r.thickness, "material": r.material, "young_modulus": r.young_modulus,
+                  "poisson": r.poisson, "base": r.base}
+        for k, v in fitted.items():
+            if t.get(k) is None:
+                t[k] = v
+    for k, v in DEFAULTS.items():
+        if t.get(k) is None:
+            t[k] = v
+    return t
+
+
 def build_layer(scene) -> SoftLayer:
     """The scene's SoftLayer (defaults when there is no ``[layer]`` table)."""
-    t = scene["layer"] or LAYER.defaults()
+    t = layer_values(scene)
     try:
         return SoftLayer(thickness=t["thickness"], material=t["material"], young_modulus=t["young_modulus"],
                          poisson=t["poisson"], extent=t["extent"], base=t["base"])

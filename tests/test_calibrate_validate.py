@@ -1,0 +1,205 @@
+"""vtcore calibrate / validate on recordings written here (issue 27's hard cases), and on the shared
+real CySkin recordings when they are beside the repository."""
+
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from vtcore.calibrate.footprint import footprint_metrics
+from vtcore.cli import main
+from vtcore.errors import InputError
+from vtcore.layout import load
+
+ROOT = Path(__file__).resolve().parents[1]
+HEX = ROOT / "scenes" / "layouts" / "seed001_hexagon.cyskin.json"
+SHARED = Path(os.environ.get("VTCORE_SHARED_DATA", ROOT.parent / "shared" / "data")) / "cyskin_gesture"
+
+
+def write_recording(path, layout, frames, uids=None, rate=10.0):
+    """A CySkin text recording: line 1 the UIDs, then ``row time v1 ... vN`` (integer counts)."""
+    uids = layout.taxel_ids if uids is None else uids
+    lines = [" ".join(str(int(u)) for u in uids) + " "]
+    for i, f in enumerate(frames):
+        lines.append(f"{i} {i / rate:.4f} " + " ".join(str(int(v)) for v in np.rint(f)))
+    Path(path).write_text("\n".join(lines) + "\n")
+
+
+def synthetic_press(layout, rng, *, centre, n_frames=24, contact=range(8, 16), sigma=150.0, peak=12000.0,
+                    half_lengths=(0.012, 0.004), angle=0.4):
+    """Idle noise clipped at 0, and an elongated footprint (an anisotropic Gaussian) in ``contact``."""
+    pos = layout.positions
+    u = np.array([np.cos(angle), np.sin(angle), 0.0])
+    v = np.array([-np.sin(angle), np.cos(angle), 0.0])
+    rel = pos - np.asarray(centre)
+    blob = np.exp(-0.5 * ((rel @ u) / half_lengths[0]) ** 2 - 0.5 * ((rel @ v) / half_lengths[1]) ** 2)
+    frames = sigma * rng.normal(size=(n_frames, len(pos)))
+    for i in contact:
+        frames[i] += peak * blob
+    return np.clip(frames, 0, 65535)
+
+
+SCENE = """
+[scene]
+name = "v"
+task = "validate"
+seed = 2
+[layout]
+file = "{layout}"
+[layer]
+thickness = 0.004
+grid_spacing = 0.0015
+samples_per_taxel = 3
+[[objects]]
+kind = "fingerpad"
+[task]
+recordings = {recordings}
+[effects.gain]
+counts_per_pa = 0.7
+[effects.noise]
+sigma = 150.0
+[effects.saturation]
+[effects.quantisation]
+[output]
+plots = {plots}
+"""
+
+
+def _scene(tmp_path, recordings, plots=False):
+    p = tmp_path / "v.toml"
+    p.write_text(SCENE.format(layout=HEX.as_posix(), recordings=json.dumps([str(r) for r in recordings]),
+                              plots=str(plots).lower()))
+    return p
+
+
+def test_validate_writes_matched_arrays_and_metrics(tmp_path):
+    lay = load(HEX)
+    rng = np.random.default_rng(3)
+    rec = tmp_path / "press.txt"
+    write_recording(rec, lay, synthetic_press(lay, rng, centre=lay.positions[0] + [0.004, 0.002, 0]))
+    out = tmp_path / "out"
+    assert main(["validate", str(rec), "--layout", str(HEX), "--scene", str(_scene(tmp_path, [rec], plots=True)),
+                 "--out", str(out)]) == 0
+    arr = np.load(out / "arrays.npz")
+    k = len(arr["real"])
+    assert k == 8 and arr["sim"].shape == arr["real"].shape == (k, len(lay))
+    assert arr["positions"].shape == (len(lay), 3) and arr["noise_sigma"].shape == (len(lay),)
+    assert np.allclose(arr["noise_sigma"], 150.0)
+    res = json.loads((out / "result.json").read_text())
+    m = res["metrics"]
+    for key in ("all_real_ring1_median", "all_sim_ring1_median", "all_real_active_q25", "all_sim_minor_mm_median",
+                "all_real_peak_median", "force_n_median", "compression_max"):
+        assert key in m and m[key] is not None, key
+    # the force rule: the simulated peak follows the recorded one (noise aside)
+    assert abs(m["all_sim_peak_median"] / m["all_real_peak_median"] - 1) < 0.15
+    assert (out / "footprints.png").exists() and (out / "metrics.png").exists()
+
+
+def test_partly_matching_uids_are_masked_not_guessed(tmp_path, capsys):
+    lay = load(HEX)
+    rng = np.random.default_rng(4)
+    frames = synthetic_press(lay, rng, centre=lay.positions[10])
+    keep = np.arange(len(lay)) % 3 != 0                         # a third of the layout not recorded
+    uids = np.concatenate([lay.taxel_ids[keep], [9991, 9992]])   # and two UIDs the layout lacks
+    data = np.concatenate([frames[:, keep], np.full((len(frames), 2), 500.0)], axis=1)
+    rec = tmp_path / "partial.txt"
+    write_recording(rec, lay, data, uids=uids)
+    out = tmp_path / "out"
+    assert main(["validate", str(rec), "--layout", str(HEX), "--scene", str(_scene(tmp_path, [rec])),
+                 "--out", str(out)]) == 0
+    arr = np.load(out / "arrays.npz")
+    assert np.isnan(arr["real"][:, ~keep]).all() and np.isnan(arr["sim"][:, ~keep]).all()
+    assert np.isfinite(arr["real"][:, keep]).all() and np.isfinite(arr["sim"][:, keep]).all()
+    assert "layout taxels recorded" in capsys.readouterr().err
+
+
+def test_a_recording_without_contact_is_refused_with_its_name(tmp_path, capsys):
+    lay = load(HEX)
+    rng = np.random.default_rng(5)
+    rec = tmp_path / "idle.txt"
+    write_recording(rec, lay, np.clip(150 * rng.normal(size=(30, len(lay))), 0, None))
+    rc = main(["validate", str(rec), "--layout", str(HEX), "--scene", str(_scene(tmp_path, [rec])),
+               "--out", str(tmp_path / "out")])
+    err = capsys.readouterr().err
+    assert rc == 2 and "no contact frame" in err and "idle.txt" in err and "Traceback" not in err
+    assert not (tmp_path / "out" / "result.json").exists()
+
+
+def test_a_press_on_the_patch_border(tmp_path):
+    lay = load(HEX)
+    rng = np.random.default_rng(6)
+    far = int(np.argmax(np.linalg.norm(lay.positions, axis=1)))
+    rec = tmp_path / "edge.txt"
+    write_recording(rec, lay, synthetic_press(lay, rng, centre=lay.positions[far] * 1.08, peak=9000.0))
+    out = tmp_path / "out"
+    assert main(["validate", str(rec), "--layout", str(HEX), "--scene", str(_scene(tmp_path, [rec])),
+                 "--out", str(out)]) == 0
+    arr = np.load(out / "arrays.npz")
+    peaks = np.nanmax(arr["sim"], axis=1)
+    assert (peaks > 3000).all()                        # the finger still meets the skin at its border
+    m = footprint_metrics(arr["sim"], arr["positions"], arr["noise_sigma"])
+    assert np.isfinite(m["ring1"]).all() and (m["active"] >= 1).all()
+
+
+def test_no_recording_and_unknown_layout_uids(tmp_path, capsys):
+    lay = load(HEX)
+    rec = tmp_path / "other_skin.txt"
+    write_recording(rec, lay, np.zeros((5, len(lay))), uids=lay.taxel_ids + 100000)
+    rc = main(["validate", str(rec), "--layout", str(HEX), "--scene", str(_scene(tmp_path, [rec])),
+               "--out", str(tmp_path / "o")])
+    assert rc == 2 and "other_skin.txt" in capsys.readouterr().err
+
+
+def test_calibrate_recovers_the_noise_of_written_recordings(tmp_path):
+    lay = load(HEX)
+    rng = np.random.default_rng(8)
+    recs = []
+    for i in range(3):
+        p = tmp_path / f"idle_{i}.txt"
+        write_recording(p, lay, np.clip(180 * rng.normal(size=(40, len(lay))), 0, None))
+        recs.append(p)
+    out = tmp_path / "p.toml"
+    assert main(["calibrate", *map(str, recs), "--layout", str(HEX), "--out", str(out), "--noise-only"]) == 0
+    from vtcore.contact.profile import load_profile
+
+    prof = load_profile(out)
+    assert abs(prof.noise_sigma / 180 - 1) < 0.08 and prof.response is None
+    assert prof.raw["noise"]["naive_std_counts"] < 0.7 * prof.noise_sigma     # the clipped std is far lower
+
+
+needs_shared = pytest.mark.skipif(not (SHARED / "1_finger").is_dir(), reason=f"shared recordings not at {SHARED}")
+
+
+@pytest.fixture(scope="module")
+def shipped_validation(tmp_path_factory):
+    from vtcore.scene import run_scene
+
+    return run_scene(ROOT / "scenes" / "validate_cyskin_gesture.toml", tmp_path_factory.mktemp("val") / "out")
+
+
+def _inside(m, name, group="all"):
+    return (m[f"{group}_sim_{name}_within_real_iqr"],
+            (name, m[f"{group}_sim_{name}_median"], m[f"{group}_real_{name}_q25"], m[f"{group}_real_{name}_q75"]))
+
+
+@needs_shared
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["ring2", "active", "minor_mm"])
+def test_the_shipped_scene_reproduces_the_real_footprints(shipped_validation, name):
+    """Issue 27's 'Done when': the simulated median within the recorded IQR with the shipped profile and
+    scene, on all 16 shared one-finger recordings (5 of them held out of the calibration)."""
+    m = shipped_validation["metrics"]
+    assert m["frames"] > 100 and m["recordings"] == 16 and m["frames_held_out"] > 30
+    ok, detail = _inside(m, name)
+    assert ok, detail
+
+
+@needs_shared
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="issue 27 'Done when' not met for ring 1: the simulated median (0.35) lies "
+                                       "above the recorded IQR (0.23-0.34); docs/contact.md, 'Validation'")
+def test_the_shipped_scene_reproduces_the_first_ring(shipped_validation):
+    ok, detail = _inside(shipped_validation["metrics"], "ring1")
+    assert ok, detail
