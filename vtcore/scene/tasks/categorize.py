@@ -22,6 +22,8 @@ on every reading.
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
 from ...categorize import (PAPER_FIG8, PAPER_TASK_NOTES, CategoryFormation, confusion, design_sweep,
@@ -29,6 +31,7 @@ from ...categorize import (PAPER_FIG8, PAPER_TASK_NOTES, CategoryFormation, conf
                            task_accuracies)
 from ...categorize import plots as cplots
 from ...categorize.variants import variant_grid, variant_sweep, variants_summary, variants_table
+from ...contact.materials import LargeDeformationWarning, compression_note
 from ...errors import UnreachableTargetError
 from ...tolerances import EPS
 from ..registry import TaskSpec, register_task
@@ -48,8 +51,31 @@ _COMMON = {
     "rate": Field("float", default=20.0, gt=0, unit="Hz", doc="sensor reading rate (seed 001: 20 Hz)"),
 }
 
+_PLACEMENT = {
+    "radius_reading": Field("str", default="radius", choices=("radius", "diameter"),
+                            doc="seed 001 gives the sphere and half-cylinder as 'radius = 30mm': read as a "
+                                "radius (the objects' radius as given) or as a diameter (their radius halved)"),
+    "object_yaw": Field("float", default=0.0, unit="rad",
+                        doc="turn every object about the press axis (the paper does not give how the long "
+                            "objects lay on the patch)"),
+}
+
 PARAMS = Section({
     **_COMMON,
+    **_PLACEMENT,
+    "jitter_seeds": Field("int", default=0, ge=0, le=10000,
+                          doc="placement jitter draws for the task probabilities (0: no jitter study)"),
+    "jitter_xy": Field("float", default=0.002, ge=0, unit="m",
+                       doc="per-trial placement offset, standard deviation per axis of the skin plane"),
+    "jitter_tilt": Field("float", default=0.0524, ge=0, unit="rad",
+                         doc="per-trial tilt about a random horizontal axis, standard deviation (3 deg)"),
+    "jitter_yaw": Field("float", default=0.0, ge=0, unit="rad", doc="per-trial turn about the press axis, std"),
+    "jitter_bases": Field("list", default=["bonded", "frictionless"],
+                          item=Field("str", choices=("bonded", "frictionless")),
+                          doc="layer bases compared in the jitter study (the scene's own comes first)"),
+    "jitter_p_halfs": Field("list", default=[0.0, 5000.0], item=Field("float", ge=0), unit="Pa",
+                            doc="sensor transfers compared in the jitter study: 0 = the listed gain as it is, "
+                                "else a saturating transfer of that p_half with the listed slope"),
     "solve_probability": Field("float", default=0.5, gt=0, le=1,
                                doc="chance of forming exactly a task's split that counts as solving it, "
                                    "averaged over a sweep's seeds (`vtcore sweep` designer table)"),
@@ -61,14 +87,13 @@ PARAMS = Section({
 
 SWEEP_PARAMS = Section({
     **_COMMON,
+    **_PLACEMENT,
     "solve_probability": Field("float", default=0.5, gt=0, le=1,
                                doc="chance of forming exactly a task's split that counts as solving it, "
                                    "averaged over a sweep's seeds (`vtcore sweep` designer table)"),
     "thicknesses": Field("vec", default=[i * 1e-3 for i in range(1, 16)], length=(1, 200), unit="m",
                          doc="layer thicknesses to try"),
     "repeats": Field("int", default=5, ge=1, doc="noise draws per thickness"),
-    "solve_probability": Field("float", default=0.5, gt=0, le=1,
-                               doc="chance of forming exactly a task's split that counts as solving it"),
     "variant_thicknesses": Field("vec", default=[0.003, 0.006, 0.010], length=(0, 50), unit="m",
                                  doc="thicknesses of the model-variants table (empty: no table)"),
     "variant_bases": Field("list", default=["bonded", "frictionless"],
@@ -97,7 +122,7 @@ class _Pressures:
 
         self.scene, self.ctx = scene, ctx
         self.layout = build_layout(scene)
-        self.objects = build_objects(scene)  # [(name, mesh, pose)]
+        self.objects = _placed_objects(scene, build_objects(scene))  # [(name, mesh, pose)]
         if len(self.objects) < 2:
             raise scene.error("objects", f"category formation needs at least 2 [[objects]], got "
                                          f"{len(self.objects)}")
@@ -131,8 +156,45 @@ class _Pressures:
             self._cache[key] = {"pressure": np.asarray(state["pressure"], float).reshape(-1),
                                 "force": float(res.force), "indentation": float(res.indentation),
                                 "contact_area": float(res.contact_area), "converged": bool(res.converged),
-                                "bottomed_out": bool(res.bottomed_out)}
+                                "bottomed_out": bool(res.bottomed_out),
+                                "compression": float(res.max_compression / layer.thickness)}
         return self._cache[key]
+
+    def seated(self, i, pose, thickness):
+        """``pose`` (4, 4) of object ``i`` moved along z so its lowest point lies the object's gap above a
+        layer of ``thickness`` (m): a tilted object must not start inside the layer."""
+        _, mesh, _ = self.objects[i]
+        v = np.asarray(mesh.vertices, float) @ pose[:3, :3].T + pose[:3, 3]
+        out = pose.copy()
+        out[2, 3] += self.top(thickness) + self.scene["objects"][i]["gap"] - v[:, 2].min()
+        return out
+
+    def top(self, thickness) -> float:
+        """Height (m) of the layer's outer surface at its highest point for ``thickness`` (m)."""
+        pos, nrm = self.layout.positions, self.layout.normals
+        return float((pos[:, 2] + float(thickness) * nrm[:, 2]).max())
+
+    def press_posed(self, i, pose, thickness, base=None) -> np.ndarray:
+        """(N,) Pa: object ``i`` pressed at ``pose`` (re-seated) through ``thickness`` (not cached)."""
+        from dataclasses import replace
+
+        from ...contact import press
+
+        name, mesh, _ = self.objects[i]
+        base = base or self.layer.base
+        layer = replace(self.layer, thickness=float(thickness), base=base)
+        try:
+            res = press(self.layout, mesh, self.seated(i, pose, thickness), layer, force=self.force, spread=False,
+                        **self.options)
+        except UnreachableTargetError as exc:
+            raise UnreachableTargetError(f"object {name!r} through {thickness * 1e3:g} mm ({base}), "
+                                         f"jittered: {exc}") from None
+        state = {"layout": self.layout, "layer": layer, "results": [res], "mesh": mesh, "compliance": None,
+                 "pressure": res.surface_pressure[None, :].copy(),
+                 "samples_per_taxel": self.options["samples_per_taxel"]}
+        state = self.ctx.pipeline.apply("contact", state, self.ctx)
+        self.max_compression = max(getattr(self, "max_compression", 0.0), res.max_compression / layer.thickness)
+        return np.asarray(state["pressure"], float).reshape(-1)
 
     def at(self, thickness, base=None) -> tuple[np.ndarray, list[dict]]:
         """(M, N) pascals and per-object press info; raises UnreachableTargetError naming the object.
@@ -146,6 +208,28 @@ class _Pressures:
             except UnreachableTargetError as exc:
                 raise UnreachableTargetError(f"object {name!r} through {thickness * 1e3:g} mm: {exc}") from None
         return np.stack([r["pressure"] for r in rows]), rows
+
+
+def _placed_objects(scene, objects):
+    """The scene's objects with ``task.radius_reading`` and ``task.object_yaw`` applied."""
+    from ...contact.objects import make_object
+    from ..sections.objects import object_pose
+
+    t = scene["task"]
+    out = []
+    for i, (name, mesh, pose) in enumerate(objects):
+        o = scene["objects"][i]
+        if t["radius_reading"] == "diameter" and o["kind"] in ("sphere", "halfcylinder"):
+            dims = dict(mesh.metadata.get("dims", {}))
+            dims["radius"] = dims["radius"] / 2.0
+            mesh = make_object(o["kind"], **dims)
+            pose = object_pose(scene, i, mesh)
+        if t["object_yaw"]:
+            c, s_ = np.cos(t["object_yaw"]), np.sin(t["object_yaw"])
+            pose = pose.copy()
+            pose[:3, :3] = np.array([[c, -s_, 0], [s_, c, 0], [0, 0, 1.0]]) @ pose[:3, :3]
+        out.append((name, mesh, pose))
+    return out
 
 
 def _sensor(ctx, rate):
@@ -343,7 +427,103 @@ def run(scene, ctx) -> TaskResult:
                        + f" | {t['resolution_runs'] - study.n_ok[i]} |")
         lines += ["", f"### Spatial resolution (Fig. 10), {t['resolution_runs']} random subsets per size", "",
                   *tab]
+    big = compression_note(max(r["compression"] for r in info) * h, h, "the firmest press")
+    metrics["compression_max"] = float(max(r["compression"] for r in info))
+    if big:
+        lines += ["", f"**Warning:** {big}."]
+        warnings.warn(big, LargeDeformationWarning, stacklevel=2)
+    if t["jitter_seeds"] > 0:
+        jl, jm, ja = _jitter_study(scene, ctx, src, tasks, h)
+        lines += ["", *jl]
+        metrics.update(jm)
+        arrays.update(ja)
     return TaskResult(metrics=metrics, arrays=arrays, figures=figures, sections=["\n".join(lines)])
+
+
+def _sensor_label(ctx, p_half) -> str:
+    gain_fx = ctx.pipeline.get("gain")
+    if p_half:
+        return f"saturating, p_half {p_half / 1e3:g} kPa"
+    if gain_fx is None:
+        return "no gain (pascals)"
+    prof = getattr(gain_fx, "profile_obj", None)
+    own = f"{'measured profile ' + repr(prof.name) if prof is not None else 'listed gain'}"
+    curve = "linear" if gain_fx.p_half is None else f"p_half {gain_fx.p_half / 1e3:g} kPa"
+    return f"{own} ({curve}, {gain_fx.counts_per_pa:.3g} counts/Pa)"
+
+
+def _jitter_study(scene, ctx, src, tasks, h):
+    """Task probabilities over ``task.jitter_seeds`` per-trial placement draws, for the scene's own layer
+    base and sensor and the listed alternatives. Returns (report lines, metrics, arrays)."""
+    from ...categorize import tactile_images as images_of
+    from ...categorize.jitter import Jitter, jittered_poses, task_probabilities
+
+    t = scene["task"]
+    jit = Jitter(t["jitter_xy"], t["jitter_tilt"], t["jitter_yaw"])
+    bases = list(dict.fromkeys([src.layer.base] + list(t["jitter_bases"])))      # the scene's own first
+    p_halfs = list(dict.fromkeys([0.0] + [float(x) for x in t["jitter_p_halfs"]]))
+    sensors = {ph: _sensor(ctx, t["rate"]) if ph == 0 else _variant_sensor(ctx, t["rate"], ph) for ph in p_halfs}
+    poses0 = np.stack([pose for _, _, pose in src.objects])
+    n_j, trials, m = t["jitter_seeds"], t["trials"], len(src.objects)
+    prob = np.zeros((len(bases), len(p_halfs), n_j, len(tasks)))
+    bottomed: list[str] = []
+    for j in ctx.progress(range(n_j), desc="jitter draws", total=n_j, unit="draw"):
+        # one generator per draw, from the scene's seed: a draw reproduces alone and in any order
+        rng = np.random.default_rng([scene.seed, 0x6A17, j])
+        poses = jittered_poses(poses0, jit, rng, trials)
+        for a, base in enumerate(bases):
+            try:
+                pres = np.stack([[src.press_posed(i, poses[tr, i], h, base) for i in range(m)] for tr in range(trials)])
+            except UnreachableTargetError as exc:
+                # the tilted object would press through the layer: this draw has no images (left out, said)
+                prob[a, :, j] = np.nan
+                bottomed.append(f"draw {j}, {base}: {exc}")
+                continue
+            for b, ph in enumerate(p_halfs):
+                img, _ = images_of(pres, sensors[ph], readings=t["readings"], trials=trials)
+                prob[a, b, j] = task_probabilities(img, tasks, n_runs=t["kmeans_runs"], n_init=t["kmeans_init"],
+                                                   max_retries=t["max_retries"])
+    import warnings as _w
+
+    with _w.catch_warnings():
+        _w.simplefilter("ignore", RuntimeWarning)      # a base whose every draw bottomed out: NaN, said below
+        mean = np.nanmean(prob, axis=2)
+        n_ok = np.isfinite(prob[..., 0]).sum(axis=2)
+        se = np.nanstd(prob, axis=2) / np.sqrt(np.maximum(n_ok, 1))[..., None]
+    metrics = {"jitter_draws": n_j, "jitter_compression_max": float(getattr(src, "max_compression", 0.0)),
+               "jitter_draws_bottomed_out": len(bottomed)}
+    for k, task in enumerate(tasks):
+        metrics[f"jitter_p_task{task.number}"] = float(mean[0, 0, k])
+    for a, base in enumerate(bases):
+        for b, ph in enumerate(p_halfs):
+            tag = f"{base}_{'profile' if ph == 0 else f'phalf{ph:g}'}"
+            for k, task in enumerate(tasks):
+                metrics[f"jitter_{tag}_p_task{task.number}"] = float(mean[a, b, k])
+    head = "| layer base | sensor | " + " | ".join(f"P(Task {task.number})" for task in tasks) + " | most likely |"
+    rows = [head, "|---" * (len(tasks) + 3) + "|"]
+    for a, base in enumerate(bases):
+        for b, ph in enumerate(p_halfs):
+            own = " (this scene)" if a == 0 and b == 0 else ""
+            if not np.isfinite(mean[a, b]).any():
+                rows.append(f"| {base} | {_sensor_label(ctx, ph)} | " + " | ".join("-" for _ in tasks)
+                            + " | every draw bottoms out |")
+                continue
+            best = int(np.nanargmax(mean[a, b]))
+            cells = [f"**{p:.2f}**" if k == best else f"{p:.2f}" for k, p in enumerate(mean[a, b])]
+            rows.append(f"| {base}{own} | {_sensor_label(ctx, ph)} | " + " | ".join(cells)
+                        + f" | Task {tasks[best].number} ({mean[a, b, best]:.2f} ± {se[a, b, best]:.2f}) |")
+    lines = [f"### Task probabilities under placement jitter ({n_j} draws)", "",
+             f"Every trial of every object placed anew: offset N(0, {t['jitter_xy'] * 1e3:g} mm) per axis, tilt "
+             f"N(0, {np.degrees(t['jitter_tilt']):.3g} deg) about a random horizontal axis, turn "
+             f"N(0, {np.degrees(t['jitter_yaw']):.3g} deg) about the press axis; objects turned by "
+             f"{np.degrees(t['object_yaw']):.3g} deg, round objects read as '{t['radius_reading']}'. P(Task k): the "
+             "probability that category formation returns exactly task k's split (exact over the random K-Means "
+             "starts), averaged over the draws (± its standard error in the last column).", "", *rows]
+    if bottomed:
+        lines += ["", f"{len(bottomed)} (draw, base) pair(s) left out: an object would press through the layer at "
+                      f"{scene['task']['force']:g} N (e.g. {bottomed[0]})."]
+    arrays = {"jitter_probability": prob, "jitter_bases": np.array(bases), "jitter_p_halfs": np.array(p_halfs)}
+    return lines, metrics, arrays
 
 
 # -- categorize_sweep ----------------------------------------------------------------------------
