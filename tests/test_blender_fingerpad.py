@@ -23,9 +23,8 @@ def test_add_fingerpad_simulate_and_the_large_compression_warning():
     from vtcore.scene import interactive
 
     ee, ind, centre = build_scene()
-    bpy.context.scene.cursor.location = (0.0, 0.0, 0.0)
+    bpy.context.scene.cursor.location = tuple(centre)    # build_scene's centre is already in world
     bpy.context.view_layer.objects.active = ee
-    bpy.context.scene.cursor.location = tuple(bridge.matrix(ee)[:3, :3] @ centre + bridge.matrix(ee)[:3, 3])
     assert bpy.ops.vtskin.lay_patch() == {"FINISHED"}
     ob = next(o for o in bpy.data.objects if o.vtskin.role == "TAXELS")
     # the pad above the sphere indenter's place, which sits just above the skin's middle
