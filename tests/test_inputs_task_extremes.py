@@ -94,3 +94,45 @@ def test_the_control_library_refuses_what_the_scene_does():
         follow_path([0, 0, 0], [0.065, 0, 0], flat, flat, c_max=2e7, speed=1e-320)
     r = follow_path([0, 0, 0], [0.065, 0, 0], flat, flat, c_max=2e7)   # the defaults run, finite
     assert np.isfinite(r.response).all() and len(r.time) == 21668
+
+
+# ----------------------------------------------------------------------------- evaluate
+@pytest.mark.parametrize("setting, needle", [
+    ("task.spacing=1e308", "task.spacing: must be <= 1.0 m"),             # was: OverflowError in spacing ** 2
+    ("task.max_separation=1e308", "task.max_separation: must be <= 1.0 m"),  # was: int(inf) separations
+    ("task.margin=1e308", "task.margin: must be <= 1.0 m"),
+])
+def test_evaluate_sizes_past_a_metre_are_refused(setting, needle):
+    scene = SCENES / "evaluate_hexagon.toml"
+    rc, _, err = run("run", scene, "--check", "--set", setting)
+    one_error(rc, err, f"{scene}: {needle}")
+
+
+def test_evaluate_separations_step_of_1e_320_is_one_error(tmp_path):
+    """Found: ``task.two_point_step=1e-320`` made int(inf) separations in two_point.separations."""
+    scene = SCENES / "evaluate_hexagon.toml"
+    rc, _, err = run("run", scene, "--set", "task.two_point_step=1e-320", "--out", tmp_path / "o")
+    one_error(rc, err, f"{scene}: task.two_point_step: ", "more than 1,000")
+    assert not (tmp_path / "o").exists()
+
+
+def test_evaluate_library_counts_before_it_allocates():
+    import numpy as np
+    import trimesh
+
+    from vtcore.errors import InputError
+    from vtcore.evaluate.samples import sample_surface
+    from vtcore.evaluate.two_point import separations
+
+    for step, hi in ((1e-320, 0.05), (1e-3, 1e308)):
+        with pytest.raises(InputError, match="more than 1,000") as info:
+            separations(0.005, step, hi)
+        assert info.value.key == "two_point_step"
+    assert len(separations(0.005, 1e-3, 0.05)) == 46 and len(separations(0.06, 1e-3, 0.05)) == 0
+    box = trimesh.creation.box(extents=[0.05, 0.05, 0.01])
+    taxels = np.array([[0.0, 0.0, 0.005], [0.01, 0.0, 0.005]])
+    with pytest.raises(InputError, match="exceed 8,000,000") as info:   # was: inf points cast to int64
+        sample_surface(box, taxels, spacing=1e-320)
+    assert info.value.key == "spacing"
+    coarse = sample_surface(box, taxels, spacing=1e308)                  # was: OverflowError
+    assert len(coarse.positions) >= 1 and np.isfinite(coarse.positions).all()

@@ -107,11 +107,15 @@ def sample_surface(mesh, taxels: np.ndarray, taxel_normals: np.ndarray | None = 
         raise InputError(f"no face of the mesh lies within {reach * 1e3:.3g} mm of a taxel: is the layout on "
                          "this mesh, in the same frame and units?", key="mesh")
     tri, area2, nrm = tri[keep], area2[keep], cross[keep] / area2[keep, None]
-    counts = np.maximum(1, np.ceil(area2 / spacing ** 2).astype(np.int64))  # 2 per spacing^2 of area
-    total = int(counts.sum())
-    if total > MAX_POINTS:
-        raise InputError(f"{total:,} points at a {spacing * 1e3:g} mm spacing exceed {MAX_POINTS:,}: "
+    # 2 per spacing^2 of area, counted in floating point first (a spacing of 1e-320 is infinitely many
+    # points, 1e308 squared overflowed)
+    with np.errstate(over="ignore"):   # infinitely many is refused just below
+        per_face = np.maximum(1.0, np.ceil(area2 / spacing / spacing))
+    total = float(per_face.sum())
+    if not total <= MAX_POINTS:
+        raise InputError(f"{total:,.3g} points at a {spacing * 1e3:g} mm spacing exceed {MAX_POINTS:,}: "
                          "use a larger spacing or a smaller margin", key="spacing")
+    counts = per_face.astype(np.int64)
     pts, owner = _face_points(tri, counts)
     w = (0.5 * area2 / counts)[owner]
     d_pt, _ = tree.query(pts)

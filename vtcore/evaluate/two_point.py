@@ -43,6 +43,8 @@ BLOB_FRACTION = 0.5
 BAND_SPACINGS = np.sqrt(3) / 2
 #: (points x orientations x taxels) one chunk may hold
 CHUNK_VALUES = 2_000_000
+#: separations a two-point scan tests, at most (a 0.1 mm step over 10 cm; the default is 50)
+MAX_SEPARATIONS = 1000
 #: separations tried at once before the (point, orientation)s already split are dropped
 SEPARATION_BLOCK = 6
 
@@ -188,9 +190,14 @@ def two_point_discrimination(table: ResponseTable, taxels: np.ndarray, taxel_nor
 
 
 def separations(lo: float, step: float, hi: float) -> np.ndarray:
-    """(S,) m: ``lo`` (at least one step), then every ``step`` up to ``hi`` (included when on the grid)."""
+    """(S,) m: ``lo`` (at least one step), then every ``step`` up to ``hi`` (included when on the grid).
+    At most :data:`MAX_SEPARATIONS` (a step of 1e-320, or a largest separation of 1e308, was ``int(inf)``)."""
     first = max(float(lo), float(step))
-    return first + step * np.arange(int(np.floor((hi - first) / step + 1e-9)) + 1)
+    n = np.floor((float(hi) - first) / float(step) + 1e-9) + 1
+    if not (np.isfinite(n) and n <= MAX_SEPARATIONS):
+        raise InputError(f"separations from {first:g} m to {hi:g} m every {step:g} m are more than "
+                         f"{MAX_SEPARATIONS:,}: raise two_point_step or lower max_separation", key="two_point_step")
+    return first + step * np.arange(int(n))
 
 
 def taxel_spacing(taxels: np.ndarray) -> float:

@@ -27,14 +27,14 @@ PARAMS = Section({
                        doc="largest force tabulated: the threshold shown where nothing is detected"),
     "blind_limit": Field("float", default=None, gt=0, unit="N",
                          doc="a point is blind where its threshold exceeds this (default: reference_force)"),
-    "spacing": Field("float", default=0.002, gt=0, unit="m", doc="distance between evaluated points"),
-    "margin": Field("float", default=0.01, ge=0, unit="m", doc="surface evaluated beyond the covered part"),
+    "spacing": Field("float", default=0.002, gt=0, le=1.0, unit="m", doc="distance between evaluated points"),
+    "margin": Field("float", default=0.01, ge=0, le=1.0, unit="m", doc="surface evaluated beyond the covered part"),
     "draws": Field("int", default=32, ge=1, le=4096, doc="noise draws of the localisation map"),
     "two_point": Field("bool", default=True, doc="compute the two-point discrimination map"),
-    "two_point_spacing": Field("float", default=None, gt=0, unit="m",
+    "two_point_spacing": Field("float", default=None, gt=0, le=1.0, unit="m",
                                doc="distance between its points (default: 2 x spacing)"),
     "two_point_step": Field("float", default=0.001, gt=0, unit="m", doc="separations tested, step"),
-    "max_separation": Field("float", default=0.05, gt=0, unit="m", doc="largest separation tested"),
+    "max_separation": Field("float", default=0.05, gt=0, le=1.0, unit="m", doc="largest separation tested"),
     "directions": Field("int", default=4, ge=1, le=36, doc="two-point directions over half a turn"),
     "probe": Field("str", default="fingerpad", choices=("fingerpad", "sphere"), doc="the standard probe"),
     "probe_radius": Field("float", default=None, gt=0, unit="m", doc="probe radius (default: the probe's own)"),
@@ -49,7 +49,7 @@ PARAMS = Section({
     "noise_sigma": Field("float", default=None, ge=0, doc="noise sigma in counts (default: the profile's)"),
     "k": Field("float", default=None, gt=0, doc="detection threshold in noise deviations (default: profile's)"),
     "counts_per_pa": Field("float", default=None, gt=0, doc="sensor gain (default: the profile's fit, else 0.1)"),
-    "table_spacing": Field("float", default=None, gt=0, unit="m",
+    "table_spacing": Field("float", default=None, gt=0, le=1.0, unit="m",
                            doc="cell of the probe's response table (default: thickness / 6, 0.2-1 mm)"),
     "table_forces": Field("int", default=9, ge=2, le=64, doc="forces tabulated from 0.02 N to force_max"),
     "colour_by": Field("str", default="threshold", choices=("threshold", "localisation", "two_point"),
@@ -88,8 +88,15 @@ def settings_of(scene, layout, rng):
                   two_point_step=t["two_point_step"], max_separation=t["max_separation"],
                   two_point_directions=t["directions"], model=layer.get("model", "finite_layer"),
                   dead=tuple(sorted(set(dead))), table_spacing=t["table_spacing"], table_forces=t["table_forces"],
-                  probe_axis=None if t["probe_axis"] is None else tuple(t["probe_axis"]))
+                  probe_axis=None if t["probe_axis"] is None else _direction(t["probe_axis"]))
     return st, noise
+
+
+def _direction(v) -> tuple:
+    """A direction of any finite length, scaled by its largest component (1e308 overflowed when squared)."""
+    v = np.asarray(v, float)
+    big = float(np.abs(v).max(initial=0.0))
+    return tuple(v / big) if big > 0 else tuple(v)
 
 
 def display_mesh(mesh, spacing: float, near=None, reach: float = 0.0):
