@@ -236,7 +236,9 @@ def test_a_warning_of_a_run_is_a_vtcore_warning_line(tiny, tmp_path):
     assert lines and all(ln.startswith(f"vtcore: warning: {tiny}: task: ") for ln in lines), err
     assert "Warning" not in err and "warnings.warn" not in err
     result = json.loads((tmp_path / "o" / "result.json").read_text())
-    assert [w["key"] for w in result["warnings"]] == ["task"] and "off the surface" in result["warnings"][0]["message"]
+    # the off-surface placement, and (since the sensor's large-deformation warning) the 36 % compression
+    assert result["warnings"] and all(w["key"] == "task" for w in result["warnings"])
+    assert any("off the surface" in w["message"] for w in result["warnings"]), result["warnings"]
     assert "## Warnings" in (tmp_path / "o" / "report.md").read_text()
 
 
