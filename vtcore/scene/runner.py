@@ -229,6 +229,8 @@ def _run(scene: Scene, out: Path, notes: Notices | None = None) -> dict:
         "versions": versions(),
         "seconds": round(seconds, 4),
         "arrays": {k: list(np.shape(v)) for k, v in sorted(res.arrays.items())},
+        # what a NaN means in the arrays whose task documents one (docs/inputs.md); NaN elsewhere is a warning
+        "arrays_nan": {k: v for k, v in sorted(res.nan_meaning.items()) if k in res.arrays},
         "figures": figures,
         "files": sorted(res.files),
         **res.extra,
