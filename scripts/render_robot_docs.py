@@ -62,7 +62,7 @@ def main():
                   ("laid through the robot: born in the link", frames_in_link(tmp / "born.urdf"))]
         fig = plt.figure(figsize=(13, 4.6))
         for k, (title, f) in enumerate(panels):
-            d, a = surface_errors(mesh, f[:, :3, 3], f[:, :3, 2])
+            d, a, _ = surface_errors(mesh, f[:, :3, 3], f[:, :3, 2])
             print(f"{title}: {len(f)} taxels, distance to the link mesh median {np.median(d):.1f} mm, "
                   f"max {d.max():.2f} mm; normal angle max {a.max():.1f} deg")
             ax = fig.add_subplot(1, 3, k + 1, projection="3d")

@@ -106,8 +106,12 @@ def test_package_paths_resolve_through_a_map(robots, tmp_path):
 
 
 def skin_every_link(robot, geometry="visual", fill=()):
-    """A hexagon (or, where none fits, one module) on every link with geometry, a fill on the links
-    ``fill``; links that carry no module are returned with the reason."""
+    """A hexagon (or, where none lies well, a triangle) on every link with geometry, a fill on the
+    links ``fill``, each judged as the CLI and the add-on judge it (``check_trust``: refused when
+    taxels fall off the surface or module edges stretch over 10 %, 5 % for a fill); the links that carry no module
+    are returned with the one-line reason of the last refusal."""
+    from vtcore.layout.report import DEFAULT_MAX_STRAIN, PLACE_MAX_STRAIN, check_trust
+
     layouts, refused = [], {}
     for link, ln in robot.links.items():
         if not ln.geometry(geometry):
@@ -118,14 +122,14 @@ def skin_every_link(robot, geometry="visual", fill=()):
                 with warnings.catch_warnings():
                     warnings.simplefilter("ignore")
                     lay, rep = lay_on_link(robot, link, patch, mesh=mesh, geometry=geometry)
+                check_trust(rep, max_strain=DEFAULT_MAX_STRAIN if patch == "fill" else PLACE_MAX_STRAIN,
+                            what=f"{patch} on {link}")
             except InputError as exc:
                 refused[link] = str(exc)
                 continue
-            if not len(rep.off_boundary) and rep.strain_max < 0.1:
-                layouts.append(lay)
-                refused.pop(link, None)
-                break
-            refused[link] = f"{patch}: {len(rep.off_boundary)} taxels off the surface, strain {rep.strain_max:.2f}"
+            layouts.append(lay)
+            refused.pop(link, None)
+            break
     return layouts, refused
 
 
@@ -145,8 +149,11 @@ def test_skinned_robot_loads_with_every_taxel_on_its_link(robots, name, tmp_path
               "panda": {f"panda_link{i}" for i in range(8)} | {"panda_hand"},
               "humanoid": {"l_upper_arm", "l_forearm"}}[name]
     assert expect <= skinned, refused
-    for link, why in refused.items():  # a link too small for a module is named with the reason
-        assert link in why or "no module fits" in why or "off the surface" in why, why
+    # the links that carry no module (the Panda's fingers, 18 mm wide: a triangle's taxels fall off
+    # their edges) are refused with one line naming the link and why, not a crash or a bad skin
+    assert set(refused) <= {"panda_leftfinger", "panda_rightfinger"}, refused
+    for link, why in refused.items():
+        assert "\n" not in why and f"on {link} refused: " in why and "force it" in why, why
     records = export_skinned(robots[name], layouts, tmp_path / "skinned.urdf")
     assert [r["link"] for r in records] == [lay.frame for lay in layouts]
     configs = configurations(robot)
@@ -167,6 +174,33 @@ def test_skinned_robot_loads_with_every_taxel_on_its_link(robots, name, tmp_path
     out = ET.parse(tmp_path / "skinned.urdf").getroot()
     canon = lambda e: ET.tostring(e, encoding="unicode").strip()  # noqa: E731
     assert [canon(e) for e in own] == [canon(e) for e in out][:len(own)]
+
+
+@pytest.mark.slow
+def test_a_fill_on_a_coarse_hull_keeps_its_frames_through_the_export(robots, tmp_path):
+    """A fill of the UR10's wrist_3 collision hull (486 faces; facets meeting at up to 30 degrees),
+    exported and loaded by yourdfpy and MuJoCo at 6 configurations: the taxels lie on the link's mesh
+    and each taxel's z is exactly as far from its face's normal as in the layout itself: the export
+    adds no error. (That angle is up to ~13 degrees here: the layout's normals are smoothed across
+    facets meeting at less than 30 degrees, so a taxel near a hull edge leans toward the next facet;
+    docs/layout.md, "Accuracy on coarse meshes".)"""
+    from vtcore.robot.verify import surface_errors
+
+    robot = load_robot(robots["ur10"])
+    mesh = link_mesh(robot, "wrist_3_link", "collision")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        lay, rep = lay_on_link(robot, "wrist_3_link", "fill", mesh=mesh, geometry="collision")
+    assert lay.n_modules >= 10 and not len(rep.off_boundary)
+    mm, facet, foot = surface_errors(mesh, lay.positions, lay.normals)  # in the link frame, as laid
+    configs = configurations(robot)
+    export_skinned(robots["ur10"], [lay], tmp_path / "w3.urdf")
+    export_skinned(robots["ur10"], [lay], tmp_path / "w3.xml")
+    for st in (check_urdf(tmp_path / "w3.urdf", configs, "collision", packages=packages_of(robots))["wrist_3_link"],
+               check_mjcf(tmp_path / "w3.xml", {"wrist_3_link": mesh}, configs)["wrist_3_link"]):
+        assert st["taxels"] == len(lay) and st["max_mm"] < MAX_MM, st
+        assert st["max_deg"] == pytest.approx(facet.max(), abs=0.05), (st, facet.max())
+        assert st["footprint_deg"] == pytest.approx(foot.max(), abs=0.05), (st, foot.max())
 
 
 def test_ball_on_a_skinned_link_of_the_posed_robot_reads_mg(robots, tmp_path):
@@ -304,3 +338,31 @@ def test_cli_robot_info_place_export(robots, tmp_path, capsys):
     assert "l_forearm_skin_" in err and "--prefix" in err and not (tmp_path / "clash.urdf").exists()
     assert main(["layout", "place", str(robots["humanoid"]), "--link", "l_hand", "--out", str(tmp_path / "x.json")]) == 2
     assert "no link named 'l_hand'; links: torso, l_upper_arm, l_forearm" in capsys.readouterr().err
+
+
+def test_cli_fill_and_refusals_through_a_robot(robots, tmp_path, capsys):
+    """fill's options (a facing region) through a robot's link, and what a link too small for a
+    module gets: a fill says no module fits on that link; a patch hanging off its edges is refused
+    (nothing written) unless --force, which keeps it with the reasons as warnings."""
+    from vtcore.cli import main
+    from vtcore.layout import load
+
+    ur10 = str(robots["ur10"])
+    out = tmp_path / "top.json"
+    assert main(["layout", "place", ur10, "--link", "wrist_3_link", "--geometry", "collision", "--patch", "fill",
+                 "--facing", "0", "0", "1", "--within", "40", "--out", str(out)]) == 0
+    lay = load(out)
+    assert lay.frame == "wrist_3_link" and lay.meta["geometry"] == "collision" and len(lay) >= 10
+    assert (lay.normals @ [0, 0, 1.0]).min() > np.cos(np.radians(45))  # on the faces facing +z of the link
+    capsys.readouterr()
+    assert main(["layout", "place", ur10, "--link", "ee_link", "--geometry", "collision", "--patch", "fill",
+                 "--out", str(tmp_path / "ee.json")]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "no module fits on link 'ee_link' (collision geometry)" in err
+    assert main(["layout", "place", ur10, "--link", "ee_link", "--geometry", "collision", "--patch", "hexagon",
+                 "--out", str(tmp_path / "ee.json")]) == 2
+    err = capsys.readouterr().err
+    assert "hexagon refused: " in err and "fall off the surface" in err and not (tmp_path / "ee.json").exists()
+    assert main(["layout", "place", ur10, "--link", "ee_link", "--geometry", "collision", "--patch", "hexagon",
+                 "--force", "--out", str(tmp_path / "ee.json")]) == 0
+    assert "kept with --force: " in capsys.readouterr().err and load(tmp_path / "ee.json").frame == "ee_link"

@@ -29,6 +29,7 @@ def _robot():
 
 
 def _skin_links(robot, geometry, links, rows, patch="fill"):
+    from ..layout.report import DEFAULT_MAX_STRAIN, PLACE_MAX_STRAIN
     from .meshes import link_mesh
     from .skin import lay_on_link
 
@@ -36,11 +37,14 @@ def _skin_links(robot, geometry, links, rows, patch="fill"):
     for link in links:
         sec, cpu, mb, res, err = in_child(lambda link=link: lay_on_link(robot, link, patch, geometry=geometry))
         lay, rep = res if res is not None else (None, None)
+        # what the CLI and the add-on would say of it: refused unless forced, or kept
+        problems = [] if rep is None else rep.problems(DEFAULT_MAX_STRAIN if patch == "fill" else PLACE_MAX_STRAIN)
         rows.append({"case": "fill_link" if patch == "fill" else f"{patch}_link", "geometry": geometry, "link": link,
                      "faces": len(link_mesh(robot, link, geometry).faces),
                      "modules": 0 if lay is None else lay.n_modules, "taxels": 0 if lay is None else len(lay),
                      "coverage": None if rep is None else rep.coverage, "seconds": sec, "cpu_seconds": cpu,
-                     "peak_mb": mb, "max_mm": None, "max_deg": None, "extra": err or ""})
+                     "peak_mb": mb, "max_mm": None, "max_deg": None, "footprint_deg": None,
+                     "extra": err or ("refused unless forced: " + "; ".join(problems) if problems else "")})
         if lay is not None:
             layouts.append(lay)
     return layouts
@@ -69,6 +73,7 @@ def _export_rows(robot, layouts, geometry, out, rows, quick):
             u, m = urdf[r["link"]], mj.get(r["link"], {})
             r["max_mm"] = max(u["max_mm"], m.get("max_mm", 0.0))
             r["max_deg"] = max(u["max_deg"], m.get("max_deg", 0.0))
+            r["footprint_deg"] = max(u["footprint_deg"], m.get("footprint_deg", 0.0))
 
 
 def picture(robot, layouts, geometry, path, q=None) -> None:
@@ -143,11 +148,14 @@ def run(out: Path, quick: bool = False) -> list[dict]:
                 notes=[GOALS, f"Machine load (1, 5, 15 min) at the end: {os.getloadavg()}; the whole run took "
                        f"{time.perf_counter() - t0:.0f} s.",
                        "fill_link: one fill per link in a forked child (wall and CPU seconds, the child's peak "
-                       "resident MB including the imported libraries); max_mm / max_deg: the largest taxel "
-                       "distance to its link's mesh and angle to the surface normal, yourdfpy and MuJoCo, zero "
-                       "pose and 5 random configurations."],
+                       "resident MB including the imported libraries); max_mm: the largest taxel distance to its "
+                       "link's mesh; max_deg: the largest angle between a taxel's z and the normal of the nearest "
+                       "face; footprint_deg: the largest angle between a taxel's z and the nearest normal of the "
+                       "faces under its 4 mm disc (and the arcs between them): yourdfpy and MuJoCo, zero pose and "
+                       "5 random configurations. extra: why a link carries no module, or what the CLI and the "
+                       "add-on would refuse the fill for unless forced."],
                 columns=["case", "geometry", "link", "faces", "modules", "taxels", "coverage", "seconds",
-                         "cpu_seconds", "peak_mb", "max_mm", "max_deg", "extra"])
+                         "cpu_seconds", "peak_mb", "max_mm", "max_deg", "footprint_deg", "extra"])
     fig, ax = plt.subplots(figsize=(6, 4))
     for geometry, mk in (("collision", "o"), ("visual", "s")):
         rr = [r for r in rows if r["case"].endswith("_link") and r["geometry"] == geometry

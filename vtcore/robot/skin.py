@@ -121,6 +121,7 @@ def lay_on_link(robot: Robot, link: str, patch: str = "fill", at=None, direction
     InputError naming the link and what the placement report says.
     """
     from ..layout import fill, place
+    from ..layout.tiling import NoModuleFits
     from .meshes import link_mesh
 
     if mesh is None:
@@ -129,7 +130,11 @@ def lay_on_link(robot: Robot, link: str, patch: str = "fill", at=None, direction
         options["region"] = outer_region(mesh)
     if patch == "fill":
         at = anchors(mesh, options.get("region"))[0] if at is None else np.asarray(at, dtype=np.float64).reshape(3)
-        layout, report = fill(mesh, at, direction, module=module, radius=radius, offset=offset, **options)
+        try:
+            layout, report = fill(mesh, at, direction, module=module, radius=radius, offset=offset, **options)
+        except NoModuleFits as exc:  # the fill's reason, said of this link (a robot has many)
+            raise NoModuleFits(f"no module fits on link {link!r} ({geometry} geometry): {exc.reason}", exc.details,
+                               key="--link") from None
     else:
         tries = anchors(mesh)[:ANCHOR_TRIES] if at is None else [np.asarray(at, dtype=np.float64).reshape(3)]
         best = None

@@ -16,19 +16,65 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
+from ..layout.modules import TAXEL_DIAMETER
 
 SKIN_MARK = "_vtskin_"
 
 
-def surface_errors(mesh, origins, z_axes) -> tuple[np.ndarray, np.ndarray]:
-    """(N,) mm from each origin (N, 3) to ``mesh`` and (N,) degrees between each z axis (N, 3) and
-    the normal of the nearest face (both in the same frame, metres)."""
+#: metres: the radius of a taxel's footprint (the CySkin taxel's 4 mm sensing disc)
+FOOTPRINT_M = TAXEL_DIAMETER / 2
+#: points round the footprint's rim that find the faces under it (with the centre: 13 per taxel)
+FOOTPRINT_RIM = 12
+
+
+def surface_errors(mesh, origins, z_axes, footprint: float = FOOTPRINT_M, frame=None):
+    """Per taxel: ``(mm, facet_deg, footprint_deg)``, each (N,): the distance of its origin (N, 3)
+    to ``mesh``; the angle between its z axis (N, 3) and the normal of the nearest face; and the
+    angle between its z axis and the nearest normal the surface has under the taxel's footprint
+    (a disc of radius ``footprint`` metres round the origin in its tangent plane, brought onto the
+    mesh: the faces under its centre and 12 rim points, and the arcs between their normals, which
+    is where a flexible module lying across a facet edge points). Same frame for all, metres.
+
+    The facet angle alone cannot be small where a taxel lies across two facets meeting at an angle
+    (a coarse collision hull's 20 to 30 degrees): no normal is within half that angle of both. The
+    footprint angle still flags any taxel turned away from the surface under it (a wrong frame
+    shows as tens of degrees). The rim's pairs give an upper bound on the angle to the normal cone
+    (three or more faces meet at a vertex: the arcs between pairs are its edges, not its inside).
+    frame : (3, 3) the rotation of the mesh's own frame in the frame of the points (default identity):
+    the rim points start from its x axis, so the result does not depend on where the link is."""
     from ..layout.surface import closest_points
 
-    cp, face, dist = closest_points(mesh, origins)
-    n = mesh.face_normals[face]
-    cos = np.clip(np.einsum("ij,ij->i", n, z_axes / np.linalg.norm(z_axes, axis=1, keepdims=True)), -1, 1)
-    return dist * 1e3, np.degrees(np.arccos(cos))
+    z = np.asarray(z_axes, dtype=np.float64)
+    z = z / np.linalg.norm(z, axis=1, keepdims=True)
+    origins = np.asarray(origins, dtype=np.float64)
+    _, face, dist = closest_points(mesh, origins)
+    fn = np.asarray(mesh.face_normals)
+    facet = np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", fn[face], z), -1, 1)))
+    rot = np.eye(3) if frame is None else np.asarray(frame, dtype=np.float64)
+    helper = np.where(np.abs(z @ rot[:, 0])[:, None] < 0.9, rot[:, 0], rot[:, 1])  # the link's x, or its y
+    t1 = helper - z * np.einsum("ij,ij->i", helper, z)[:, None]
+    t1 /= np.linalg.norm(t1, axis=1, keepdims=True)
+    t2 = np.cross(z, t1)
+    phi = 2 * np.pi * np.arange(FOOTPRINT_RIM) / FOOTPRINT_RIM
+    ring = (np.cos(phi)[None, :, None] * t1[:, None] + np.sin(phi)[None, :, None] * t2[:, None]) * footprint
+    pts = np.concatenate([origins[:, None], origins[:, None] + ring], axis=1)  # (N, 13, 3)
+    _, under, _ = closest_points(mesh, pts.reshape(-1, 3))
+    nrm = fn[under].reshape(len(z), -1, 3)
+    best = np.einsum("nkj,nj->nk", nrm, z).max(axis=1)  # cos of the angle to the nearest single normal
+    i, j = np.triu_indices(nrm.shape[1], 1)
+    a, b = nrm[:, i], nrm[:, j]  # (N, P, 3): the arcs between every pair of normals under the footprint
+    m = np.cross(a, b)
+    lm = np.linalg.norm(m, axis=2, keepdims=True)
+    m = m / np.maximum(lm, 1e-300)
+    zz = np.broadcast_to(z[:, None], a.shape)
+    h = np.einsum("npj,npj->np", zz, m)  # z's height over the arc's great circle
+    zp = zz - h[..., None] * m  # z's projection onto its plane
+    inside = ((np.einsum("npj,npj->np", np.cross(a, zp), m) >= 0)
+              & (np.einsum("npj,npj->np", np.cross(zp, b), m) >= 0) & (lm[..., 0] > 1e-9))
+    lp = np.linalg.norm(zp, axis=2)
+    arc_cos = np.where(inside, lp, -1.0)  # cos of the angle between z and the arc's nearest point
+    best = np.maximum(best, arc_cos.max(axis=1, initial=-1.0))
+    return dist * 1e3, facet, np.degrees(np.arccos(np.clip(best, -1, 1)))
 
 
 def fine(geom):
@@ -46,10 +92,12 @@ def fine(geom):
     return geom.copy()
 
 
-def _merge(stats: dict, link: str, d, a) -> None:
-    old = stats.get(link, {"taxels": len(d), "max_mm": 0.0, "max_deg": 0.0})
+def _merge(stats: dict, link: str, errors) -> None:
+    d, a, f = errors
+    old = stats.get(link, {"taxels": len(d), "max_mm": 0.0, "max_deg": 0.0, "footprint_deg": 0.0})
     stats[link] = {"taxels": len(d), "max_mm": max(old["max_mm"], float(d.max())),
-                   "max_deg": max(old["max_deg"], float(a.max()))}
+                   "max_deg": max(old["max_deg"], float(a.max())),
+                   "footprint_deg": max(old["footprint_deg"], float(f.max()))}
 
 
 def check_urdf(path, configs, geometry: str = "visual", packages: dict | None = None) -> dict:
@@ -92,8 +140,8 @@ def check_urdf(path, configs, geometry: str = "visual", packages: dict | None = 
                 raise InputError(f"yourdfpy loaded no {geometry} mesh of link {link!r}", file=path)
             mesh = trimesh.util.concatenate(parts)
             frames = np.array([u.get_transform(n, u.base_link) for n in names])
-            d, a = surface_errors(mesh, frames[:, :3, 3], frames[:, :3, 2])
-            _merge(stats, link, d, a)
+            _merge(stats, link, surface_errors(mesh, frames[:, :3, 3], frames[:, :3, 2],
+                                               frame=u.get_transform(link, u.base_link)[:3, :3]))
     return stats
 
 
@@ -124,6 +172,6 @@ def check_mjcf(path, link_meshes: dict, configs) -> dict:
             t = np.eye(4)
             t[:3, :3], t[:3, 3] = r, p
             mesh.apply_transform(t)
-            dist, ang = surface_errors(mesh, d.site_xpos[ids], d.site_xmat[ids].reshape(-1, 3, 3)[:, :, 2])
-            _merge(stats, body, dist, ang)
+            _merge(stats, body, surface_errors(mesh, d.site_xpos[ids], d.site_xmat[ids].reshape(-1, 3, 3)[:, :, 2],
+                                               frame=r))
     return stats
