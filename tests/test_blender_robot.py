@@ -139,6 +139,67 @@ def test_skin_on_a_moved_turned_scaled_link_is_in_the_link_frame_and_exports_int
         np.testing.assert_allclose(a.get_transform(n, "l_forearm"), b.get_transform(n, "l_forearm"), atol=1e-5)
 
 
+def test_fill_on_an_imported_link_is_vtcores_fill_and_the_skinned_robot_survives_reload(arm, tmp_path):
+    """Import Robot at a joint configuration, the upper arm moved and turned in the scene (its
+    children follow), Fill round the cursor through the operator: the same skin as vtcore's fill of
+    the link's geometry in its own frame; Export Skinned Robot writes what vtcore's export writes,
+    every taxel on the link in yourdfpy and MuJoCo; after save and reload the export is the same file."""
+    from vtcore.robot import export_skinned, link_mesh, load_robot
+    from vtcore.robot.verify import check_mjcf, check_urdf
+    from vtcore.scene import interactive
+
+    from addon import bridge, opbase
+
+    links = import_arm(arm, "l_shoulder_pitch=0.3, l_elbow=0.5")
+    upper = links["l_upper_arm"]
+    turn = np.eye(4)
+    turn[:3, :3] = [[0, 0, 1], [0, 1, 0], [-1, 0, 0]]
+    turn[:3, 3] = [-0.2, 0.4, 0.3]
+    upper.matrix_world = bridge.to_matrix(turn @ M(upper))
+    s = bpy.context.scene.vtskin
+    s.fill_region, s.fill_radius = "RADIUS", 0.035
+    at = np.array([0.04, 0.0, 0.12])  # the side of the upper arm's cylinder, in the link frame
+    ob = lay_on(upper, at, fill=True)
+    robot = load_robot(arm)
+    verts, tri = opbase.mesh_in_frame(upper, opbase.skin_frame(upper))
+    np.testing.assert_allclose(verts, link_mesh(robot, "l_upper_arm").vertices, atol=1e-6)
+    cursor = np.linalg.inv(M(upper)) @ np.r_[np.array(bpy.context.scene.cursor.location, dtype=np.float64), 1.0]
+    ref = interactive.lay_patch(verts, tri, cursor[:3], direction=[1.0, 0, 0], radius=0.035, max_faces=s.solve_faces,
+                                crease_angle=float(np.degrees(s.crease_angle)), islands=s.islands)
+    assert len(ref.layout) >= 40  # several modules: a fill, not a patch
+    np.testing.assert_allclose(co(ob), ref.layout.positions, atol=1e-6)
+    np.testing.assert_array_equal(bridge.get_attribute(ob.data, "taxel_id"), ref.layout.taxel_ids)
+    bpy.context.view_layer.objects.active = upper
+    for fmt, ext in (("urdf", "urdf"), ("mjcf", "xml")):
+        s.skinned_format, s.skinned_path = fmt, str(tmp_path / f"blender.{ext}")
+        assert bpy.ops.vtskin.export_robot() == {"FINISHED"}
+    configs = [{}, {"l_shoulder_pitch": -0.8, "l_elbow": 1.1}, {"l_shoulder_pitch": 1.2, "l_elbow": -1.5}]
+    pk = {"humanoid_description": arm.parents[1]}
+    for st in (check_urdf(tmp_path / "blender.urdf", configs, packages=pk)["l_upper_arm"],
+               check_mjcf(tmp_path / "blender.xml", {"l_upper_arm": link_mesh(robot, "l_upper_arm")},
+                          configs)["l_upper_arm"]):
+        assert st["taxels"] == len(ref.layout) and st["max_mm"] < 0.5 and st["max_deg"] < 5, st
+    direct = ref.layout
+    direct.frame = "l_upper_arm"
+    export_skinned(arm, [direct], tmp_path / "direct.xml")
+    import mujoco
+
+    a, b = (mujoco.MjModel.from_xml_path(str(tmp_path / f)) for f in ("blender.xml", "direct.xml"))
+    assert a.nsensor == b.nsensor == len(direct)
+    np.testing.assert_allclose(a.site_pos, b.site_pos, atol=1e-6)
+    np.testing.assert_allclose(a.site_quat, b.site_quat, atol=1e-5)
+    before = (tmp_path / "blender.xml").read_text()
+    path = tmp_path / "filled.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(path), compress=True)
+    bpy.ops.wm.open_mainfile(filepath=str(path))
+    s = bpy.context.scene.vtskin
+    assert (s.fill_region, s.fill_radius, s.skinned_format) == ("RADIUS", pytest.approx(0.035), "mjcf")
+    (tmp_path / "blender.xml").unlink()
+    bpy.context.view_layer.objects.active = bpy.data.objects["l_upper_arm"]
+    assert bpy.ops.vtskin.export_robot() == {"FINISHED"}  # the panel's path and options, as saved
+    assert (tmp_path / "blender.xml").read_text() == before
+
+
 def test_export_of_a_moved_hand_is_in_its_own_frame(tmp_path):
     """The issue's report: a hand moved to x = 0.3 exported URDF origins at 0.330; 'In frame of' the
     hand gave a byte-identical file. Now the skin is in the hand's frame, and In frame of says where."""
