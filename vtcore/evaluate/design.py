@@ -13,15 +13,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import InputError
-from .maps import Detection, Localisation, detection_threshold, localisation_error, neighbours
+from .maps import PRUNE_SIGMAS, Detection, Localisation, detection_threshold, localisation_error, neighbours
 from .noise import SensorNoise, sensor_noise
 from .probe import Probe, ResponseTable, default_forces, response_table
 from .samples import SurfaceSamples, cover_radius, flattest_directions, sample_surface
 from .two_point import TwoPoint, two_point_discrimination
 
 _TABLES: dict = {}
-#: the neighbourhood of a point: taxels reading at least this fraction of k sigma at the largest force
-DETECTION_FRACTION = 0.05
 
 
 @dataclass
@@ -202,9 +200,13 @@ def evaluate_points(layout, points, normals, layer, settings: Settings | None = 
     alive = live_taxels(layout, settings.dead)
     pos, nrm = layout.positions[alive], layout.normals[alive]
     t0 = time.perf_counter()
-    # taxels farther than where the largest force still reads a twentieth of the detection level
-    # cannot decide a threshold (the log-log step below the crossing included): the neighbourhood
-    reach = table.radius(len(table.forces) - 1, DETECTION_FRACTION * noise.threshold_pa)
+    # the taxels that can decide a point: those reaching k sigma at the largest force (no other taxel
+    # ever detects, and the strongest reading at the force below the crossing is the crossing taxel's:
+    # readings keep their order as the force grows, see maps.CANDIDATES) and, for the noise draws, those
+    # within PRUNE_SIGMAS of the gate at the reference force (maps.localise keeps only these)
+    reach = max(table.radius(len(table.forces) - 1, noise.threshold_pa),
+                table.radius(table.index(settings.reference_force),
+                             noise.pa_at(noise.threshold_counts - PRUNE_SIGMAS * noise.sigma)))
     axis = settings.probe_axis if axes is None else np.asarray(axes, float).reshape(-1, 3)
     nb = neighbours(pos, nrm, points, normals, reach, settings.probe.yaw, axis=axis)
     det = detection_threshold(table, nb, noise)

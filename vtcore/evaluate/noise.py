@@ -63,7 +63,14 @@ class SensorNoise:
     def threshold_pa(self) -> float:
         """The same at the taxel, as stress (Pa): the transfer's inverse at k sigma (``inf`` where a
         saturating transfer's ceiling stays below it: no stress is ever detected)."""
-        t = self.threshold_counts
+        return self.pa_at(self.threshold_counts)
+
+    def pa_at(self, counts: float) -> float:
+        """The stress (Pa) a taxel must bear to read ``counts`` on average: the transfer's inverse (0 for
+        counts <= 0; ``inf`` at or beyond the read-out's or the saturating transfer's ceiling)."""
+        t = float(counts)
+        if t <= 0:
+            return 0.0
         if t >= self.max_counts:
             return float("inf")
         if self.p_half is None:
