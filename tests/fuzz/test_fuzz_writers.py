@@ -9,7 +9,8 @@ ids), and the readable formats' own files mutated byte by byte. Each input is ex
 format (``layout export --format F``) and summarised (``layout info --json``). Every call must end
 in exit 2 with one ``vtcore: error:`` line, or exit 0 with an output its consumer reads with finite
 numbers: our readers for json/icub/cyskin/csv/ply, MuJoCo for MJCF (one touch sensor per taxel),
-yourdfpy for URDF; ``layout info --json`` prints finite numbers. See fuzzing.py for the contract.
+yourdfpy for URDF; ``layout info --json`` prints finite numbers; ``vtcore robot export`` (the skinned
+UR5, URDF and MJCF) of the same layouts hung on a link. See fuzzing.py for the contract.
 """
 
 from __future__ import annotations
@@ -169,3 +170,41 @@ def test_fuzz_layout_info(seeds, tmp_path, pytestconfig):
         assert_clean_exit(rc, so, se)
 
     fuzz(pytestconfig, mutated_doc(docs, names), check)
+
+
+def _ur5() -> Path:
+    import sysconfig
+
+    p = (Path(sysconfig.get_paths()["purelib"]) / "cmeel.prefix" / "share" / "example-robot-data" / "robots"
+         / "ur_description" / "urdf" / "ur5_robot.urdf")
+    if not p.exists():
+        pytest.skip("example-robot-data is not installed")
+    return p
+
+
+def test_fuzz_robot_export(seeds, tmp_path, pytestconfig):
+    """``vtcore robot export`` (the skinned robot, URDF and MJCF through MuJoCo's URDF import) of the
+    same edited layouts hung on the UR5's forearm (by frame) or wrist (by parent): a new writer fed
+    what the reader accepts. An export that succeeds is read by yourdfpy or compiled by MuJoCo."""
+    docs, _ = seeds
+    ur5 = _ur5()
+    names = _names()
+    hung = []
+    for doc in docs:
+        hung.append({**doc, "frame": "forearm_link", "parent": None, "transform": None})
+        hung.append({**doc, "frame": "skin", "parent": "wrist_1_link"})
+    src = tmp_path / "in.json"
+
+    def check(example):
+        doc, fmt = example
+        src.write_text(_dump(doc), encoding="utf-8")
+        out = tmp_path / ("skinned.urdf" if fmt == "urdf" else "skinned.xml")
+        out.unlink(missing_ok=True)
+        rc, so, se = run_cli(f"robot export {fmt}", ["robot", "export", ur5, src, "--out", out])
+        assert_clean_exit(rc, so, se)
+        if rc == 0:
+            check_output(fmt, out, None)
+        else:
+            assert not out.exists(), "a refused export left a file"
+
+    fuzz(pytestconfig, st.tuples(mutated_doc(hung, names), st.sampled_from(["urdf", "mjcf"])), check)
