@@ -203,15 +203,56 @@ def test_a_fill_on_a_coarse_hull_keeps_its_frames_through_the_export(robots, tmp
         assert st["footprint_deg"] == pytest.approx(foot.max(), abs=0.05), (st, foot.max())
 
 
+def posed(path, q):
+    """``(spec, model, data)`` of the MJCF at ``path`` with the joints at ``q``, kinematics done."""
+    import mujoco
+
+    spec = mujoco.MjSpec.from_file(str(path))
+    m = spec.compile()
+    d = mujoco.MjData(m)
+    for name, v in q.items():
+        d.qpos[m.jnt_qposadr[m.joint(name).id]] = v
+    mujoco.mj_kinematics(m, d)
+    return spec, m, d
+
+
+def rest_ball(spec, q, at, *, mass=0.1, radius=0.01, up=(0.0, 0.0, 1.0), steps=2000, settle=1000):
+    """A ball of ``mass`` kg dropped at ``at`` (world, metres: its lowest point 3 mm above) on the
+    robot of ``spec`` fixed at ``q`` (joints of huge inertia, gravity compensated), gravity 9.81
+    along ``-up``; the ball has rolling friction, as rubber has. Returns ``(model, data, sums)``: the
+    touch sensors' sum at each step after ``settle``."""
+    import mujoco
+
+    up = np.asarray(up, dtype=np.float64) / np.linalg.norm(up)
+    ball = spec.worldbody.add_body(name="ball", pos=np.asarray(at) + up * (radius + 0.003))
+    ball.add_freejoint()
+    ball.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[radius, 0, 0], mass=mass, condim=6,
+                  friction=[1.0, 0.005, 0.005])
+    m = spec.compile()
+    m.opt.timestep = 1e-3
+    m.opt.gravity[:] = -G * up
+    m.dof_armature[:m.nv - 6] = 1e6  # the robot is fixed at its pose
+    m.body_gravcomp[:m.nbody - 1] = 1.0
+    d = mujoco.MjData(m)
+    for name, v in q.items():
+        d.qpos[m.jnt_qposadr[m.joint(name).id]] = v
+    touch = [k for k in range(m.nsensor) if m.sensor(k).name.endswith("_touch")]
+    sums = []
+    for step in range(steps):
+        mujoco.mj_step(m, d)
+        if step >= settle:
+            sums.append(d.sensordata[touch].sum())
+    return m, d, np.array(sums)
+
+
+G, BALL_KG = 9.81, 0.1
+
+
 def test_ball_on_a_skinned_link_of_the_posed_robot_reads_mg(robots, tmp_path):
     """Done when (issue 25): a 0.1 kg ball resting on a skinned link of the fixed robot at a non-zero
     pose: the touch readings sum to m g within 2 %. The humanoid's forearm, skinned on its collision
     hull (MuJoCo's contact surface) where the hull faces up at this pose, exported as MJCF (taxel
-    footprint: the link's own geom is the contact surface); the robot is fixed at its pose (joints of
-    huge inertia, gravity compensated) and the ball (rolling friction, as rubber has) settles on the
-    centre taxel."""
-    import mujoco
-
+    footprint: the link's own geom is the contact surface); the ball settles on the centre taxel."""
     robot = load_robot(robots["humanoid"])
     q = {"l_shoulder_pitch": -0.6, "l_elbow": 0.9}  # the forearm lies level: a ball can rest on it
     hull = link_mesh(robot, "l_forearm", "collision")
@@ -223,38 +264,55 @@ def test_ball_on_a_skinned_link_of_the_posed_robot_reads_mg(robots, tmp_path):
         lay, _ = lay_on_link(robot, "l_forearm", "hexagon", hull.triangles_center[face], mesh=hull,
                              geometry="collision")
     export_skinned(robots["humanoid"], [lay], tmp_path / "skinned.xml")
-    spec = mujoco.MjSpec.from_file(str(tmp_path / "skinned.xml"))
-    m0 = spec.compile()
-    d0 = mujoco.MjData(m0)
-    for name, v in q.items():
-        d0.qpos[m0.jnt_qposadr[m0.joint(name).id]] = v
-    mujoco.mj_kinematics(m0, d0)
+    spec, m0, d0 = posed(tmp_path / "skinned.xml", q)
     centre = int(np.argmin(np.linalg.norm(lay.positions - lay.positions.mean(0), axis=1)))
     site = m0.site(f"l_forearm_vtskin_{lay.taxel_ids[centre]}").id
-    radius, mass = 0.01, 0.1
-    ball = spec.worldbody.add_body(name="ball", pos=d0.site_xpos[site] + [0, 0, radius + 0.003])
-    ball.add_freejoint()
-    ball.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[radius, 0, 0], mass=mass, condim=6,
-                  friction=[1.0, 0.005, 0.005])
-    m = spec.compile()
-    m.opt.timestep = 1e-3
-    m.dof_armature[:m.nv - 6] = 1e6  # the robot is fixed at its pose
-    m.body_gravcomp[:m.nbody - 1] = 1.0
-    d = mujoco.MjData(m)
-    for name, v in q.items():
-        d.qpos[m.jnt_qposadr[m.joint(name).id]] = v
-    touch = [k for k in range(m.nsensor) if m.sensor(k).name.endswith("_touch")]
-    assert len(touch) == len(lay)
-    sums = []
-    for step in range(2000):
-        mujoco.mj_step(m, d)
-        if step >= 1000:
-            sums.append(d.sensordata[touch].sum())
-    g = float(-m.opt.gravity[2])
-    assert abs(np.mean(sums) - mass * g) / (mass * g) < 0.02, (np.mean(sums), mass * g)
+    m, d, sums = rest_ball(spec, q, d0.site_xpos[site])
+    touch = d.sensordata[-len(lay):]
+    assert m.nsensor == len(lay)
+    assert abs(sums.mean() - BALL_KG * G) / (BALL_KG * G) < 0.02, (sums.mean(), BALL_KG * G)
     assert np.linalg.norm(d.qvel[-6:-3]) < 1e-2  # at rest on the skin
-    assert np.count_nonzero(d.sensordata[touch]) == 1  # under the ball, on the centre taxel alone
-    assert d.sensordata[touch][centre] > 0
+    assert np.flatnonzero(touch).tolist() == [centre]  # under the ball, on the centre taxel alone
+
+
+def test_ball_on_the_ur10_forearm_where_mujoco_touches_its_hull_reads_mg(robots, tmp_path):
+    """The same on a real robot: MuJoCo collides the UR10 forearm's collision mesh (a tube between
+    two joint housings) by its convex hull, which spans the tube up to 8 mm above the mesh the skin
+    lies on. A 0.1 kg ball resting on that hull above a taxel is counted by that taxel (each site
+    reaches the hull, vtcore.robot.reach; before, every sensor read 0 N)."""
+    from vtcore.layout.surface import closest_points
+    from vtcore.robot.reach import contact_reach
+
+    robot = load_robot(robots["ur10"])
+    q = {"shoulder_pan_joint": 0.7, "shoulder_lift_joint": -0.4, "elbow_joint": 0.4}
+    link, mesh = "forearm_link", link_mesh(robot, "forearm_link", "collision")
+    pose = robot.link_poses(q)[link]
+    hull = mesh.convex_hull
+    facet = int(np.argmax(np.where(hull.area_faces > 1e-4, hull.face_normals @ pose[:3, :3].T @ [0, 0, 1.0], -2)))
+    level = pose[:3, :3] @ hull.face_normals[facet]
+    assert level[2] > 0.999  # the hull's top facet at this pose: a ball rests on it
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        lay, _ = lay_on_link(robot, link, "hexagon", closest_points(mesh, hull.triangles_center[facet][None])[0][0],
+                             mesh=mesh, geometry="collision")
+    export_skinned(robots["ur10"], [lay], tmp_path / "ur10.xml")
+    spec, m0, d0 = posed(tmp_path / "ur10.xml", q)
+    top = pose[:3, :3] @ hull.triangles_center[facet] + pose[:3, 3]
+    sites = np.array([m0.site(f"{link}_vtskin_{i}").id for i in lay.taxel_ids])
+    under = int(np.argmin(np.linalg.norm((d0.site_xpos[sites] - top)[:, :2], axis=1)))  # the taxel under the facet
+    taxel, normal = d0.site_xpos[sites[under]], d0.site_xmat[sites[under]].reshape(3, 3)[:, 2]
+    reach = contact_reach(robot, link, lay.positions[[under]], lay.normals[[under]])[0]
+    assert reach > 0.005  # the hull is that far over the taxel, along its normal (tilted 14 degrees here)
+    # the facet is level to 1.6 degrees, on which the ball creeps off its 4 mm taxel within seconds:
+    # gravity along the facet's inward normal levels it exactly, as tilting the robot's base would
+    m, d, sums = rest_ball(spec, q, taxel + reach * normal, up=level, steps=2500)
+    touch = d.sensordata[-len(lay):]
+    assert abs(sums.mean() - BALL_KG * G) / (BALL_KG * G) < 0.02, (sums.mean(), BALL_KG * G)
+    assert np.linalg.norm(d.qvel[-6:-3]) < 1e-2 and sums.min() > 0  # at rest, on its taxel all along
+    assert d.ncon == 1 and {m.body(m.geom_bodyid[d.contact[0].geom1]).name,
+                            m.body(m.geom_bodyid[d.contact[0].geom2]).name} == {"ball", link}
+    assert (d.contact[0].pos - taxel) @ normal > 0.005  # on the hull, well above the mesh: a 2 mm site missed it
+    assert np.flatnonzero(touch).tolist() == [under]
 
 
 def test_mjcf_robot_with_a_body_in_an_include(tmp_path):

@@ -3,6 +3,9 @@
 - URDF robot -> URDF: one fixed link per taxel under the layout's link (``vtcore.layout.io.urdf``).
 - MJCF robot -> MJCF: sites and touch sensors in the link's body (``vtcore.layout.io.mjcf``),
   pads as the layout export has them; a body defined in an ``<include>``d file is written inline.
+- In MJCF, each site reaches the link's contact surface as MuJoCo collides it, a mesh geom's
+  convex hull, up to 8 mm over a UR10 link's mesh (:mod:`.reach`): a ball resting on the hull
+  above a taxel is counted by that taxel.
 - URDF robot -> MJCF: the robot converted by MuJoCo's own URDF import (``MjSpec``: every link a
   body of the same name, joints with their limits, collision meshes; COLLADA collision meshes, which
   MuJoCo does not read, converted to STL beside the output), then the skin added as above.
@@ -28,6 +31,7 @@ from ..layout.io import mjcf as mjcf_io
 from ..layout.io import urdf as urdf_io
 from ..layout.io.common import read_robot_xml
 from .model import Robot
+from .reach import contact_reach
 
 FORMATS = ("urdf", "mjcf")
 
@@ -181,9 +185,12 @@ def export_skinned(robot_path, layouts, out, *, format: str | None = None, prefi
     if source == "mjcf" and tree.getroot().find(".//include") is not None:
         mjcf_io.inline_includes(tree.getroot(), robot_path.parent, robot_path)
         links = [b.get("name") for b in tree.getroot().iter("body")]
+    robot = load_robot(robot_path, packages)
     for lay, prefix in zip(layouts, prefixes):
         link = skin_link(lay, links)
-        names = mjcf_io.merge_into_tree(lay, tree, link, robot_path, prefix=prefix,
+        # each site reaches the link's contact surface as MuJoCo collides it (a mesh's convex hull)
+        reach = contact_reach(robot, link, *taxel_frames(lay)) if link in robot.links else None
+        names = mjcf_io.merge_into_tree(lay, tree, link, robot_path, prefix=prefix, reach=reach,
                                         **{"pad": False, **mjcf_options})
         records.append({"link": link, "taxels": len(lay), "names": [names[0], names[-1]] if names else []})
     mjcf_io.rebase(tree.getroot(), model_dir, out.parent)

@@ -134,10 +134,14 @@ def _quat(r: np.ndarray) -> np.ndarray:
 
 def add_skin(layout: Layout, parent: ET.Element, sensor: ET.Element, *, positions: np.ndarray,
              normals: np.ndarray, prefix: str, footprint: str = "taxel", pad: bool = False,
-             site_radius: float | None = None, pad_thickness: float = 1e-3) -> list[str]:
+             site_radius: float | None = None, pad_thickness: float = 1e-3, reach=None) -> list[str]:
     """Add sites (and pads) for every taxel to the MJCF body ``parent`` and touch sensors to ``sensor``.
 
     positions, normals : (N, 3) in ``parent``'s frame (metres, unit normals).
+    reach : None or (N,) metres: where along each taxel's normal the body's contact surface lies as
+        MuJoCo collides it (a mesh geom's convex hull, ``vtcore.robot.reach``; negative: below the
+        taxel). Each site reaches that far either way, so a contact on that surface counts; a tile's
+        pad (its own body's contact surface) is raised to just above it.
     Returns the site names in taxel order.
     """
     if footprint not in FOOTPRINTS:
@@ -153,24 +157,27 @@ def add_skin(layout: Layout, parent: ET.Element, sensor: ET.Element, *, position
     r_taxel = float(site_radius) if site_radius is not None else taxel_radius(layout)
     cover = cover_radii(layout) if (pad or footprint == "tile") else None
     h = pad_thickness / 2
+    reach = np.zeros(len(names)) if reach is None else np.asarray(reach, dtype=np.float64).reshape(len(names))
     green = "0.2 0.8 0.2 0.5"
     for k, name in enumerate(names):
         p, n = positions[k], normals[k]
-        if footprint == "tile":
+        if footprint == "tile":  # the pad is the contact surface of its own body: on, or just over, the link's
+            hk = h + max(reach[k], 0.0) / 2
             cell = ET.SubElement(parent, "body", name=f"{name}_cell", pos=_vec(p), zaxis=_vec(n))
-            ET.SubElement(cell, "geom", name=f"{name}_pad", type="cylinder", pos=_vec([0, 0, h]),
-                          size=f"{_fmt(cover[k])} {_fmt(h)}", density="0", contype="1", conaffinity="1",
+            ET.SubElement(cell, "geom", name=f"{name}_pad", type="cylinder", pos=_vec([0, 0, hk]),
+                          size=f"{_fmt(cover[k])} {_fmt(hk)}", density="0", contype="1", conaffinity="1",
                           rgba="0.85 0.85 0.8 1")
-            ET.SubElement(cell, "site", name=name, type="cylinder", pos=_vec([0, 0, h]),
-                          size=f"{_fmt(cover[k])} {_fmt(h + SITE_MARGIN)}", rgba=green)
+            ET.SubElement(cell, "site", name=name, type="cylinder", pos=_vec([0, 0, hk]),
+                          size=f"{_fmt(cover[k])} {_fmt(hk + SITE_MARGIN)}", rgba=green)
             continue
         centre = p + h * n if pad else p
         if pad:
             ET.SubElement(parent, "geom", name=f"{name}_pad", type="cylinder", pos=_vec(centre), zaxis=_vec(n),
                           size=f"{_fmt(cover[k])} {_fmt(h)}", density="0", contype="1", conaffinity="1",
                           rgba="0.85 0.85 0.8 1")
+        half = (h if pad else 0.0) + abs(reach[k]) + SITE_MARGIN  # the link's contact surface within it
         ET.SubElement(parent, "site", name=name, type="cylinder", pos=_vec(centre), zaxis=_vec(n),
-                      size=f"{_fmt(r_taxel)} {_fmt((h if pad else 0) + SITE_MARGIN)}", rgba=green)
+                      size=f"{_fmt(r_taxel)} {_fmt(half)}", rgba=green)
     for name in names:
         ET.SubElement(sensor, "touch", name=f"{name}_touch", site=name)
     return names
