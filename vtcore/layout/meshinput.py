@@ -92,22 +92,33 @@ def checked_mesh(vertices, faces, scale: float = 1.0, *, size_range=SURFACE_SIZE
     return trimesh.Trimesh(v * s if s != 1.0 else v, f, process=process, validate=False)
 
 
+def read_trimesh(path):
+    """``trimesh.load(path, force="mesh", process=False)`` without pycollada's NumPy 2.5 deprecation
+    warning: reading a DAE, pycollada assigns ``.shape`` to its index arrays (not our code to fix),
+    and the warning reached users as ``vtcore: warning:`` lines before every result or error."""
+    import warnings
+
+    import trimesh
+
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message="Setting the shape on a NumPy array", category=DeprecationWarning)
+        return trimesh.load(path, force="mesh", process=False)
+
+
 def load_mesh(path, scale: float = 1.0, *, size_range=SURFACE_SIZE_M, key: str | None = "mesh",
               scale_key: str = "scale"):
     """Read the mesh file at ``path`` (STL, OBJ, PLY, ... through trimesh) and return it checked
     and scaled to metres by :func:`checked_mesh`. Raises InputError naming the file."""
-    import trimesh
-
     check_scale(scale, scale_key)  # before reading: a bad --scale needs no file
     p = check_input(path, "mesh file")  # folders, pipes and devices refused before opening
     try:
         # process=False: trimesh's vertex merge overflows (a RuntimeWarning) on huge coordinates;
         # checked_mesh merges once the vertices are known to be finite and bounded
-        mesh = trimesh.load(p, force="mesh", process=False)
+        mesh = read_trimesh(p)
     except Exception as exc:  # trimesh raises many types for bad files  # noqa: BLE001
         raise InputError(f"cannot read mesh: {clean(exc, 200)}", file=clean(p, 300), key=key) from None
     return checked_mesh(getattr(mesh, "vertices", np.zeros((0, 3))), getattr(mesh, "faces", np.zeros((0, 3))),
                         scale, size_range=size_range, key=key, scale_key=scale_key, file=p)
 
 
-__all__ = ["SURFACE_SIZE_M", "check_scale", "checked_mesh", "load_mesh"]
+__all__ = ["SURFACE_SIZE_M", "check_scale", "checked_mesh", "load_mesh", "read_trimesh"]

@@ -14,7 +14,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..layout import LayoutWarning
-from ..layout.meshinput import SURFACE_SIZE_M, checked_mesh
+from ..layout.meshinput import SURFACE_SIZE_M, checked_mesh, read_trimesh
 from .model import Geometry, Robot
 
 #: metres: a link larger than this is almost surely a millimetre mesh whose model forgot its scale
@@ -48,7 +48,7 @@ def geometry_mesh(g: Geometry, robot: Robot):
             raise InputError(f"mesh {g.filename!r} not found (package:// paths: map the package to its folder "
                              "with --package NAME=FOLDER)", file=robot.path, key="mesh")
         try:
-            loaded = trimesh.load(g.mesh, force="mesh", process=False)
+            loaded = read_trimesh(g.mesh)
         except Exception as exc:  # trimesh raises many types for bad files  # noqa: BLE001
             raise InputError(f"cannot read mesh: {type(exc).__name__}: {exc}", file=g.mesh, key="mesh") from None
         if not len(getattr(loaded, "faces", ())):
