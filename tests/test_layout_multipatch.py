@@ -8,6 +8,7 @@ import pytest
 import trimesh
 from scipy.spatial.distance import cdist
 
+from vtcore.errors import InputError
 from vtcore.layout import Layout, LayoutWarning, fill, make_patch, place, seed002_curved, skin_mesh
 from vtcore.layout.conform import OVERLAP_FRACTION, find_overlaps
 
@@ -51,8 +52,13 @@ def test_render_docs_overlap_is_reported():
     mesh, lay = seed002_curved()
     centre = lay.positions[np.argmin(np.linalg.norm(lay.positions - lay.positions.mean(0), axis=1))]
     e1 = quiet(interactive.lay_patch, mesh.vertices, mesh.faces, centre)
-    e2 = quiet(interactive.lay_patch, mesh.vertices, mesh.faces, centre + [0.06, 0, 0], existing=e1.layout)
-    assert e1.report["overlaps"] == 0
+    # the second point is 29 mm off the curved surface: refused unless forced (issue 26)
+    with pytest.raises(InputError, match="refused: 'at' is 28.9 mm off the surface"):
+        quiet(interactive.lay_patch, mesh.vertices, mesh.faces, centre + [0.06, 0, 0], existing=e1.layout)
+    e2 = quiet(interactive.lay_patch, mesh.vertices, mesh.faces, centre + [0.06, 0, 0], existing=e1.layout,
+               force=True)
+    assert e1.report["overlaps"] == 0 and not any("refused" in w for w in e1.warnings)
+    assert any(w.startswith("kept though refused (forced): 'at' is 28.9 mm off the surface") for w in e2.warnings)
     truth = find_overlaps(e2.layout.positions, e2.layout.module_ids, OVERLAP_FRACTION * PITCH)
     assert truth, "the render's two patches overlap"
     assert e2.report["overlaps_within"] == 0
@@ -243,12 +249,14 @@ def test_lay_patch_without_open3d_is_the_same(monkeypatch):
     from vtcore.scene import interactive
 
     cylinder = cadmeshes.full_cylinder(0.02, 0.08, 0.001)
-    args = (cylinder.vertices, cylinder.faces, (0.02, 0, 0.04))
-    with_o3d = quiet(interactive.lay_patch, *args, patch="hexagon", max_faces=2000)
+    args = (cylinder.vertices, cylinder.faces, (0.02, 0, 0.04))  # at the rim: 6 taxels off, kept (force)
+    with_o3d = quiet(interactive.lay_patch, *args, patch="hexagon", max_faces=2000, force=True)
     monkeypatch.setitem(sys.modules, "open3d", None)
-    without = quiet(interactive.lay_patch, *args, patch="hexagon", max_faces=2000)
+    without = quiet(interactive.lay_patch, *args, patch="hexagon", max_faces=2000, force=True)
     for e in (with_o3d, without):
         assert any("simplified by vertex clustering" in n for n in e.report["notes"])
+        # the damage of the forced placement is said, not hidden
+        assert any(w.startswith("kept though refused (forced): ") and "fall off the surface" in w for w in e.warnings)
     assert np.abs(without.layout.positions - with_o3d.layout.positions).max() < 1e-6
 
 

@@ -188,12 +188,16 @@ def _flush_progress(every: int = 25) -> None:
 
 
 def assert_clean_exit(rc: int, out: str, err: str, *, lines: int | None = 1) -> None:
-    """Exit 0, or exit 2 with ``vtcore: error:`` (``lines`` lines, None: any number)."""
+    """Exit 0, or exit 2 with ``vtcore: error:`` (``lines`` lines, None: any number), after any
+    ``vtcore: warning:`` lines (the CLI's contract: warnings raised before the error, e.g. a
+    placement's off-surface warning before its refusal, are lines of their own)."""
     assert rc in (0, 2), f"exit {rc}\n{err}"
     assert "Traceback" not in err and "Warning" not in err + out, err
     if rc == 2:
-        assert err.startswith("vtcore: error: "), err
         got = err.rstrip("\n").split("\n")
+        n_warn = next((i for i, line in enumerate(got) if not line.startswith("vtcore: warning: ")), len(got))
+        got = got[n_warn:]
+        assert got and got[0].startswith("vtcore: error: "), err
         if lines is not None:
             assert len(got) == lines, err
         assert not re.search(r"[\x00-\x08\x0b-\x1f\x7f]", err.replace("\n", "")), f"control bytes: {err!r}"
