@@ -104,6 +104,7 @@ def test_quick_scene_writes_the_contract(tmp_path, root):
     man = json.loads((out / "manifest.json").read_text())
     g17 = [d for d in man["datasets"] if d["name"] == "cluster_g17"][0]
     assert g17["unique_possible"] == {"tennis_ball": 15, "sponge_ball": 15, "cube_low_shore": 15}
+    assert man["points_per_cloud"] == 128                 # the quick mode's, not the paper's 512
     arrays = np.load(out / "arrays.npz")
     assert arrays["confusion_g0"].shape == (3, 3) and arrays["subsamples_tennis_ball"].shape == (15, 128)
     # the data set is rebuilt exactly from what the run wrote (visual clouds, probes, indices)

@@ -266,13 +266,14 @@ def build_clouds(ds: DataSet, scans: list[ObjectScan], subsamples: list[np.ndarr
     return out
 
 
-def manifest(datasets: list[DataSet], scans: list[ObjectScan], *, scale: float) -> dict:
-    """A JSON-able description of the data sets: sizes, splits, unique clouds possible, the scans."""
+def manifest(datasets: list[DataSet], scans: list[ObjectScan], *, scale: float, points: int = POINTS) -> dict:
+    """A JSON-able description of the data sets: sizes, splits, unique clouds possible, the scans.
+    points : the points per cloud the data sets were drawn with (``task.cloud_points``)."""
     return {
         "objects": [{"name": s.name, "visual_points": len(s.points), "probes": len(s.touch_values),
                      "c_min": float(np.min(s.touch_values)), "c_max": float(np.max(s.touch_values)),
                      **{k: v for k, v in s.meta.items() if isinstance(v, (int, float, str))}} for s in scans],
-        "points_per_cloud": POINTS,
+        "points_per_cloud": int(points),
         "c_scale": scale,
         "normalisation": f"xyz centred and scaled into the unit ball per cloud; c divided by c_scale (the "
                          f"{SCALE_QUANTILE:g} quantile of all probed colours) and clipped to [0, 1]",

@@ -235,7 +235,7 @@ def run(scene, ctx) -> TaskResult:
                                                  f"active (farthest, coverage) vs random touches, {p['active_seeds']} seeds")
         sections.append(_active_table(av, p))
     log.close()
-    manifest = D.manifest(versions, scans, scale=scale)
+    manifest = D.manifest(versions, scans, scale=scale, points=p["cloud_points"])
     from ..._io import write_json
 
     write_json(ctx.out / "manifest.json", manifest)
