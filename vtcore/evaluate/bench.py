@@ -256,6 +256,18 @@ def _ring_skin(radius: float, rows: int = 5):
     return Layout(radius * nrm + z[:, None] * [0, 0, 1], nrm, np.arange(len(th)), np.arange(len(th)) // 10)
 
 
+def _short(setting: str) -> str:
+    """A case's name short enough for the plot's legend, keeping what tells the cases apart (the link's
+    size, along or across, the probe)."""
+    for long, short in (("flat CySkin hexagon (seed 001), 3 mm, ", "flat hexagon, "),
+                        ("seed 002 curved patch (R 45 mm), finger pad across its curvature",
+                         "seed 002 R 45 mm, pad across"),
+                        ("skin round a ", ""), (" link, finger pad ", " link, pad "), ("the link", ""),
+                        ("fingertip (sphere r 8 mm)", "fingertip")):
+        setting = setting.replace(long, short)
+    return setting.strip()
+
+
 def _plot(out: Path, rows: list[dict]) -> None:
     from ..plots import pyplot
 
@@ -264,7 +276,7 @@ def _plot(out: Path, rows: list[dict]) -> None:
     ax = axes[0]
     for r in (r for r in rows if r["case"] == "shortcut"):
         ax.scatter([r["map_s_per_point"] * 1e3], [r["reading_err_pct_max"]], marker="o",
-                   label=f"map: {r['setting'][:34]}")
+                   label=f"map: {_short(r['setting'])}")
         ax.scatter([r["press_s_per_point"] * 1e3], [0.0], marker="x", color="k")
     ax.set_xscale("log")
     ax.set_xlabel("ms per point (x: press by press, the reference)")
