@@ -212,3 +212,49 @@ def test_maps_on_a_real_robot_link_with_a_legend():
     assert bpy.ops.vtskin.map_legend() == {"FINISHED"}
     texts = [o.data.body for o in bpy.data.collections[ops_evaluate.LEGEND].objects if o.type == "FONT"]
     assert any("Detection threshold (N)" in x for x in texts) and any(x.startswith("red:") for x in texts)
+
+
+def test_maps_on_a_cad_link_in_millimetres():
+    """A CAD export as makers publish it (vtcore.layout.cadmeshes.cad_link: millimetres, sliver triangles,
+    non-manifold fins, duplicated faces) on an object scaled by 0.001 and posed, as a user imports an STL
+    in millimetres: Fill on it, Evaluate Skin: the maps are vtcore's on the link in metres, a firm press
+    is felt on the skin, and the legend names the map."""
+    import trimesh
+    from vtcore.layout.cadmeshes import cad_link
+    from vtcore.layout.repair import refine
+    from vtcore.layout.surface import closest_points
+    from vtcore.scene import interactive
+
+    from addon import bridge, ops_evaluate, skin
+
+    m = cad_link(mm=True)
+    fine = refine(trimesh.Trimesh(m.vertices * 1e-3, m.faces, process=False), 0.005)  # Subdivide (metres)
+    me = bpy.data.meshes.new("cad_link_mm")
+    bridge.write_mesh(me, fine.vertices * 1e3, fine.faces)  # the mesh keeps the export's millimetres
+    ee = bpy.data.objects.new("cad_link_mm", me)
+    bpy.context.scene.collection.objects.link(ee)
+    ee.scale = (1e-3, 1e-3, 1e-3)
+    ee.location, ee.rotation_euler = (0.3, -0.1, 0.5), (0.4, 0.0, 0.7)
+    bpy.context.view_layer.update()
+    cp, _, _ = closest_points(fine, np.array([[0.0, 0.2, 0.02]]))  # on the tube, beside the boss
+    w = bridge.matrix(ee)
+    bpy.context.scene.cursor.location = w[:3, :3] @ (cp[0] * 1e3) + w[:3, 3]
+    s = bpy.context.scene.vtskin
+    s.fill_region, s.fill_radius = "RADIUS", 0.03
+    bpy.context.view_layer.objects.active = ee
+    assert bpy.ops.vtskin.lay_patch(fill=True) == {"FINISHED"}
+    ob = next(o for o in bpy.data.objects if o.vtskin.role == "TAXELS")
+    s.thickness, s.map_spacing, s.map_margin, s.map_two_point = 0.003, 0.004, 0.01, False
+    bpy.context.view_layer.objects.active = ob
+    assert bpy.ops.vtskin.evaluate_skin() == {"FINISHED"}
+    thr, cov, blind = attr(ee, "threshold_n"), attr(ee, "covered"), attr(ee, "blind")
+    assert thr.shape == (len(ee.data.vertices),) and np.all(np.isfinite(thr)) and thr.min() > 0
+    v, t = ops_evaluate.mesh_in_skin_frame(ee, ob)
+    # the skin frame is metric: the link is its 72 mm tube there, not 72 m
+    assert 0.15 < np.ptp(v, axis=0).max() < 0.3
+    ref = interactive.evaluate_skin(skin.read_layout(ob), v, t, thickness=0.003, spacing=0.004, margin=0.01,
+                                    two_point=False, counts_per_pa=s.counts_per_pa)
+    np.testing.assert_allclose(thr, ref.values["threshold_n"], rtol=1e-6)
+    np.testing.assert_allclose(attr(ee, "localisation_mm"), ref.values["localisation_mm"], rtol=1e-6)
+    assert cov.sum() > 20 and np.median(thr[cov]) < s.map_reference_force and blind[cov].mean() < 0.3
+    assert "Detection threshold (N" in ee.vtskin.map_legend
