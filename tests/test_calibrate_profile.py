@@ -212,3 +212,20 @@ def test_a_profile_and_a_number_for_the_same_value_is_an_error(tmp_path, gain, n
     with pytest.raises(InputError) as e:
         run_scene(p, tmp_path / "out")
     assert key in str(e.value)
+
+
+def test_nan_quartiles_are_nanpercentiles():
+    """The calibration's vectorised quartiles (its bootstrap's hot path) give numpy's nanpercentile,
+    linear interpolation, with NaN gaps, a slice with one value and a slice with none."""
+    from vtcore.calibrate.response import nan_quartiles
+
+    rng = np.random.default_rng(0)
+    a = rng.normal(size=(3, 4, 37, 2))
+    a[rng.random(a.shape) < 0.3] = np.nan
+    a[0, 0, :, 0] = np.nan
+    a[1, 1, 1:, 1] = np.nan
+    with pytest.warns(RuntimeWarning):
+        ref = np.nanpercentile(a, [25, 50, 75], axis=-2)
+    got = nan_quartiles(a, axis=-2)
+    assert got.shape == (3, 3, 4, 2) and np.isnan(got[:, 0, 0, 0]).all() and (got[:, 1, 1, 1] == a[1, 1, 0, 1]).all()
+    np.testing.assert_allclose(got, ref, rtol=1e-12, atol=1e-15, equal_nan=True)
