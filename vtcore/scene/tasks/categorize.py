@@ -437,7 +437,10 @@ def run(scene, ctx) -> TaskResult:
         lines += ["", *jl]
         metrics.update(jm)
         arrays.update(ja)
-    return TaskResult(metrics=metrics, arrays=arrays, figures=figures, sections=["\n".join(lines)])
+    nan_meaning = ({"jitter_probability": "a draw whose tilted object presses through the layer (left out, named "
+                                          "in the report)"} if t["jitter_seeds"] > 0 else {})
+    return TaskResult(metrics=metrics, arrays=arrays, figures=figures, sections=["\n".join(lines)],
+                      nan_meaning=nan_meaning)
 
 
 def _sensor_label(ctx, p_half) -> str:
