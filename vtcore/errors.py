@@ -91,3 +91,27 @@ class SceneErrors(SceneError):
                 f"; and {more} more (--details lists them all)" if more > 0 else "")
         ValueError.__init__(self, text)
         self.reason = text
+
+
+# ----------------------------------------------------------------------------- warnings shown to users
+#: What a library says to the programmers who call it (an API that will change or go, a missed
+#: import, an unclosed file): the fix is in vtcore's code, never in the user's input, so it is not
+#: shown to the user (Python itself hides DeprecationWarning outside ``__main__`` for that reason).
+#: Judged by category, not by the file it points at: a library's deprecation points at its caller,
+#: which is often vtcore. The test suite sees them (pytest's warning summary).
+DEVELOPER_WARNINGS = (DeprecationWarning, PendingDeprecationWarning, FutureWarning, ImportWarning,
+                      ResourceWarning, SyntaxWarning, BytesWarning)
+
+
+def meant_for_users(category: type[Warning]) -> bool:
+    """Whether a warning of ``category`` is for the person running vtcore: vtcore's own categories
+    (``LayoutWarning``, ``LargeDeformationWarning``, ...), the numerical ones (``RuntimeWarning``:
+    overflow, invalid value in their data) and ``UserWarning``; not :data:`DEVELOPER_WARNINGS`."""
+    if getattr(category, "__module__", "").partition(".")[0] == "vtcore":
+        return True
+    return not issubclass(category, DEVELOPER_WARNINGS)
+
+
+def for_users(caught) -> list:
+    """The records of ``warnings.catch_warnings(record=True)`` that are :func:`meant_for_users`, in order."""
+    return [w for w in caught if meant_for_users(w.category)]

@@ -12,7 +12,8 @@ one of two ways:
   message, possibly listing several keys on following lines), no traceback;
 - exit 0 with an output that its own reader reads back and that holds only finite numbers.
 
-A RuntimeWarning (numpy overflow, invalid value) fails the example: warnings are errors here.
+A RuntimeWarning (numpy overflow, invalid value) fails the example: warnings are errors here; so
+does a library's deprecation shown to the user.
 Each call runs under a wall-clock alarm, so a hang fails instead of blocking the suite.
 
 Examples per reader: a few dozen by default (the whole fuzz suite < 2 min on 2 cores),
@@ -193,6 +194,7 @@ def assert_clean_exit(rc: int, out: str, err: str, *, lines: int | None = 1) -> 
     placement's off-surface warning before its refusal, are lines of their own)."""
     assert rc in (0, 2), f"exit {rc}\n{err}"
     assert "Traceback" not in err and "Warning" not in err + out, err
+    assert "deprecat" not in err.lower(), err  # a library's note to vtcore's programmers, not to users
     if rc == 2:
         got = err.rstrip("\n").split("\n")
         n_warn = next((i for i, line in enumerate(got) if not line.startswith("vtcore: warning: ")), len(got))

@@ -13,10 +13,11 @@ import functools
 import importlib
 import pkgutil
 import sys
+import warnings
 
 from .. import __version__
 from .._io import Terminated, check_terminated, sigterm_raises
-from ..errors import VtError
+from ..errors import VtError, meant_for_users
 
 
 class _Parser(argparse.ArgumentParser):
@@ -63,6 +64,14 @@ def print_error(exc, details: bool = False) -> None:
             print(f"  {clean(line, 2000)}", file=sys.stderr)
 
 
+def show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """How a command shows a warning no sub-command collected: one ``vtcore: warning:`` line (no
+    source line) if it is meant for the user (vtcore's own, numerical), nothing if it is a library's
+    note to its programmers (``DeprecationWarning`` and kin: vtcore.errors.meant_for_users)."""
+    if meant_for_users(category):
+        print(f"vtcore: warning: {_error_lines(message)}", file=sys.stderr)
+
+
 @functools.lru_cache(maxsize=1)
 def _parser() -> argparse.ArgumentParser:
     """The parser, built once a process: building it registers every command group (and argparse looks
@@ -80,7 +89,8 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help(sys.stderr)
         return 2
     try:
-        with sigterm_raises():
+        with sigterm_raises(), warnings.catch_warnings():
+            warnings.showwarning = show_warning
             rc = int(args.func(args) or 0)
             check_terminated()  # a SIGTERM deferred (during an import) or swallowed still ends in 143
             return rc

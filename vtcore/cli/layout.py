@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import InputError, for_users
 
 #: metres: --subdivide below a micrometre is a unit error (refine coarsens to its face budget anyway); one
 #: past a kilometre splits nothing on an accepted mesh, and its square overflows near 1e154
@@ -106,7 +106,9 @@ def _region(args, mesh):
 
 
 def _print_warnings(caught):
-    for w in caught:
+    """The recorded warnings meant for users (vtcore's own, numerical ones; not a library's
+    deprecations), one ``vtcore: warning:`` line each."""
+    for w in for_users(caught):
         print(f"vtcore: warning: {w.message}", file=sys.stderr)
 
 
@@ -121,7 +123,7 @@ def _warnings_if_done():
         try:
             yield
         except VtError as exc:
-            exc.details = [str(w.message) for w in caught] + list(getattr(exc, "details", None) or [])
+            exc.details = [str(w.message) for w in for_users(caught)] + list(getattr(exc, "details", None) or [])
             raise
     _print_warnings(caught)
 
@@ -183,7 +185,7 @@ def cmd_place(args) -> int:
         except InputError as exc:
             # the one error line says the main problem; the warnings and the per-island detail
             # follow it with --details
-            exc.details = [str(w.message) for w in caught] + list(getattr(exc, "details", None) or [])
+            exc.details = [str(w.message) for w in for_users(caught)] + list(getattr(exc, "details", None) or [])
             raise
     _print_warnings(caught)
     for line in kept:
@@ -360,7 +362,7 @@ def cmd_info(args) -> int:
         layout = load(args.layout, args.format)
     info = layout_info(layout)
     if args.json:
-        info["warnings"] = [str(w.message) for w in caught]
+        info["warnings"] = [str(w.message) for w in for_users(caught)]
         print(json.dumps(info, indent=1))
         return 0
     _print_warnings(caught)

@@ -13,7 +13,7 @@ import json
 import sys
 import warnings
 
-from ..errors import InputError
+from ..errors import InputError, for_users
 
 
 def packages(values) -> dict:
@@ -28,7 +28,7 @@ def packages(values) -> dict:
 
 
 def _warnings(caught):
-    for w in caught:
+    for w in for_users(caught):
         print(f"vtcore: warning: {w.message}", file=sys.stderr)
 
 
@@ -43,7 +43,7 @@ def cmd_info(args) -> int:
                "upper": j.upper} for j in robot.joints]
     if args.json:
         print(json.dumps({"robot": robot.name, "format": robot.format, "root": robot.root, "links": rows,
-                          "joints": joints, "warnings": [str(w.message) for w in caught]}, indent=1))
+                          "joints": joints, "warnings": [str(w.message) for w in for_users(caught)]}, indent=1))
         return 0
     _warnings(caught)
     print(f"{args.robot}: robot {robot.name!r} ({robot.format}), {len(robot.links)} links, "

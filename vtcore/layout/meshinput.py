@@ -92,17 +92,29 @@ def checked_mesh(vertices, faces, scale: float = 1.0, *, size_range=SURFACE_SIZE
     return trimesh.Trimesh(v * s if s != 1.0 else v, f, process=process, validate=False)
 
 
+#: numpy's message for text it could not read to its end (np.fromstring: trimesh's text STL and OBJ)
+_UNREAD = "string or file could not be read to its end"
+
+
 def read_trimesh(path):
     """``trimesh.load(path, force="mesh", process=False)`` without pycollada's NumPy 2.5 deprecation
     warning: reading a DAE, pycollada assigns ``.shape`` to its index arrays (not our code to fix),
-    and the warning reached users as ``vtcore: warning:`` lines before every result or error."""
+    and the warning reached users as ``vtcore: warning:`` lines before every result or error.
+
+    A text mesh with stray characters among its numbers raises (ValueError) in every numpy: numpy
+    < 2.5 read it up to them with a DeprecationWarning no user sees (and placed on what it read),
+    numpy 2.5 raises."""
     import warnings
 
     import trimesh
 
     with warnings.catch_warnings():
         warnings.filterwarnings("ignore", message="Setting the shape on a NumPy array", category=DeprecationWarning)
-        return trimesh.load(path, force="mesh", process=False)
+        warnings.filterwarnings("error", _UNREAD, DeprecationWarning)
+        try:
+            return trimesh.load(path, force="mesh", process=False)
+        except DeprecationWarning as exc:  # numpy < 2.5's message says what 2.5 does; 2.5's text
+            raise ValueError(str(exc).partition("; this will raise")[0]) from None
 
 
 def load_mesh(path, scale: float = 1.0, *, size_range=SURFACE_SIZE_M, key: str | None = "mesh",

@@ -5,7 +5,8 @@ numpy's ``RuntimeWarning`` (overflow, invalid value) and the package's own warni
 source line: each becomes one line ``FILE: KEY: MESSAGE`` naming the scene file and the key that
 was being worked on (``effects.NAME`` while an effect is applied, ``task`` otherwise), counted
 once however often it repeats. ``vtcore run`` prints them as ``vtcore: warning:`` lines;
-``result.json`` keeps them under ``warnings`` and ``report.md`` lists them.
+``result.json`` keeps them under ``warnings`` and ``report.md`` lists them. A library's note to
+its programmers (``DeprecationWarning`` and kin, vtcore.errors.meant_for_users) is left out.
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ import contextvars
 import warnings
 from pathlib import Path
 
+from ..errors import meant_for_users
 from ..inputs import clean
 
 _KEY: contextvars.ContextVar[str] = contextvars.ContextVar("vtcore_scene_key", default="task")
@@ -66,7 +68,8 @@ def warnings_of(file: str | Path):
         warnings.simplefilter("always")
 
         def show(message, category, filename, lineno, file=None, line=None):
-            notes.add(message)
+            if meant_for_users(category):  # a library's deprecation is for vtcore's programmers
+                notes.add(message)
 
         warnings.showwarning = show
         yield notes

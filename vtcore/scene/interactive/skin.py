@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from ..._progress import keep_going
-from ...errors import InputError
+from ...errors import InputError, for_users
 from ...layout import Layout, skin_mesh
 from .common import as_trimesh
 
@@ -111,7 +111,7 @@ def _whole(layout: Layout, report: dict, kept, caught, module=None, n_before=Non
         rep["notes"] = list(whole["notes"])
     else:
         rep["overlaps"] = max(rep["overlaps"], int(report.get("overlaps") or 0))
-    msgs = [str(w.message) for w in caught] + list(extra)
+    msgs = [str(w.message) for w in for_users(caught)] + list(extra)
     if rep["overlaps"]:
         msgs.append(f"{rep['overlaps']} pairs of modules overlap (taxels closer than 0.75 pitch): "
                     "colour by Overlap to see them")
