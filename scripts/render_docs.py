@@ -145,6 +145,20 @@ def render(context, path, samples, size=(960, 640)):
     bpy.ops.render.render(write_still=True)
 
 
+def render_with_legend(context, path, samples, skin, size=(960, 640)):
+    """Render, then put the colour bar of what ``skin``'s discs are coloured by under the picture
+    (quantity, unit and range, ``vtcore.plots.add_colorbar``): the viewport panel's legend, in print."""
+    import numpy as np
+    from vtcore.plots import add_colorbar
+
+    from addon import bridge
+
+    render(context, path, samples, size)
+    name = skin.vtskin.color_by
+    values = bridge.get_attribute(skin.data, name).astype(float) if name in skin.data.attributes else np.zeros(1)
+    add_colorbar(path, name, float(values.min()), float(values.max()))
+
+
 # ---------------------------------------------------------------------------
 # panel mock-up from the panels' own draw() calls
 
@@ -166,6 +180,9 @@ class _Recorder:
         self.rows.append((self.depth, "box", ""))
         return _Recorder(self.rows, self.depth + 1)
 
+    def template_color_ramp(self, data, name, **kw):
+        self._add("ramp", "")  # drawn as a colour bar (viridis, the discs' ramp)
+
     def _add(self, kind, text):
         self.rows.append((self.depth, kind, text))
 
@@ -183,6 +200,8 @@ class _Recorder:
             value = "-"
         elif rna.type == "ENUM":
             value = next((i.name for i in rna.enum_items if i.identifier == value), value)
+        elif rna.type == "FLOAT" and getattr(rna, "array_length", 0):
+            value = "(" + ", ".join(f"{v:.3g}" for v in value) + ")"
         elif rna.type == "FLOAT":
             if getattr(rna, "subtype", "") == "DISTANCE":
                 value = f"{value * 1e3:g} mm"
@@ -272,6 +291,9 @@ def draw_panels(context, path):
             ax.text(x, i, text, color="#e0e0e0", fontsize=7, va="center")
         elif kind in ("prop", "label"):
             ax.text(x, i, text, color="#e0e0e0" if kind == "prop" else "#b8d0ff", fontsize=7.5, va="center")
+        elif kind == "ramp":  # the legend's colour ramp, as template_color_ramp draws it
+            ax.imshow([[v / 255 for v in range(256)]], extent=(x, 0.9, i + 0.35, i - 0.35), aspect="auto",
+                      cmap="viridis")
     fig.savefig(path, dpi=130, facecolor=fig.get_facecolor())
     plt.close(fig)
 
@@ -319,9 +341,9 @@ def _render_all(context, out, samples):
     m = bridge.matrix(ee)
     camera_and_light(context, mid, m)
     skin.vtskin.color_by = "response"
-    render(context, out / "skin_response.png", samples)
+    render_with_legend(context, out / "skin_response.png", samples, skin)
     skin.vtskin.color_by = "edge"
-    render(context, out / "skin_edges.png", samples)
+    render_with_legend(context, out / "skin_edges.png", samples, skin)
     skin.vtskin.color_by = "response"
     context.view_layer.objects.active = skin
     draw_panels(context, out / "panels.png")
@@ -347,9 +369,9 @@ def _render_replay(context, out, samples):
     frame = s.bake_start + int(np.argmax(counts))
     context.scene.frame_set(frame)
     vt_render.frame_camera(context, ob, lens=60.0)
-    render(context, out / "replay_response.png", samples, size=(720, 540))
+    render_with_legend(context, out / "replay_response.png", samples, ob, size=(720, 540))
     s.color_by = "edge"
-    render(context, out / "replay_edges.png", samples, size=(720, 540))
+    render_with_legend(context, out / "replay_edges.png", samples, ob, size=(720, 540))
     print(f"wrote replay pictures of frame {frame} ({max(counts)} edge taxels)",
           *(str(out / n) for n in ("replay_response.png", "replay_edges.png")))
 

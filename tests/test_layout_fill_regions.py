@@ -15,7 +15,7 @@ import trimesh
 from vtcore.errors import InputError
 from vtcore.layout import PITCH, cadmeshes, fill
 from vtcore.layout.meshinput import checked_mesh, load_mesh
-from vtcore.layout.regions import face_islands, facing_region, module_width, read_face_indices
+from vtcore.layout.regions import face_islands, facing_region, read_face_indices
 from vtcore.layout.report import OVERLAP_FRACTION, find_overlaps
 from vtcore.layout.surface import closest_points
 
@@ -39,20 +39,8 @@ def mm_link():
     return checked_mesh(link.vertices, link.faces, 0.001, process=False)
 
 
-def many_islands(mesh, seed=1):
-    """A selection as a designer's box or paint select gives it: the side facing +x (a band of
-    needle faces from cap to cap, the flange's rim, the boss) plus 40 stray faces elsewhere
-    (single slivers and cap fan triangles: islands far smaller than a module)."""
-    n = mesh.face_normals
-    band = n @ [1.0, 0.0, 0.0] > np.cos(np.radians(50))
-    stray = np.random.default_rng(seed).choice(np.flatnonzero(n @ [1.0, 0.0, 0.0] < 0), 40, replace=False)
-    region = band.copy()
-    region[stray] = True
-    return band, region
-
-
 def test_a_selection_of_many_islands_with_slivers_fills_in_metres(mm_link):
-    band, region = many_islands(mm_link)
+    band, region = cadmeshes.island_selection(mm_link)
     islands = face_islands(mm_link, region)
     assert len(islands) >= 15
     areas = np.array([mm_link.area_faces[f].sum() for f in islands])

@@ -21,7 +21,10 @@ Cases (each row: what, method, setting, size, seconds, accuracy):
    child running only that case, so it includes the ~0.3 GB of imported libraries) and coverage.
 6. ``fill_meshes``: fill on the meshes of ``vtcore.layout.cadmeshes``: a CAD-like link (sliver
    tessellation, non-manifold fins, duplicated faces), a 200-triangle convex hull, a sphere and a
-   full cylinder, and ``place`` of one hexagon on the 72 mm link for scale.
+   full cylinder, and ``place`` of one hexagon on the 72 mm link for scale; Panda's link-7
+   collision hull (example-robot-data, 200 triangles) when installed.
+7. ``fill_islands``: a selection of 31 islands (one side of the CAD link in millimetres read with
+   scale 0.001, and 40 stray faces) against its largest island alone.
 """
 
 from __future__ import annotations
@@ -252,10 +255,46 @@ def _fill_rows(quick, on_row=None):
              ("full cylinder r=20 mm, side", lambda: fill(cyl, (0.02, 0, 0), (0, 1, 0), region=cside))]
     for name, fn in (cases[-1:] if quick else cases):
         row("fill_meshes", "grow", name, 0, lambda fn=fn: _fill_summary(*fn()))
+    # 4. a real 200-triangle collision hull (Panda's link 7) and a selection of many islands (the
+    # CAD link exported in mm, read with scale 0.001, one side and 40 stray faces selected) beside its
+    # largest island alone: the selection should cost at most the largest island x the islands
+    if not quick:
+        for name, fn in _real_hull_cases():
+            row("fill_meshes", "grow", name, 0, lambda fn=fn: _fill_summary(*fn()))
+        from .meshinput import checked_mesh
+        from .regions import face_islands
+
+        mm = cadmeshes.cad_link(mm=True)
+        mm = checked_mesh(mm.vertices, mm.faces, 0.001, process=False)
+        side, sel = cadmeshes.island_selection(mm)
+        parts = face_islands(mm, sel)
+        largest = np.zeros(len(sel), bool)
+        largest[parts[0]] = True
+        at = mm.triangles_center[parts[0][0]]
+        row("fill_islands", "grow", f"CAD link in mm, selection of {len(parts)} islands", len(parts),
+            lambda: _fill_summary(*fill(mm, at, region=sel)))
+        row("fill_islands", "grow", "CAD link in mm, its largest island alone", 1,
+            lambda: _fill_summary(*fill(mm, at, region=largest)))
     cyl18 = cadmeshes.full_cylinder(0.0185, 0.06, 0.003)
     row("fill_meshes", "place strip:6", "full cylinder r=18.5 mm (wraps round)", 0,
         lambda: _fill_summary(*place(cyl18, "strip:6", (0.0185, 0, 0), (0, 1, 0))), acc="strain_max")
     return rows
+
+
+def _real_hull_cases():
+    """Fill cases on example-robot-data's Panda link 7 collision hull (200 triangles), when installed."""
+    import sysconfig
+
+    from .meshinput import load_mesh
+    from .tiling import fill
+
+    path = (Path(sysconfig.get_paths()["purelib"]) / "cmeel.prefix/share/example-robot-data/robots"
+            / "panda_description/meshes/collision/link7.stl")
+    if not path.is_file():
+        return []
+    hull = load_mesh(path)
+    return [("Panda link 7 collision hull (200 triangles, example-robot-data)",
+             lambda: fill(hull, (0.0, 0.0, float(hull.bounds[1, 2]))))]
 
 
 def _fill_plot(rows, path):

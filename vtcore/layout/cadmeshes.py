@@ -8,6 +8,8 @@
   link of a robot's collision model).
 - :func:`full_cylinder`: a closed cylinder meshed at a given edge length (quads split in two).
 - :func:`sphere`: an icosphere.
+- :func:`island_selection`: a face selection as a designer's box or paint select gives it: one side
+  of a part plus stray faces (15+ islands, slivers, islands far smaller than a module).
 
 Every function is deterministic (seeded) and returns a ``trimesh.Trimesh`` in metres unless
 ``mm=True``.
@@ -103,3 +105,17 @@ def sphere(radius: float = 0.04, subdivisions: int = 4):
     import trimesh
 
     return trimesh.creation.icosphere(subdivisions, radius=radius)
+
+
+def island_selection(mesh, direction=(1.0, 0.0, 0.0), within_deg: float = 50.0, strays: int = 40, seed: int = 1):
+    """``(side, region)`` (F,) bool each: the faces facing ``direction`` within ``within_deg``
+    degrees (on :func:`cad_link`: the band of needle faces from cap to cap, the flange's rim, the
+    boss), and that side plus ``strays`` faces facing away picked at random (seeded): single
+    slivers and cap fan triangles, islands far smaller than a module."""
+    n = np.asarray(mesh.face_normals)
+    d = np.asarray(direction, float) / np.linalg.norm(direction)
+    side = n @ d > np.cos(np.radians(within_deg))
+    away = np.flatnonzero(n @ d < 0)
+    region = side.copy()
+    region[np.random.default_rng(seed).choice(away, min(strays, len(away)), replace=False)] = True
+    return side, region

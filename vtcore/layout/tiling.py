@@ -286,12 +286,12 @@ def no_module_fits(reports, parts, skipped, widths, mod, existing, crease_angle,
                 counts[k] = counts.get(k, 0) + n
         main = max(counts, key=counts.get) if any(counts.values()) else None
         advice = {"off": "modules would run off the region or off an open edge of the mesh: select more faces "
-                       "round it (or smooth a coarse mesh: --smooth)",
+                       "round it",
                   "rules": f"modules would cross an open edge, a region border or a crease sharper than "
-                           f"{crease_angle:g} deg: raise --crease-angle if those creases are facets of a "
-                           "curved part, or smooth it (--smooth)",
-                  "strain": f"modules would stretch more than --max-strain {max_strain:g}: the part is too "
-                            "curved there; raise --max-strain or smooth a faceted mesh (--smooth)",
+                           f"{crease_angle:g} deg: raise the crease angle (--crease-angle) if those creases are "
+                           "facets of a curved part, or select more faces",
+                  "strain": f"modules would stretch more than the strain limit {max_strain:g}: the part is too "
+                            "curved there for this module; try a smaller module or raise the limit (--max-strain)",
                   "overlap": "modules would overlap each other", "existing": "remove or move modules already there",
                   None: "give a larger region"}[main]
         across = "no edge, crease or border bounds it" if not np.isfinite(width) else \
