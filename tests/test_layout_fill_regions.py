@@ -155,3 +155,21 @@ def test_ur10_wrist_hull_is_filled():
     w3 = load_mesh(ROBOTS / "ur_description/meshes/ur10/collision/wrist3.stl")
     lay, rep = quiet(fill, w3, w3.vertices[np.argmin(w3.vertices[:, 1])])
     assert lay.n_modules >= 15 and no_overlap(lay) and rep.strain_max <= 0.05
+
+
+@pytest.mark.skipif(not (ROBOTS / "panda_description").is_dir(), reason="example-robot-data not installed")
+@pytest.mark.parametrize("loop", [0, 2])
+def test_a_200_triangle_hull_and_its_loop_subdivided_copy(loop):
+    """Panda's link-7 collision hull (200 triangles, 125 x 125 x 55 mm, a flat flange of ~87 mm) and
+    its Loop-subdivided copy (3,200 faces, where the flange is rounded: its faces within 30 degrees of
+    the flange's normal): the flange takes at least the hexagon of six modules a person lays there,
+    the whole part many more (the issue saw 'no whole module fits' on both)."""
+    hull = load_mesh(ROBOTS / "panda_description/meshes/collision/link7.stl")
+    mesh = hull.subdivide_loop(loop) if loop else hull
+    flange = facing_region(mesh, (0, 0, -1), 30 if loop else 5)
+    centre = mesh.triangles_center[facing_region(mesh, (0, 0, -1), 5)].mean(axis=0)
+    lay, rep = quiet(fill, mesh, centre, region=flange)
+    assert lay.n_modules >= 6 and no_overlap(lay) and rep.strain_max <= 0.05
+    assert (lay.normals[:, 2] < -np.cos(np.radians(31 if loop else 1.0))).all()
+    lay, rep = quiet(fill, mesh, centre, max_strain=0.05)
+    assert lay.n_modules >= 35 and no_overlap(lay) and not rep.problems()

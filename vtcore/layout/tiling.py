@@ -230,17 +230,21 @@ def island_groups(prepared, plabel, parts, clean, samples, mod, at, islands):
     return groups, skipped, widths, fdist
 
 
-def next_seed(prepared, mask, fdist, placed, tried, mod):
-    """(3,) where the next growth of an island starts, or None: the vertex of ``mask``'s faces
+def next_seed(prepared, mask, fdist, placed, tried, mod, modules: int = 1):
+    """``(start (3,), room)`` where the next growth of an island starts and how much room (metres to
+    the nearest crease, border or placed taxel) there is, or None: the vertex of ``mask``'s faces
     (of ``prepared.mesh``) farthest from the edges no module may straddle (``fdist`` (V,)), among
-    those with room for a module: half a module's width from those edges, half a width and half a
-    pitch from every ``placed`` taxel (P, 3), a module's width from every start ``tried``."""
+    those with room for ``modules`` modules side by side (1: half a module's width from those edges,
+    half a width and half a pitch from every ``placed`` taxel (P, 3); 2: a whole width), a module's
+    width from every start ``tried``. A growth costs a log map and a tiling search over the island:
+    once an island has modules, a seed must have room for two (on a 1,000-module fill the rims'
+    gaps for one module each doubled the time for 9 more modules)."""
     F = np.asarray(prepared.mesh.faces)
     V = np.asarray(prepared.mesh.vertices)
     verts = np.unique(F[mask])
     if not len(verts):
         return None
-    half = module_width(mod) / 2
+    half = module_width(mod) / 2 * modules
     score = np.minimum(fdist[verts], 1e3)
     ok = score >= half - 0.5 * mod.pitch  # vertices are up to a pitch apart: the middle may lie between
     if placed is not None and len(placed):
@@ -248,11 +252,12 @@ def next_seed(prepared, mask, fdist, placed, tried, mod):
         ok &= d >= half + 0.5 * mod.pitch
         score = np.minimum(score, d)
     if len(tried):
-        ok &= cKDTree(np.asarray(tried)).query(V[verts])[0] >= 2 * half
+        ok &= cKDTree(np.asarray(tried)).query(V[verts])[0] >= module_width(mod)
     if not ok.any():
         return None
     i = np.flatnonzero(ok)
-    return V[verts[i[np.argmax(score[i])]]].copy()
+    best = i[np.argmax(score[i])]
+    return V[verts[best]].copy(), float(score[best])
 
 
 def islands_note(parts, groups, reports, group_of, skipped) -> str:
@@ -340,8 +345,9 @@ def fill(mesh, at, direction=None, *, module: str = "cyskin10", region=None, rad
     seam : run the seam pass (lattice shifts where growth fronts meet).
     seeds : growths per island at most: after the growth from the start, where room for a module
         is left (away from placed modules, creases and the border: :func:`next_seed`) a new lattice
-        is grown from the middle of that room, with its own tiling, and so on (1: one growth). With
-        ``islands="one"`` a group gets a further seed only while it has no module.
+        is grown from the middle of that room, with its own tiling, and so on (1: one growth), until
+        a further seed adds fewer than two modules. With ``islands="one"`` a group gets a further
+        seed only while it has no module.
     progress : None or ``progress(fraction) -> bool`` (0..1) called as growth proceeds; False
         stops the fill (``vtcore.errors.Cancelled``), nothing is returned.
 
@@ -403,12 +409,13 @@ def fill(mesh, at, direction=None, *, module: str = "cyskin10", region=None, rad
     group_of = []
     for k, (members, start, own) in enumerate(groups):
         mask = np.isin(plabel, members)
-        tried = []
+        tried, room = [], None
         for j in range(max(int(seeds), 1)):
+            # a further seed fills a room between modules: one shift per angle, then finer shifts
             r = _fill_island(prepared, mask, samples, start, direction if own and not j else None, mod,
-                             radius if own and not j else None, max_strain, avoid, angles, offsets,
+                             radius if own and not j else None, max_strain, avoid, angles, offsets if not j else 1,
                              refine_offsets, crease_angle, seam, progress, island=k,
-                             n_faces=int(sum(len(parts[i]) for i in members)), seed=j)
+                             n_faces=int(sum(len(parts[i]) for i in members)), seed=j, room=room)
             reports.append(r)
             group_of.append(k)
             tried.append(r.start)
@@ -419,9 +426,13 @@ def fill(mesh, at, direction=None, *, module: str = "cyskin10", region=None, rad
                 mask = mask & (r.dist0[np.asarray(prepared.mesh.faces)] <= radius).all(axis=1)
             if islands == "one" and any(q.n_modules for q, h in zip(reports, group_of) if h == k):
                 break  # one lattice per group: a further seed would start another
-            start = next_seed(prepared, mask, fdist, avoid, tried, mod)
-            if start is None:
+            if j and r.n_modules < 2:
+                break  # rooms left are smaller than the seeds' cost is worth (each costs a tiling search)
+            got = any(q.n_modules for q, h in zip(reports, group_of) if h == k)
+            nxt = next_seed(prepared, mask, fdist, avoid, tried, mod, modules=2 if got else 1)
+            if nxt is None:
                 break
+            start, room = nxt
     if not any(r.n_modules for r in reports):
         raise no_module_fits(reports, parts, skipped, widths, mod, existing, crease_angle, max_strain)
     chosen = [r for r in reports if r.n_modules]
@@ -523,12 +534,18 @@ def feature_samples(mesh, crease_angle: float, region: np.ndarray | None = None)
     return np.repeat(ed, len(w), axis=0), np.tile(w, len(ed)), len(open_e), len(sharp)
 
 
+_HULLS: dict = {}  #: taxel positions (bytes) -> their hull: qhull took a fifth of a fill's tiling tries
+
+
 def taxel_hull(mod) -> np.ndarray:
     """(h, 2) metres, counter-clockwise: the convex hull of a module's taxel centres (the part of
     the board that must lie on one smooth piece of surface; the margin round it may overhang)."""
     from scipy.spatial import ConvexHull
 
-    return mod.taxels[ConvexHull(mod.taxels).vertices]
+    key = np.ascontiguousarray(mod.taxels).tobytes()
+    if key not in _HULLS:
+        _HULLS[key] = mod.taxels[ConvexHull(mod.taxels).vertices]
+    return _HULLS[key]
 
 
 def modules_covering(points: np.ndarray, patch: Patch, modules: np.ndarray, origin: np.ndarray) -> np.ndarray:
@@ -633,7 +650,8 @@ def lattice_patch(mod, angle: float, shift, centre, rad: float, limit: float | N
 
 
 def _fill_island(prepared, preg, samples, start, direction, mod, radius, max_strain, avoid, angles,
-                 offsets, refine_offsets, crease_angle, seam, progress, island=0, n_faces=0, seed=0) -> IslandFill:
+                 offsets, refine_offsets, crease_angle, seam, progress, island=0, n_faces=0, seed=0,
+                 room=None) -> IslandFill:
     notes = list(prepared.notes) if island == 0 and seed == 0 else []
     lm0 = LogMap(None, start, direction, prepared=prepared)
     tag = (f"island #{island}" if island else "") + (f" seed {seed}" if seed else "")
@@ -666,6 +684,8 @@ def _fill_island(prepared, preg, samples, start, direction, mod, radius, max_str
     # the tiling (angle, shift) that keeps most modules in the first chart wins (ties: the first)
     tilings, best = [], None
     r_try = min(R0, extent)
+    if room is not None:  # a further seed: its tiling is chosen for the room it was started in
+        r_try = min(r_try, room + 2 * mod.radius)
     coarse = [(a, (fu / offsets, fv / offsets)) for a in angles for fu, fv in np.ndindex(offsets, offsets)]
 
     def fine():
