@@ -11,6 +11,7 @@ from scipy.spatial.distance import cdist
 from vtcore.errors import InputError
 from vtcore.layout import Layout, LayoutWarning, fill, make_patch, place, seed002_curved, skin_mesh
 from vtcore.layout.conform import OVERLAP_FRACTION, find_overlaps
+from vtcore.layout.surface import closest_points
 
 PITCH = 7.5e-3
 R = 0.03
@@ -270,7 +271,7 @@ def _grid(n=50, size=0.1):
 
 
 def test_fill_tries_rotations_and_shifts():
-    """fill tried one angle; a 26 mm band across the tiling's rows then took no whole module."""
+    """fill tried one angle; a 24 mm band across the tiling's rows then took no whole module."""
     from vtcore.errors import InputError
 
     plane = _grid()
@@ -282,9 +283,13 @@ def test_fill_tries_rotations_and_shifts():
         assert "no whole cyskin10 module fits in the region" in str(exc)
         one = 0
     lay, rep = quiet(fill, plane, (0, 0, 0), (1, 0, 0), region=band)
-    assert lay.n_modules >= max(2, one) and rep.coverage > 0.3
+    # the strip of alternating modules a person lays along the band (its shift centres a module on
+    # the start; the grid of shifts alone gave 2 modules, 36 %)
+    assert lay.n_modules >= max(5, one) and rep.coverage > 0.8
     on_band = plane.submesh([np.flatnonzero(band)], append=True)
-    assert trimesh.proximity.closest_point(on_band, lay.positions)[1].max() < 1e-6  # every taxel on the band
+    # every taxel on the band (vtcore's exact closest points: trimesh's put a taxel on the plane's
+    # cell diagonal 5 um off the very plane)
+    assert closest_points(on_band, lay.positions)[2].max() < 1e-6
     assert not find_overlaps(lay.positions, lay.module_ids, OVERLAP_FRACTION * PITCH)
     tries = [t for t in lay.meta["fill_tilings"] if t["seed"] == 0]  # the first growth's tilings
     assert len(tries) > 20 and lay.n_modules >= max(t["modules"] for t in tries) > tries[0]["modules"]

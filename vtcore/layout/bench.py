@@ -205,7 +205,8 @@ def _fill_summary(lay, rep):
 def _fill_rows(quick, on_row=None):
     from . import cadmeshes
     from .placement import place
-    from .tiling import fill, fill_one_chart
+    from .singlechart import fill_one_chart
+    from .tiling import fill
 
     rows = []
 

@@ -2,8 +2,9 @@
 
 :func:`fill` grows one lattice chart by chart (:mod:`.grow`) over the region, keeps modules
 whole, unstrained (``max_strain``), off open edges and sharp creases (``crease_angle``),
-closes the seam where growth fronts meet, and fills every island of the region.
-:func:`fill_one_chart` is the former fill of one log map, kept for the benchmark.
+closes the seam where growth fronts meet, and fills every island of the region (:mod:`.islands`:
+which, from where, further seeds, the error when nothing fits). The former fill of one log map,
+kept for the benchmark, is :func:`vtcore.layout.singlechart.fill_one_chart`.
 """
 
 from __future__ import annotations
@@ -15,297 +16,17 @@ from scipy.spatial import cKDTree
 
 from ..errors import InputError
 from .grow import Chart, close_seam, grow, map_modules, module_frames, module_strain, taxel_index
+from .islands import island_groups, islands_note, next_seed, no_module_fits
 from .logmap import LogMap, PreparedSurface
 from .model import Layout
-from .patches import Patch, fill_patch, patch_from_poses, tile_poses
-from .placement import finish, place
-from .regions import central_point, crop_mask, face_islands, feature_distance, free_width, module_width, \
-    too_narrow_message
+from .patches import Patch, patch_from_poses, tile_poses
+from .placement import finish
+from .regions import crop_mask, face_islands
 from .repair import clean_mesh, edge_keys, face_submesh, source_faces
 from .surface import at_notes, closest_points, snap
-from .report import OVERLAP_FRACTION, PlacementReport, find_overlaps, find_overlaps_between, layout_strain, \
-    points_in_outlines
-
-def fill_one_chart(mesh, at, direction=None, *, module: str = "cyskin10", region=None, radius: float | None = None,
-         offset: float = 0.0, max_strain: float = 0.05,
-         max_faces: int | None = 20_000, existing: Layout | None = None,
-         angles=tuple(np.radians(np.arange(0, 180, 30))), offsets: int = 2,
-         refine_offsets: int = 4) -> tuple[Layout, PlacementReport]:
-    """The fill of one log map at ``at`` (before chart growth; kept for the benchmark's comparison).
-
-    region : (F,) bool face mask of ``mesh`` (default: every face). radius :
-        metres, limit the fill to this geodesic radius around ``at`` (default:
-        the whole region). Modules that would fall off the region, strain more
-        than ``max_strain``, overlap a module nearer to ``at`` or overlap a module of
-        ``existing`` (the skin already there, same frame) are left out.
-    angles : radians, offsets : the module tiling is tried at each angle (a CySkin tiling only
-        repeats every 180 degrees: its strips run one way) and ``offsets x offsets`` shifts within
-        a tiling cell, then at the best angle with ``refine_offsets x refine_offsets`` shifts; the
-        try whose kept modules cover most of the region wins (ties: the first); the report's notes
-        name it, ``report.coverage`` is its coverage, ``layout.meta["fill_tilings"]`` lists every try.
-    """
-    from .modules import get_module
-
-    mod = get_module(module)
-    clean, notes = clean_mesh(mesh)
-    if region is not None:
-        region = np.asarray(region, dtype=bool)
-        if len(region) != len(mesh.faces):
-            raise InputError(f"region has {len(region)} entries, the mesh {len(mesh.faces)} faces", key="region")
-        creg = region[source_faces(clean, mesh)]
-    else:
-        creg = np.ones(len(clean.faces), bool)
-    lm = LogMap(clean, at, direction, radius=None if radius is None else radius + 2 * mod.radius,
-                max_faces=max_faces, resolution=mod.pitch / 2)
-    _, near = cKDTree(np.asarray(clean.triangles_center)).query(np.asarray(lm.mesh.triangles_center))
-    lreg = creg[near]
-    span = np.abs(lm.uv).max(axis=0)
-    lim = span if radius is None else np.minimum(span, radius)
-
-    uv_lo, uv_hi = lm.uv[lm.reachable].min(axis=0), lm.uv[lm.reachable].max(axis=0)
-
-    def inside(flat):
-        # only points within the map's extent (and the radius) can be inside: skip exp for the rest
-        ok = np.all((flat >= uv_lo) & (flat <= uv_hi), axis=1)
-        if radius is not None:
-            ok &= np.hypot(*flat.T) <= radius
-        idx = np.flatnonzero(ok)
-        if len(idx):
-            _, _, face, found = lm.exp(flat[idx])
-            ok[idx] = found & lreg[face]
-        return ok
-
-    F = np.asarray(lm.mesh.faces)
-    cent = lm.uv[F].mean(axis=1)
-    sel = lreg & lm.reachable[F].all(axis=1) & (True if radius is None else (np.hypot(*cent.T) <= radius))
-    area = lm.mesh.area_faces
-    cand_cent, cand_area = cent[sel], area[sel]
-    tot = float(cand_area.sum())
-
-    def evaluate(p):
-        """The modules of candidate tiling ``p`` kept after strain and overlap, and the coverage."""
-        pos, nrm, _, _ = lm.exp(p.flat)
-        strain = layout_strain(p.to_layout(pos, nrm), p.flat, p.module_edges)
-        ms = np.zeros(p.n_modules)
-        np.maximum.at(ms, p.module_ids[p.module_edges[:, 0]], np.abs(np.nan_to_num(strain, nan=1.0)))
-        keep = ms <= max_strain
-        # overlaps (past the cut locus the map folds back): keep the module nearer to 'at'
-        dist_src = np.hypot(*p.poses[:, 1:].T)
-        pairs = find_overlaps(pos, p.module_ids, OVERLAP_FRACTION * mod.pitch)
-        for a, b in sorted(pairs, key=lambda ab: min(dist_src[ab[0]], dist_src[ab[1]])):
-            if keep[a] and keep[b]:
-                keep[b if dist_src[b] >= dist_src[a] else a] = False
-        n_ex = 0
-        if existing is not None and len(existing):
-            clash = find_overlaps_between(existing, pos, p.module_ids, OVERLAP_FRACTION * mod.pitch)
-            hit = np.unique(np.asarray([c[1] for c in clash], np.int64))
-            n_ex = int(keep[hit].sum()) if len(hit) else 0
-            keep[hit] = False
-        return p.select_modules(keep), int((~keep).sum()), n_ex
-
-    def coverage(p):
-        return float(cand_area[points_in_outlines(cand_cent, p)].sum() / tot) if tot > 0 else 0.0
-
-    # the plane tiling is tried at several angles and shifts within a cell; the one keeping most
-    # whole modules after strain and overlap filtering wins (ties: the first, angle 0 unshifted):
-    # with whole, non-overlapping modules of one type that is the best coverage, and cheaper to
-    # rank by than the covered area (computed for the winner and the plain tiling only).
-    # One log map serves them all: each try is two vectorised exps. A coarse pass over the angles,
-    # then finer shifts at the best one (a strip in a narrow band needs its offset to ~1/4 cell).
-    best = None
-    tried = []
-    coarse = [(a, (fu / offsets, fv / offsets)) for a in angles for fu, fv in np.ndindex(offsets, offsets)]
-
-    def fine():
-        if best is None or refine_offsets <= offsets:
-            return []
-        return [(best[4], (fu / refine_offsets, fv / refine_offsets))
-                for fu, fv in np.ndindex(refine_offsets, refine_offsets)
-                if (fu / refine_offsets, fv / refine_offsets) not in
-                {(u / offsets, v / offsets) for u, v in np.ndindex(offsets, offsets)}]
-
-    for stage in (lambda: coarse, fine):
-        for ang, shift in stage():
-            cand = fill_patch(mod, inside, -lim, lim, angles=(ang,), offsets=1, shift=shift)
-            if not cand.n_modules:
-                tried.append((ang, shift, 0, None))
-                continue
-            kept, n_out, n_ex = evaluate(cand)
-            tried.append((ang, shift, kept.n_modules, kept))
-            if best is None or kept.n_modules > best[0].n_modules:
-                best = (kept, None, n_out, n_ex, ang, shift)
-    if best is None or not best[0].n_modules:
-        raise InputError("no whole module fits in the region" + (" (beside the modules already there)"
-                         if existing is not None and len(existing) else ""), key="region")
-    p, _, n_out, n_existing, ang, shift = best
-    cov = coverage(p)
-    first = tried[0]
-    first_cov = coverage(first[3]) if first[3] is not None and first[3].n_modules else 0.0
-    p.kind = "fill"
-    layout, report = place(clean, p, lm.at, direction, offset=offset, method="logmap", logmap=lm,
-                           existing=existing)
-    report.notes = notes + report.notes + [
-        f"fill: {len(tried)} tilings tried ({len(angles)} angles x {offsets * offsets} shifts, then finer "
-        f"shifts at the best angle); best at "
-        f"{np.degrees(ang):.0f} deg, shift ({shift[0]:.2f}, {shift[1]:.2f}) cells: {p.n_modules} modules, "
-        f"coverage {cov:.3f} (unrotated, unshifted: {first[2]} modules, coverage {first_cov:.3f}); {n_out} candidate "
-        f"modules of it left out (strain > {max_strain} or overlap; {n_existing} of them overlap modules "
-        "already on the skin)"]
-    report.coverage = cov
-    layout.meta["fill_tilings"] = [{"angle_deg": float(np.degrees(a)), "shift_cells": [float(x) for x in sh],
-                                    "modules": int(n)} for a, sh, n, _ in tried]
-    layout.meta["placement"] = report.as_dict()
-    return layout, report
-
+from .report import OVERLAP_FRACTION, PlacementReport
 
 CREASE_ANGLE = 40.0  #: degrees: no module covers an edge where the faces turn more than this (a design crease)
-
-
-class NoModuleFits(InputError):
-    """No whole module fits in the region: the message is one line (why, and what to do);
-    ``details`` is a list of lines, one per island (``vtcore layout place --details`` and the
-    add-on's report box show them)."""
-
-    def __init__(self, reason: str, details=(), *, key: str = "region"):
-        super().__init__(reason, key=key)
-        self.details = [str(d) for d in details]
-
-
-def island_groups(prepared, plabel, parts, clean, samples, mod, at, islands):
-    """The islands to fill and where each starts: ``(groups, skipped, widths)``.
-
-    plabel : (F,) the island of each face of ``prepared.mesh`` (-1 outside the region); parts :
-    the islands (face indices of ``clean``). An island smaller than the hull of a module's taxels,
-    or narrower than a module between the edges no module may straddle (:func:`free_width`), is
-    skipped (``skipped``: {island: why}). ``groups``: list of ``(islands, start (3,), own)``, the
-    group holding the island nearest ``at`` first, started from ``at`` (``own`` True), the others
-    from the most central point of their largest island; with ``islands="one"`` the islands
-    connected on the solve surface (within two pitches of each other) form one group.
-    ``widths``: (K,) metres, the free width of each island; ``fdist`` (V,) metres from each
-    vertex of ``prepared.mesh`` to the nearest edge no module may straddle (:func:`feature_distance`).
-    """
-    from scipy.spatial import ConvexHull
-
-    hull = ConvexHull(mod.taxels).volume  # 2-D: the area of the taxels' hull
-    F = np.asarray(prepared.mesh.faces)
-    pairs = samples[0]
-    fdist = feature_distance(prepared.path_graph(), pairs.ravel())
-    need = module_width(mod)
-    pitch_res = mod.pitch  # the solve mesh's vertices are at most a pitch apart: widths are that coarse
-    area = np.asarray(clean.area_faces)
-    widths, skipped = np.zeros(len(parts)), {}
-    for k, f in enumerate(parts):
-        widths[k] = free_width(F[plabel == k].ravel(), fdist)
-        a = float(area[f].sum())
-        if a < hull:
-            skipped[k] = f"{1e6 * a:.0f} mm^2, smaller than a module ({1e6 * hull:.0f} mm^2)"
-        elif widths[k] + pitch_res < need:
-            skipped[k] = f"{1e3 * widths[k]:.1f} mm across, narrower than a module ({1e3 * need:.1f} mm)"
-    live = [k for k in range(len(parts)) if k not in skipped]
-    if not live:  # nothing can fit: try the widest anyway, so that the error says what was found there
-        live = [int(np.argmax(widths))]
-        skipped.pop(live[0], None)
-    cen = np.asarray(clean.triangles_center)
-    nearest = min(live, key=lambda k: float(np.linalg.norm(cen[parts[k]] - at, axis=1).min()))
-    if islands == "one":
-        import trimesh
-
-        comp = np.full(len(prepared.mesh.vertices), -1, np.int64)
-        for c, vs in enumerate(trimesh.graph.connected_components(prepared.mesh.face_adjacency_edges,
-                                                                  nodes=np.arange(len(prepared.mesh.vertices)))):
-            comp[np.asarray(vs, np.int64)] = c
-        where = {k: int(comp[F[np.flatnonzero(plabel == k)[0], 0]]) for k in live}
-        buckets = {}
-        for k in live:
-            buckets.setdefault(where[k], []).append(k)
-        sets = sorted(buckets.values(), key=lambda ks: (nearest not in ks, ks[0]))
-    else:
-        sets = [[nearest]] + [[k] for k in live if k != nearest]
-    groups = []
-    for ks in sets:
-        if nearest in ks:
-            groups.append((ks, at, True))
-        else:
-            groups.append((ks, central_point(clean.submesh([parts[ks[0]]], append=True, repair=False)), False))
-    return groups, skipped, widths, fdist
-
-
-def next_seed(prepared, mask, fdist, placed, tried, mod, modules: int = 1):
-    """``(start (3,), room)`` where the next growth of an island starts and how much room (metres to
-    the nearest crease, border or placed taxel) there is, or None: the vertex of ``mask``'s faces
-    (of ``prepared.mesh``) farthest from the edges no module may straddle (``fdist`` (V,)), among
-    those with room for ``modules`` modules side by side (1: half a module's width from those edges,
-    half a width and half a pitch from every ``placed`` taxel (P, 3); 2: a whole width), a module's
-    width from every start ``tried``. A growth costs a log map and a tiling search over the island:
-    once an island has modules, a seed must have room for two (on a 1,000-module fill the rims'
-    gaps for one module each doubled the time for 9 more modules)."""
-    F = np.asarray(prepared.mesh.faces)
-    V = np.asarray(prepared.mesh.vertices)
-    verts = np.unique(F[mask])
-    if not len(verts):
-        return None
-    half = module_width(mod) / 2 * modules
-    score = np.minimum(fdist[verts], 1e3)
-    ok = score >= half - 0.5 * mod.pitch  # vertices are up to a pitch apart: the middle may lie between
-    if placed is not None and len(placed):
-        d = cKDTree(placed).query(V[verts], distance_upper_bound=4 * mod.radius)[0]
-        ok &= d >= half + 0.5 * mod.pitch
-        score = np.minimum(score, d)
-    if len(tried):
-        ok &= cKDTree(np.asarray(tried)).query(V[verts])[0] >= module_width(mod)
-    if not ok.any():
-        return None
-    i = np.flatnonzero(ok)
-    best = i[np.argmax(score[i])]
-    return V[verts[best]].copy(), float(score[best])
-
-
-def islands_note(parts, groups, reports, group_of, skipped) -> str:
-    """One note on how the islands of a region were filled (``group_of``: the group of each report)."""
-    got = {}
-    for g, (ks, _, _) in enumerate(groups):
-        n = sum(r.n_modules for r, h in zip(reports, group_of) if h == g)
-        for k in ks:
-            got[k] = n if len(ks) == 1 else None
-    shown = [f"#{k}: {len(f)} faces, " + (f"{got[k]} modules" if got.get(k) is not None else
-                                          "shares a lattice" if k in got else "left out")
-             for k, f in enumerate(parts[:12])]
-    more = f", and {len(parts) - 12} more" if len(parts) > 12 else ""
-    small = f"; {len(skipped)} left out as smaller than a module" if skipped else ""
-    shared = "; islands within two pitches of each other share one lattice" if any(len(g[0]) > 1 for g in groups) \
-        else "; each was filled from its own start"
-    return f"the region has {len(parts)} islands ({', '.join(shown)}{more}){small}{shared}"
-
-
-def no_module_fits(reports, parts, skipped, widths, mod, existing, crease_angle, max_strain) -> NoModuleFits:
-    """The one-line error when no module fits anywhere in the region, with a detail line per island."""
-    where = "the region" if len(parts) == 1 else f"the region ({len(parts)} islands)"
-    width = float(np.max(widths)) if len(widths) else float("inf")
-    detail = [r.why for r in reports if r.why] + [f"island #{k}: {why}" for k, why in sorted(skipped.items())][:20]
-    line = too_narrow_message(width, mod, f"the widest part of {where}")
-    if line is None:
-        beside = " beside the modules already on the skin" if existing is not None and len(existing) else ""
-        counts = {}
-        for r in reports:
-            for k, n in r.reasons.items():
-                counts[k] = counts.get(k, 0) + n
-        main = max(counts, key=counts.get) if any(counts.values()) else None
-        advice = {"off": "modules would run off the region or off an open edge of the mesh: select more faces "
-                       "round it",
-                  "rules": f"modules would cross an open edge, a region border or a crease sharper than "
-                           f"{crease_angle:g} deg: raise the crease angle (--crease-angle) if those creases are "
-                           "facets of a curved part, or select more faces",
-                  "strain": f"modules would stretch more than the strain limit {max_strain:g}: the part is too "
-                            "curved there for this module; try a smaller module or raise the limit (--max-strain)",
-                  "overlap": "modules would overlap each other", "existing": "remove or move modules already there",
-                  None: "give a larger region"}[main]
-        across = "no edge, crease or border bounds it" if not np.isfinite(width) else \
-            f"{1e3 * width:.1f} mm across at its widest"
-        line = (f"no whole {mod.name} module fits in {where}{beside} ({across}; a {mod.name} needs "
-                f"{1e3 * module_width(mod):.1f} mm): {advice}")
-    return NoModuleFits(line, detail)
-
-
 MAX_CANDIDATES = 2_000_000  #: lattice modules a fill may consider (each ~10 taxels): ~1 GB of work arrays
 SEAM_SHIFTS = ((0.5, 0.0), (0.0, 0.5), (0.5, 0.5), (0.25, 0.0), (0.75, 0.0), (0.25, 0.5), (0.75, 0.5))
 
@@ -352,7 +73,7 @@ def fill(mesh, at, direction=None, *, module: str = "cyskin10", region=None, rad
         stops the fill (``vtcore.errors.Cancelled``), nothing is returned.
 
     Returns ``(layout, report)``; the report carries ``charts`` and ``seam_modules``; its notes
-    say which tiling won and what was left out. Raises :class:`NoModuleFits` (an InputError: one
+    say which tiling won and what was left out. Raises :class:`.islands.NoModuleFits` (an InputError: one
     line saying why and what to do, then one line per island) when no module fits.
     """
     import time
@@ -649,6 +370,21 @@ def lattice_patch(mod, angle: float, shift, centre, rad: float, limit: float | N
     return p
 
 
+def centred_shift(mod, angle: float) -> tuple[float, float]:
+    """The lattice shift (fractions of a tiling cell) that puts the middle of the bounding box of the
+    taxels of the module nearest the lattice origin (in the lattice's turned frame) on the origin:
+    the module then lies centred on the start, across a strip in either axis."""
+    near = lattice_patch(mod, angle, (0.0, 0.0), np.zeros(2), 4 * mod.radius)
+    if not near.n_modules:
+        return 0.0, 0.0
+    i = int(np.argmin(np.linalg.norm(near.poses[:, 1:], axis=1)))
+    t = near.flat[near.module_ids == i]
+    mid = (t.min(axis=0) + t.max(axis=0)) / 2
+    c, s = np.cos(angle), np.sin(angle)
+    frac = np.linalg.solve(np.column_stack([mod.strip_period, mod.fill_row]), -np.array([[c, s], [-s, c]]) @ mid)
+    return float(frac[0]), float(frac[1])
+
+
 def _fill_island(prepared, preg, samples, start, direction, mod, radius, max_strain, avoid, angles,
                  offsets, refine_offsets, crease_angle, seam, progress, island=0, n_faces=0, seed=0,
                  room=None) -> IslandFill:
@@ -686,7 +422,12 @@ def _fill_island(prepared, preg, samples, start, direction, mod, radius, max_str
     r_try = min(R0, extent)
     if room is not None:  # a further seed: its tiling is chosen for the room it was started in
         r_try = min(r_try, room + 2 * mod.radius)
-    coarse = [(a, (fu / offsets, fv / offsets)) for a in angles for fu, fv in np.ndindex(offsets, offsets)]
+    # at each angle the grid of shifts and the shift that centres a module's taxels on the start
+    # (a designer's cursor or a seed in the middle of a strip: a 24 mm band along a plate took 2
+    # modules from the grid's best shift, 3 centred); a further seed (offsets 1) takes the centred one
+    coarse = [(a, sh) for a in angles for sh in
+              ([(fu / offsets, fv / offsets) for fu, fv in np.ndindex(offsets, offsets)] if offsets > 1 else [])
+              + [centred_shift(mod, a)]]
 
     def fine():
         done = {(u / offsets, v / offsets) for u, v in np.ndindex(offsets, offsets)}
@@ -741,15 +482,9 @@ def _fill_island(prepared, preg, samples, start, direction, mod, radius, max_str
                 best = (n, ang, sh)
     n_best, ang, sh = best
     if not n_best:
-        # no tiling keeps a module in the first chart: shift the lattice so that a module sits on
-        # the start, which the growth always tries (its reasons then say what is wrong there)
-        near = lattice_patch(mod, ang, (0.0, 0.0), np.zeros(2), 4 * mod.radius)
-        if near.n_modules:
-            p0 = near.poses[int(np.argmin(np.linalg.norm(near.poses[:, 1:], axis=1))), 1:]
-            c, s_ = np.cos(ang), np.sin(ang)
-            frac = np.linalg.solve(np.column_stack([mod.strip_period, mod.fill_row]),
-                                   -np.array([[c, s_], [-s_, c]]) @ p0)
-            sh = (float(frac[0]), float(frac[1]))
+        # no tiling keeps a module in the first chart: a module on the start, which the growth
+        # always tries (its reasons then say what is wrong there)
+        sh = centred_shift(mod, ang)
     latt = lattice_patch(mod, ang, sh, np.zeros(2), extent, radius)
     g = grow(prepared, lm0.at, direction, latt, check=check, max_strain=max_strain, first=lm0, avoid=avoid,
              progress=progress, faces=preg, min_gain=2)
@@ -774,7 +509,8 @@ def _fill_island(prepared, preg, samples, start, direction, mod, radius, max_str
         notes.append(f"{tag}{g.reasons['existing']} candidate modules left out: they would overlap modules "
                      "already on the skin")
     info = [f"{tag}fill: {len(tilings)} tilings tried in the first chart ({len(angles)} angles x "
-                 f"{offsets * offsets} shifts, then finer shifts at the best angle); best at "
+                 f"{offsets * offsets if offsets > 1 else 0} shifts and one centred on the start, then finer shifts "
+                 f"at the best angle); best at "
                  f"{np.degrees(ang):.0f} deg, shift ({sh[0]:.2f}, {sh[1]:.2f}) cells ({best[0]} modules there, "
                  f"the first try {tilings[0]['modules']}); grown through {len(g.charts)} chart(s): "
                  f"{len(kept)} modules, {n_seam} more closing the seam; left out: {g.reasons_text()}"]

@@ -121,7 +121,7 @@ def lay_on_link(robot: Robot, link: str, patch: str = "fill", at=None, direction
     InputError naming the link and what the placement report says.
     """
     from ..layout import fill, place
-    from ..layout.tiling import NoModuleFits
+    from ..layout.islands import NoModuleFits
     from .meshes import link_mesh
 
     if mesh is None:
