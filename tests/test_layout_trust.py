@@ -100,3 +100,42 @@ def test_a_narrow_part_says_what_fits_and_verbose_gives_the_detail(tmp_path):
     one_error_line(rc, err, "16.0 mm across", "cyskin10 module needs 19.5 mm", "icub10, needs 17.0 mm")
     rc, _, err = cli(*args, "--details")
     assert rc == 2 and "\n  island #0: " in err
+
+
+@pytest.mark.slow
+def test_a_selection_of_many_islands_and_a_hull_through_the_cli(tmp_path):
+    """The hard cases as a CLI user gives them: the CAD link exported in millimetres (slivers, fins,
+    duplicate faces) read with --scale 0.001 and a face-index file of 31 islands (one side and 40
+    stray faces, most far smaller than a module); a 200-triangle convex hull filled from 5 m away."""
+    import contextlib
+    import io
+
+    from vtcore.cli import main
+    from vtcore.layout.meshinput import load_mesh
+
+    def cli(*argv):  # no 30 s bound: these fills take longer on a loaded machine
+        out, err = io.StringIO(), io.StringIO()
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+            rc = main([str(a) for a in argv])
+        return rc, out.getvalue(), err.getvalue()
+    from vtcore.layout.regions import face_islands
+
+    src = tmp_path / "link_mm.obj"
+    cadmeshes.cad_link(mm=True).export(src)
+    seen = load_mesh(src, 0.001)  # the faces as the CLI reads them, which the file's indices name
+    side, region = cadmeshes.island_selection(seen)
+    assert len(face_islands(seen, region)) >= 15
+    (tmp_path / "sel.txt").write_text("# one side and strays\n" + "\n".join(map(str, np.flatnonzero(region))))
+    at = seen.triangles_center[side][0]
+    out = tmp_path / "sel.json"
+    rc, text, err = cli("layout", "place", src, "--scale", "0.001", "--patch", "fill", "--at", *at,
+                        "--faces", tmp_path / "sel.txt", "--out", out)
+    assert rc == 0, err
+    lay = load(out)
+    assert lay.n_modules >= 10 and "left out as smaller than a module" in err
+    hull = tmp_path / "hull.stl"
+    cadmeshes.convex_hull_link().export(hull)
+    rc, _, err = cli("layout", "place", hull, "--patch", "fill", "--at", "5", "0", "0", "--out", out)
+    one_error_line(rc, err, "fill refused: 'at' is ", "mm off the surface", "force")
+    rc, text, err = cli("layout", "place", hull, "--patch", "fill", "--at", "5", "0", "0", "--out", out, "--force")
+    assert rc == 0 and "kept with --force: 'at' is " in err and load(out).n_modules >= 30
