@@ -169,6 +169,19 @@ def test_info_flat_coordinate_far_out_is_one_error(icub_json, tmp_path, value):
     one_error(rc, err, f"{src}: taxels.flat")
 
 
+@pytest.mark.parametrize("value, reason", [(1e308, "positions: must be within +-1000 m, got 1e+308 m"),
+                                           ("1e308", "taxels.positions: must be numbers")])
+def test_info_position_far_out_is_one_error(icub_json, tmp_path, value, reason):
+    """A taxel position of 1e308 (a number or a string) in ``layout info`` and ``--json``: one error
+    naming the key once (it said "positions: positions must be ...")."""
+    doc = json.loads(json.dumps(icub_json))
+    doc["taxels"]["positions"][0][0] = value
+    src = _write(tmp_path, doc)
+    for extra in ([], ["--json"]):
+        rc, _, err = run("layout", "info", src, *extra)
+        one_error(rc, err, f"{src}: {reason}")
+
+
 @pytest.mark.parametrize("roles, reason", [
     ([[1]] + ["pressure"] * 23, "must be a string"),
     (["pressure"] * 23, "24"),

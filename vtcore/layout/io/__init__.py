@@ -107,9 +107,9 @@ def load(path, format: str | None = None, *, units: str | None = None) -> Layout
     for key in ("positions", "normals", "transform", "flat"):
         a = getattr(layout, key)
         if a is not None and not np.isfinite(np.asarray(a, dtype=np.float64)).all():
-            raise FormatError(f"{key} hold non-finite values", file=path, key=key)
+            raise FormatError("holds non-finite values", file=path, key=key)
     if len(layout) and np.abs(layout.positions).max() > MAX_COORDINATE_M:
-        raise FormatError(f"positions must be within +-{MAX_COORDINATE_M:g} m, got "
+        raise FormatError(f"must be within +-{MAX_COORDINATE_M:g} m, got "
                           f"{np.abs(layout.positions).max():g} m (wrong units?)", file=path, key="positions")
     check_layout(layout, path)  # a frame, roles and transform every writer can write, whatever the format
     return layout
