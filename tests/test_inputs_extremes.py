@@ -156,6 +156,31 @@ def test_json_meta_icub_fields_are_checked_by_the_reader(icub_json, tmp_path, ed
     assert not out.exists()
 
 
+@pytest.mark.parametrize("value", [2 ** 63 - 1, -(2 ** 63)])
+def test_taxel2repr_at_the_ends_of_int64_round_trips(icub_json, tmp_path, value):
+    """Found by the --fuzz-long export driver: ``meta.taxel2Repr`` of 2**63-1 (accepted: int64) was
+    written, then the iCub reader parsed it through a float (2**63: OverflowError). A writer's
+    output reads back with the same values."""
+    from vtcore.layout import load
+
+    doc = json.loads(json.dumps(icub_json))
+    doc["meta"]["taxel2Repr"][0] = value
+    (rc, _, err), out = _export(_write(tmp_path, doc), tmp_path, "icub")
+    assert rc == 0, err
+    assert load(out, "icub").meta["taxel2Repr"] == doc["meta"]["taxel2Repr"]
+
+
+def test_icub_taxel2repr_past_int64_is_ignored_with_a_warning(tmp_path):
+    from vtcore.layout import LayoutWarning, load
+
+    src = tmp_path / "a.txt"
+    src.write_text("name a\nspatial_sampling taxel\ntaxel2Repr ( 0 99999999999999999999 )\n\n[calibration]\n"
+                   "0 0 0 0 0 1\n0.005 0 0 0 0 1\n")
+    with pytest.warns(LayoutWarning, match="not 64-bit integers"):
+        lay = load(src)
+    assert lay.meta["taxel2Repr"] == [0] and len(lay) == 2
+
+
 # ----------------------------------------------------------------------------- layout info
 @pytest.mark.parametrize("value", [1e308, "1e308", 5e3])
 def test_info_flat_coordinate_far_out_is_one_error(icub_json, tmp_path, value):

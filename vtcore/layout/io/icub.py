@@ -33,6 +33,7 @@ SUFFIXES = (".txt", ".ini", "")
 MAX_ROWS = 1 << 16
 
 
+_I64 = np.iinfo(np.int64)
 _T2R = re.compile(r"taxel2Repr\s*\((.*?)\)", re.S)
 
 
@@ -48,9 +49,11 @@ def read(path, units: str | None = None) -> Layout:
     m = _T2R.search(text)
     if m:
         toks = m.group(1).split()
-        t2r = np.array([int(float(tok)) for tok in toks if re.fullmatch(r"[-+]?\d+(\.0*)?", tok)], dtype=np.int64)
+        # read exactly: int(float(tok)) rounded 2**63 - 1 up past int64 (OverflowError on what the writer wrote)
+        ints = [int(tok.partition(".")[0]) for tok in toks if re.fullmatch(r"[-+]?\d+(\.0*)?", tok)]
+        t2r = np.array([v for v in ints if _I64.min <= v <= _I64.max], dtype=np.int64)
         if len(t2r) != len(toks):
-            report.warn("taxel2Repr has entries that are not integers; ignored them")
+            report.warn("taxel2Repr has entries that are not 64-bit integers; ignored them")
     rows, row_lines, row_text, header_lines = [], [], [], []
     in_cal = False
     names = []
