@@ -72,6 +72,17 @@ def test_reach_clutter_with_a_layer_of_1e308_is_one_error(tmp_path):
     one_error(rc, err, "reach_clutter.toml: layer.thickness")
 
 
+@pytest.mark.parametrize("thickness", ["1e308", "1e9"])
+def test_validate_with_a_layer_of_1e308_is_one_error(tmp_path, thickness):
+    """Found by the issue-28 Done-when check on the scenes written after the issue: the validate scene
+    (real CySkin recordings, finger pad conforming to the curved patch) with ``layer.thickness=1e308``
+    ended in OverflowError (round of infinity) in calibrate/simulate.py, a traceback to the user."""
+    rc, _, err = run("run", SCENES / "validate_cyskin_gesture.toml", "--set", f"layer.thickness={thickness}",
+                     "--out", tmp_path / "o")
+    one_error(rc, err, "validate_cyskin_gesture.toml: layer.thickness: ", "beyond any skin")
+    assert not (tmp_path / "o").exists()
+
+
 def test_press_on_a_patch_a_kilometre_across_is_finite_or_one_error():
     """The surface fit of the press solver at the far end of the coordinates a layout may have
     (1 km): a clear error naming the key, never LinAlgError or NaN."""

@@ -23,7 +23,7 @@ import numpy as np
 
 from ..contact import ContactGrid, SoftLayer, press
 from ..contact.objects import make_object, surface_pose
-from ..errors import UnreachableTargetError
+from ..errors import InputError, UnreachableTargetError
 from .footprint import contact_geometry
 from .pose import local_surface
 
@@ -108,7 +108,11 @@ class MatchedPress:
         bend = 0.0
         if self.conform and curvature > 1.0:               # radius below 1 m: conform; flatter: straight
             r_skin = 1.0 / curvature
-            bend = round((r_skin + self.layer.thickness + dims.get("radius", 0.008)) / 0.005) * 0.005
+            radius = r_skin + self.layer.thickness + dims.get("radius", 0.008)
+            if not radius < 1e6:  # layer.thickness 1e308: round(inf) was an OverflowError (contact.press's bound)
+                raise InputError(f"a layer {self.layer.thickness:g} m thick bends the finger pad round a radius of "
+                                 f"{radius:.3g} m, beyond any skin", key="thickness")
+            bend = round(radius / 0.005) * 0.005
         key = (kind, tuple(sorted(dims.items())), bend)
         if key not in self._meshes:
             extra = {"bend_radius": bend} if kind == "fingerpad" else {}
