@@ -245,6 +245,14 @@ def test_a_sampling_clock_that_never_ticks_is_one_error(tiny, tmp_path):
     one_error(rc, err, f"{tiny}: effects.sampling.phase: 1000 s is past the last frame")
 
 
+@pytest.mark.parametrize("thickness", ["5e-324", "1e-320", "1e-7"])
+def test_a_layer_thinner_than_a_micrometre_is_one_error(tiny, tmp_path, thickness):
+    """Found by --fuzz-long (scene extremes): ``layer.thickness=5e-324`` ran to the end with NaN in
+    ``arrays.npz`` frames. No elastomer layer is thinner than 1 um: the schema's floor."""
+    rc, _, err = run("run", tiny, "--set", f"layer.thickness={thickness}", "--out", tmp_path / "o")
+    one_error(rc, err, f"{tiny}: layer.thickness: must be >= 1e-06 m")
+
+
 def test_a_target_the_physics_cannot_reach_names_the_scene(tiny, tmp_path):
     """An UnreachableTargetError raised inside the run names the scene file (and 'task')."""
     rc, _, err = run("run", tiny, "--set", "task.force=1e4", "--out", tmp_path / "o")

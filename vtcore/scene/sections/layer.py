@@ -21,7 +21,8 @@ LAYER = Section({
     "profile": Field("str", default=None,
                      doc="sensor profile whose fitted layer ([response]: thickness, material, modulus, base) "
                          "this layer is, unless a key below says otherwise (\"cyskin\" or a .toml file)"),
-    "thickness": Field("float", default=None, gt=0, unit="m", doc="soft layer thickness (default 3 mm)"),
+    # at least 1 um (no elastomer layer is thinner): 5e-324 m gave NaN in the frames (found by --fuzz-long)
+    "thickness": Field("float", default=None, ge=1e-6, unit="m", doc="soft layer thickness (default 3 mm, at least 1 um)"),
     "material": Field("str", default=None, choices=tuple(MATERIALS), doc="layer material (default Ecoflex 00-20)"),
     "young_modulus": Field("float", default=None, ge=1.0, le=1e12, unit="Pa",
                            doc="overrides the material's E (1 Pa..1 TPa; silicones 1e4-1e6, steel 2e11)"),
