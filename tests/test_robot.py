@@ -315,6 +315,50 @@ def test_ball_on_the_ur10_forearm_where_mujoco_touches_its_hull_reads_mg(robots,
     assert np.flatnonzero(touch).tolist() == [under]
 
 
+@pytest.mark.slow
+def test_the_real_icub_with_forearm_skin_frames_takes_a_second_skin_in_urdf_and_mjcf(tmp_path):
+    """The issue's case on the real iCub (example-robot-data, COLLADA meshes through package://) given
+    the 24 ``l_forearm_skin_<n>`` frames its skin models have: a hexagon on ``l_forearm`` exports with
+    the default prefix beside them, a clashing prefix names the clash and --prefix and writes nothing,
+    and the MJCF export (MuJoCo's URDF import) is not refused for iCub's own inertias (14 links with
+    mass and a zero or ~1e-20 kg m^2 inertia: "inertia must have positive eigenvalues"), the links
+    named in a warning; both load in their consumer with every taxel on the forearm."""
+    import mujoco
+    import yourdfpy
+
+    erd = example_robot_data()
+    pk = {"example-robot-data": erd.parent}
+    text = (erd / "icub_description" / "robots" / "icub.urdf").read_text()
+    frames = "".join(f'<link name="l_forearm_skin_{n}"/><joint name="l_forearm_skin_{n}_fixed_joint" type="fixed">'
+                     f'<origin xyz="0 {0.002 * n} 0.05"/><parent link="l_forearm"/><child link="l_forearm_skin_{n}"/>'
+                     "</joint>" for n in range(24))
+    (tmp_path / "icub.urdf").write_text(text.replace("</robot>", frames + "</robot>"))
+    robot = load_robot(tmp_path / "icub.urdf", pk)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        lay, _ = lay_on_link(robot, "l_forearm", "hexagon")
+    with pytest.raises(InputError, match=r"l_forearm_skin_\d+.*--prefix"):
+        export_skinned(tmp_path / "icub.urdf", [lay], tmp_path / "clash.urdf", prefixes=["l_forearm_skin_"])
+    assert not (tmp_path / "clash.urdf").exists()
+    export_skinned(tmp_path / "icub.urdf", [lay], tmp_path / "skinned.urdf", packages=pk)
+    u = yourdfpy.URDF.load(str(tmp_path / "skinned.urdf"), load_meshes=False)
+    assert sum(n.startswith("l_forearm_skin_") for n in u.link_map) == 24
+    assert sorted(n for n in u.link_map if "_vtskin_" in n) == sorted(f"l_forearm_vtskin_{i}" for i in lay.taxel_ids)
+    configs = configurations(robot, n=2)
+    # iCub's forearm is a coarse COLLADA mesh: a taxel's z (the normal smoothed across facets meeting
+    # at < 30 degrees, docs/layout.md "Accuracy on coarse meshes") is 10.5 degrees off the nearest
+    # facet's normal but within 0.7 degrees of a normal under its 4 mm disc: the latter is judged
+    st = check_urdf(tmp_path / "skinned.urdf", configs, packages=pk)["l_forearm"]
+    assert st["taxels"] == len(lay) and st["max_mm"] < MAX_MM and st["footprint_deg"] < MAX_DEG, st
+    with pytest.warns(UserWarning, match=r"links have mass but an inertia that is not positive definite.*l_ankle_2"):
+        export_skinned(tmp_path / "icub.urdf", [lay], tmp_path / "skinned.xml", packages=pk)
+    m = mujoco.MjModel.from_xml_path(str(tmp_path / "skinned.xml"))
+    assert m.nsensor == len(lay) and m.body("l_forearm_skin_23").id > 0
+    assert m.body_inertia[m.body_mass > 0].min() > 0 and m.body_mass[m.body("l_ankle_2").id] == pytest.approx(0.2675)
+    st = check_mjcf(tmp_path / "skinned.xml", {"l_forearm": link_mesh(robot, "l_forearm")}, configs)["l_forearm"]
+    assert st["taxels"] == len(lay) and st["max_mm"] < MAX_MM and st["footprint_deg"] < MAX_DEG, st
+
+
 def test_mjcf_robot_with_a_body_in_an_include(tmp_path):
     """An MJCF robot whose arm is defined in an <include>d file, meshes under meshdir: read through
     MuJoCo's compiler, skinned, and exported with the include written inline."""

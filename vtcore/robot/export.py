@@ -34,6 +34,9 @@ from .model import Robot
 from .reach import contact_reach
 
 FORMATS = ("urdf", "mjcf")
+#: kg m^2: MuJoCo's compiler refuses an inertia with an eigenvalue under this (mjMINVAL; iCub's
+#: ``r_ankle_1``: 0.75 kg, eigenvalues ~1e-20); such a link with mass gets a box's inertia in the MJCF
+INERTIA_MIN = 1e-15
 
 
 def robot_format(path) -> str:
@@ -117,6 +120,7 @@ def urdf_as_mjcf(robot_path, out, packages: dict | None = None) -> ET.ElementTre
                     trimesh.load(src, force="mesh", process=False).export(dst)
                 copies[src] = dst
             mesh.set("filename", str(copies[src].resolve()))
+    repair_inertias(root, robot_path, packages)
     ext = ET.SubElement(root, "mujoco")
     ET.SubElement(ext, "compiler", fusestatic="false", discardvisual="true", balanceinertia="true")
     with tempfile.TemporaryDirectory() as tmp:
@@ -126,16 +130,80 @@ def urdf_as_mjcf(robot_path, out, packages: dict | None = None) -> ET.ElementTre
             spec = mujoco.MjSpec.from_file(str(p))
         except ValueError as exc:
             raise FormatError(f"MuJoCo cannot import it: {str(exc).strip().splitlines()[0]}", file=robot_path) from None
-        xml = spec.to_xml()  # compiles: the copied meshes are referenced by absolute paths until here
+        try:
+            xml = spec.to_xml()  # compiles: the copied meshes are referenced by absolute paths until here
+        except ValueError as exc:
+            raise FormatError(f"MuJoCo cannot compile it: {' '.join(str(exc).split())}", file=robot_path) from None
     root = ET.fromstring(xml)
     compiler = root.find("compiler")
-    if compiler is not None:
-        for key in ("meshdir", "assetdir"):
-            compiler.attrib.pop(key, None)
+    if compiler is None:
+        compiler = ET.Element("compiler")
+        root.insert(0, compiler)
+    for key in ("meshdir", "assetdir"):
+        compiler.attrib.pop(key, None)
+    # the import balanced inertias that break A + B >= C (TIAGo's arm_1_link) but writes the model's
+    # own numbers back, which MuJoCo then refuses on loading: the written model balances them too
+    compiler.set("balanceinertia", "true")
     for mesh in root.iter("mesh"):  # relative to the output's folder, where the model is written
         if mesh.get("file"):
             mesh.set("file", os.path.relpath(mesh.get("file"), out.parent))
     return ET.ElementTree(root)
+
+
+def repair_inertias(root: ET.Element, robot_path, packages: dict | None = None) -> list[str]:
+    """Give each URDF link of ``root`` that has mass but an inertia that is not positive definite
+    (an eigenvalue under :data:`INERTIA_MIN`; iCub's ``l_ankle_2``: 0.27 kg, all six entries 0) the inertia of a
+    solid box of that mass spanning its collision geometry (its visual geometry, else a 2 cm cube),
+    about the inertial frame's axes: MuJoCo's compiler refused such a body ("inertia must have
+    positive eigenvalues"), so the robot could not be exported as MJCF at all. ``balanceinertia``
+    only repairs inertias that break the triangle inequality. Warns naming the links; returns them."""
+    import warnings
+
+    from .meshes import link_mesh
+    from .urdf import origin_of
+
+    fixed = []
+    robot = None
+    for link in root.findall("link"):
+        inertia, mass = link.find("inertial/inertia"), link.find("inertial/mass")
+        if inertia is None or mass is None:
+            continue
+        try:
+            m = float(mass.get("value", "0"))
+            i = np.array([[float(inertia.get(k, "0")) for k in row] for row in
+                          (("ixx", "ixy", "ixz"), ("ixy", "iyy", "iyz"), ("ixz", "iyz", "izz"))])
+        except ValueError:
+            continue  # MuJoCo's own import names the bad number
+        # MuJoCo refuses such an inertia with products of inertia (fullinertia: iCub's l_ankle_2) and
+        # on a moving body (iCub's r_hip_1: "mass and inertia of moving bodies must be larger than
+        # mjMINVAL"); on a fixed leaf (Talos's 0.1 kg force-torque links, all zeros) it takes a point
+        # mass, which no part of a robot is: one rule for all. Every other inertia is the maker's.
+        if not (m > 0 and np.all(np.isfinite(i))) or np.linalg.eigvalsh(i).min() >= INERTIA_MIN:
+            continue
+        if robot is None:
+            robot = load_robot(robot_path, packages)
+        inertial = link.find("inertial")
+        frame, ln = origin_of(inertial, robot_path), robot.links[link.get("name")]
+        geometry = "collision" if ln.geometry("collision") else ("visual" if ln.geometry("visual") else None)
+        if geometry is None:
+            size = np.full(3, 0.02)
+        else:
+            v = link_mesh(robot, link.get("name"), geometry).vertices
+            v = (v - frame[:3, 3]) @ frame[:3, :3]  # in the inertial frame
+            size = np.maximum(v.max(0) - v.min(0), 1e-3)
+        sq = size ** 2
+        box = m / 12 * np.array([sq[1] + sq[2], sq[0] + sq[2], sq[0] + sq[1]])
+        for k, key in enumerate(("ixx", "iyy", "izz")):
+            inertia.set(key, f"{box[k]:.6g}")
+        for key in ("ixy", "ixz", "iyz"):
+            inertia.set(key, "0")
+        fixed.append(link.get("name"))
+    if fixed:
+        warnings.warn(f"{robot_path}: {len(fixed)} links have mass but an inertia that is not positive definite, "
+                      f"which MuJoCo refuses or takes as a point mass ({', '.join(fixed[:6])}"
+                      f"{', ...' if len(fixed) > 6 else ''}): the MJCF gives each the inertia of a solid box of "
+                      "its mass spanning its geometry", stacklevel=3)
+    return fixed
 
 
 def export_skinned(robot_path, layouts, out, *, format: str | None = None, prefixes=None,

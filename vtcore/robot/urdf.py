@@ -45,7 +45,8 @@ def _numbers(el, attr: str, n: int, path, default=None) -> tuple:
     return vals
 
 
-def _origin(parent, path) -> np.ndarray:
+def origin_of(parent, path) -> np.ndarray:
+    """4x4 pose given by the ``<origin>`` child of the URDF element ``parent`` (identity without one)."""
     o = parent.find("origin")
     if o is None:
         return np.eye(4)
@@ -78,7 +79,7 @@ def _geometry(el, kind: str, path: Path, packages) -> Geometry | None:
     if g is None or len(g) == 0:
         return None
     shape = g[0]
-    origin = _origin(el, path)
+    origin = origin_of(el, path)
     name = el.get("name")
     if shape.tag == "mesh":
         filename = shape.get("filename")
@@ -150,7 +151,7 @@ def read(path, packages: dict | None = None) -> Robot:
         mim = el.find("mimic")
         mimic = None if mim is None or not mim.get("joint") else (
             mim.get("joint"), _numbers(mim, "multiplier", 1, path, (1.0,))[0], _numbers(mim, "offset", 1, path, (0.0,))[0])
-        joints.append(Joint(el.get("name") or f"joint_{len(joints)}", jt, *names, _origin(el, path),
+        joints.append(Joint(el.get("name") or f"joint_{len(joints)}", jt, *names, origin_of(el, path),
                             axis / (norm or 1.0), lower, upper, mimic=mimic))
     children = {j.child for j in joints}
     roots = [n for n in links if n not in children]
