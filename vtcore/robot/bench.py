@@ -113,8 +113,9 @@ def picture(robot, layouts, geometry, path, q=None) -> None:
     plt.close(fig)
 
 
-def run(out: Path, quick: bool = False) -> list[dict]:
-    """Run the robot benchmark into ``out``."""
+def run(out: Path, quick: bool = False, geometries=None) -> list[dict]:
+    """Run the robot benchmark into ``out``; ``geometries``: which of the links' "collision" and
+    "visual" meshes to skin (default: both; the quick run: collision)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -125,7 +126,7 @@ def run(out: Path, quick: bool = False) -> list[dict]:
     robot = _robot()
     rows: list = []
     t0 = time.perf_counter()
-    kinds = ("collision",) if quick else ("collision", "visual")
+    kinds = tuple(geometries) if geometries else (("collision",) if quick else ("collision", "visual"))
     skins = {}
     for geometry in kinds:
         links = [n for n, ln in robot.links.items() if ln.geometry(geometry)]
