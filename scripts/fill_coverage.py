@@ -29,7 +29,31 @@ NAMES = {"cad_link_side": "CAD-like link, side (cadmeshes.cad_link)",
          "cad_hull": "200-triangle convex hull (cadmeshes.convex_hull_link)",
          "panda_link7_hull": "Panda link 7, collision hull (200 triangles)",
          "panda_hand_hull": "Panda hand, collision hull",
-         "ur10_wrist3_hull": "UR10 wrist 3, collision hull"}
+         "ur10_wrist3_hull": "UR10 wrist 3, collision hull",
+         "panda_link7_visual": "Panda link 7, visual mesh (COLLADA)",
+         "ur10_shoulder_visual": "UR10 shoulder, visual mesh (COLLADA)"}
+#: visual meshes: filled before and after, no hand-placed reference (each of its tries is a place()
+#: on a 10-15k-face mesh: hours on the shared machine)
+VISUAL = {"panda_link7_visual": "panda_description/meshes/visual/link7.dae",
+          "ur10_shoulder_visual": "ur_description/meshes/ur10/visual/shoulder.dae"}
+
+
+def all_meshes():
+    """name -> (mesh, region or None): hand_reference's meshes and the visual meshes above."""
+    import sysconfig
+
+    from hand_reference import meshes
+
+    from vtcore.layout.meshinput import load_mesh
+
+    out = meshes()
+    robots = Path(sysconfig.get_paths()["purelib"]) / "cmeel.prefix/share/example-robot-data/robots"
+    for name, rel in VISUAL.items():
+        if (robots / rel).is_file():
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                out[name] = (load_mesh(robots / rel), None)
+    return out
 
 
 def start(name, mesh):
@@ -38,13 +62,13 @@ def start(name, mesh):
     return np.array([0.0, 0.0, float(mesh.bounds[1, 2])]), None
 
 
-def run(out: Path):
-    from hand_reference import meshes
-
+def run(out: Path, only=None):
     from vtcore.layout import fill
 
-    res = {}
-    for name, (mesh, region) in meshes().items():
+    res = json.loads(out.read_text()) if out.is_file() else {}
+    for name, (mesh, region) in all_meshes().items():
+        if only and name not in only:
+            continue
         at, d = start(name, mesh)
         t0 = time.perf_counter()
         with warnings.catch_warnings():
@@ -53,19 +77,17 @@ def run(out: Path):
                 lay, rep = fill(mesh, at, d, region=region)
                 res[name] = {"modules": int(lay.n_modules), "coverage": float(rep.coverage),
                              "strain_max": float(rep.strain_max), "charts": int(rep.charts),
-                             "seconds": time.perf_counter() - t0, "positions": lay.positions.tolist(),
+                             "seconds": time.perf_counter() - t0, "positions": np.round(lay.positions, 5).tolist(),
                              "module_ids": lay.module_ids.tolist()}
             except ValueError as exc:
                 res[name] = {"modules": 0, "coverage": 0.0, "error": str(exc)[:200],
                              "seconds": time.perf_counter() - t0}
         print(name, {k: v for k, v in res[name].items() if k not in ("positions", "module_ids")}, flush=True)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(res))
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_text(json.dumps(res))
 
 
 def table(before: Path, after: Path, hand: Path, png: Path):
-    from hand_reference import meshes
-
     from vtcore.plots import pyplot
 
     b, a, h = (json.loads(p.read_text()) for p in (before, after, hand))
@@ -80,7 +102,7 @@ def table(before: Path, after: Path, hand: Path, png: Path):
                     f"{a[name]['seconds']:.1f} |")
     print("\n".join(rows))
     plt = pyplot()
-    ms = meshes()
+    ms = all_meshes()
     names = [n for n in NAMES if n in a and n in ms]
     fig = plt.figure(figsize=(10, 3.2 * len(names)))
     for i, name in enumerate(names):
@@ -116,13 +138,14 @@ def main(argv=None):
     sub = ap.add_subparsers(dest="cmd", required=True)
     r = sub.add_parser("run")
     r.add_argument("--out", type=Path, required=True)
+    r.add_argument("--only", nargs="+", help="these meshes only (merged into --out)")
     t = sub.add_parser("table")
     for k in ("before", "after", "hand"):
         t.add_argument(f"--{k}", type=Path, required=True)
     t.add_argument("--png", type=Path, default=ROOT / "docs" / "img" / "layout_fill_real.png")
     args = ap.parse_args(argv)
     if args.cmd == "run":
-        run(args.out)
+        run(args.out, args.only)
     else:
         table(args.before, args.after, args.hand, args.png)
 
