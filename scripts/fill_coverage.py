@@ -127,7 +127,8 @@ def table(before: Path, after: Path, hand: Path, png: Path):
             ax.view_init(elev=28, azim=-55)
             ax.set_axis_off()
             cov = f", {100 * r['coverage']:.0f} %" if r and "coverage" in r else ""
-            ax.set_title(f"{NAMES[name].split(',')[0]}\n{title}: {n} modules{cov}", fontsize=8)
+            what = "not run" if r is None else f"{n} modules{cov}"  # no result is not 0 modules
+            ax.set_title(f"{NAMES[name].split(',')[0]}\n{title}: {what}", fontsize=8)
     fig.tight_layout()
     fig.savefig(png, dpi=90)
     plt.close(fig)
