@@ -12,7 +12,7 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 sys.path.insert(0, str(Path(__file__).parent / "blender"))
-from bl_helpers import addon_fixtures, build_scene, scene_state  # noqa: E402
+from bl_helpers import addon_fixtures, attr, build_scene, scene_state  # noqa: E402
 
 pytestmark = [pytest.mark.blender, pytest.mark.filterwarnings("ignore::UserWarning")]
 
@@ -22,12 +22,6 @@ addon, factory = addon_fixtures()
 
 def M(ob):
     return np.array([tuple(r) for r in ob.matrix_world])
-
-
-def attr(ob, name):
-    from addon import bridge
-
-    return bridge.get_attribute(ob.data, name)
 
 
 def skin_frame_input(ee, skin_ob):

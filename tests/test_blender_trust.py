@@ -14,17 +14,11 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 sys.path.insert(0, str(Path(__file__).parent / "blender"))
-from bl_helpers import addon_fixtures, build_scene, scene_state  # noqa: E402
+from bl_helpers import addon_fixtures, attr, build_scene, scene_state  # noqa: E402
 
 pytestmark = [pytest.mark.blender, pytest.mark.filterwarnings("ignore::UserWarning")]
 
 addon, factory = addon_fixtures()
-
-
-def attr(ob, name):
-    from addon import bridge
-
-    return bridge.get_attribute(ob.data, name)
 
 
 def skin_ob():

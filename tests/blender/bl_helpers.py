@@ -129,6 +129,13 @@ def build_scene(indenter_radius=0.015, gap=0.002):
     return ee, ind, world_centre
 
 
+def attr(ob, name):
+    """The point attribute ``name`` of taxel object ``ob``'s mesh, as numpy (the add-on's bridge)."""
+    from addon import bridge
+
+    return bridge.get_attribute(ob.data, name)
+
+
 def display_colours(ob):
     """(n, 4) display colours of the evaluated disc instances of taxel object ``ob`` (the
     ``vtskin_display`` instance attribute the disc material reads), or None without one."""
