@@ -9,7 +9,6 @@ import signal
 import tempfile
 import threading
 import zipfile
-from pathlib import Path
 
 import numpy as np
 

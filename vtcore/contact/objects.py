@@ -9,9 +9,14 @@ descends onto the object).
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from ..errors import InputError
+
+if TYPE_CHECKING:  # for annotations only: trimesh is imported where a mesh is built
+    import trimesh
 
 #: kind -> default dimensions (metres). Seed 001 objects: cube 30 mm, cuboid 30 x 80 mm,
 #: sphere r 30 mm, half-cylinder r 30 mm x 80 mm. Seed 002: a ruler and a mug rim.

@@ -25,12 +25,17 @@ press onto the skin.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from ..tolerances import LENGTH_TOL
 from .model import Layout
 from .patches import fill_patch, make_patch
 from .modules import get_module
+
+if TYPE_CHECKING:  # for annotations only: trimesh is imported where a mesh is built
+    import trimesh
 
 
 def _closed_extrusion(top: np.ndarray, bottom: np.ndarray, width: float):

@@ -11,7 +11,6 @@ line declare the unit.
 from __future__ import annotations
 
 import re
-from pathlib import Path
 
 import numpy as np
 

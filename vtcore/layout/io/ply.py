@@ -14,7 +14,6 @@ Our reader takes either. Numbers are written as the shortest decimal that reads 
 
 from __future__ import annotations
 
-from pathlib import Path
 
 import numpy as np
 

@@ -20,6 +20,8 @@ the sphere, unrolling on the cylinder); elsewhere the mesh log map is used.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from ...errors import InputError
@@ -29,6 +31,9 @@ from ...layout.modules import MODULES, PITCH
 from ..budget import MAX_STRIP_MODULES
 from ..registry import register_section
 from ..schema import Field, Section
+
+if TYPE_CHECKING:  # for annotations only: trimesh is imported where a mesh is built
+    import trimesh
 
 SHAPES = ("sphere", "plane", "cylinder", "disc", "mesh", "seed001_disc", "seed002_planar", "seed002_curved")
 SEEDS = ("seed001_disc", "seed002_planar", "seed002_curved")
