@@ -80,7 +80,7 @@ def test_unknown_grid_key_exits_2_naming_it_and_starts_nothing(tmp_path, capsys,
 @pytest.mark.parametrize("grid, key, reason", [
     ("layer.thickness=0.003,abc", "layer.thickness", "must be a number"),
     ("task.readings=10,2.5", "task.readings", "must be an integer"),
-    ("layer.thickness=0.003,-0.001", "layer.thickness", "must be > 0"),
+    ("layer.thickness=0.003,-0.001", "layer.thickness", "must be >= 1e-06 m"),
     ("output.plots=true,3", "output.plots", "must be true or false"),
 ])
 def test_a_wrong_value_is_the_scenes_own_error(tmp_path, capsys, monkeypatch, grid, key, reason):
