@@ -319,3 +319,24 @@ def test_snap_ignores_an_unreferenced_vertex_nearer_than_every_face():
     v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0.2, 0.2, 5.0]], float)  # vertex 3 is in no face
     cp, face, dist, _ = snap(trimesh.Trimesh(v, [[0, 1, 2]], process=False), (0.2, 0.2, 4.0))
     assert face[0] == 0 and np.allclose(cp[0], [0.2, 0.2, 0.0]) and np.isclose(dist[0], 4.0)
+
+
+@pytest.mark.parametrize("lines", [["name \x01left_forearm"], ["name left_forearm", "name \x01frame"]])
+def test_icub_name_with_a_control_character_imports_without_it(tmp_path, lines):
+    """The iCub fuzz (CI, py313) imported a positions file whose 'name' line held \\x01 into a layout
+    JSON its own reader then refused (meta.name: control character): the writer was fed what a
+    reader accepts. Now the import warns, the layout keeps no such name or frame, and the JSON and an
+    iCub file written from it read back."""
+    from vtcore.layout import load
+
+    text = (LAYOUTS / "icub_two_triangles.txt").read_text()
+    body = "\n".join(ln for ln in text.splitlines() if not ln.startswith("name"))
+    src, out, back = tmp_path / "in.txt", tmp_path / "out.json", tmp_path / "back.txt"
+    src.write_text("\n".join(lines) + "\n" + body + "\n")
+    rc, _, err = run("layout", "import", src, "--format", "icub", "--out", out)
+    assert rc == 0 and "vtcore: warning:" in err and "control character" in err, err
+    lay = load(out)
+    assert "\x01" not in str(lay.meta.get("name", "")) and "\x01" not in lay.frame
+    assert np.isfinite(lay.positions).all()
+    assert run("layout", "export", out, "--format", "icub", "--out", back)[0] == 0
+    assert "\x01" not in back.read_text() and len(load(back)) == len(lay)

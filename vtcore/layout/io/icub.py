@@ -22,6 +22,7 @@ from ..._io import atomic_write
 from ...errors import FormatError, InputError
 from ...inputs import decode, read_bytes
 from ..model import Layout
+from .checks import text_problem
 from .common import (ImportReport, check_repeats, clean_normals, finish, number, parse_number, row_digests,
                      unchanged_rows, units_scale)
 
@@ -95,12 +96,21 @@ def read(path, units: str | None = None) -> Layout:
     if not rows:
         raise FormatError("no [calibration] rows found", file=path)
     data = np.asarray(rows, dtype=np.float64)
+    # a name holding a control character cannot be written into the layout's formats (the JSON reader
+    # refuses it: fields.py), so it is not kept: the layout is written as one without a name line
+    usable = [n if text_problem(n) is None else None for n in names]
     if names:
-        header["name"] = names[0]
+        if usable[0] is None:
+            report.warn(f"the 'name' line {text_problem(names[0])}: the layout keeps no name")
+        else:
+            header["name"] = names[0]
     if len(names) > 1:
-        report.warn(f"{len(names)} 'name' lines ({', '.join(names)}); the first is the name, the others "
-                    "kept as 'frame' (a 'frame' line was probably meant)")
-        header["frame"] = names[1]
+        if usable[1] is not None:
+            header["frame"] = names[1]
+            kept = "the second kept as 'frame' (a 'frame' line was probably meant)"
+        else:
+            kept = f"the second {text_problem(names[1])}, so it is not kept as 'frame'"
+        report.warn(f"{len(names)} 'name' lines ({', '.join(map(repr, names))}); the first is the name, {kept}")
     nrows = len(data)
     if nrows % 12:
         report.warn(f"{nrows} calibration rows is not a multiple of 12 (slots per triangle)")
