@@ -238,6 +238,56 @@ def surface_normals(mesh, face: np.ndarray, bary: np.ndarray) -> np.ndarray:
     return np.where(norm > 1e-12, n / np.maximum(norm, 1e-300), fn)
 
 
+def footprint_faces(mesh, origins: np.ndarray, z: np.ndarray, radius: float, rim: int = 12,
+                    x_hint=(1.0, 0.0, 0.0), y_hint=(0.0, 1.0, 0.0)) -> np.ndarray:
+    """(N, 1 + rim) the faces of ``mesh`` under each taxel's footprint: under its origin (N, 3)
+    and under ``rim`` points round a disc of ``radius`` metres in the plane normal to ``z`` (N, 3),
+    brought onto the mesh. The rim starts from ``x_hint`` projected on that plane (``y_hint`` where
+    ``z`` is near ``x_hint``), so the result does not depend on where the taxel is."""
+    z = np.asarray(z, dtype=np.float64).reshape(-1, 3)
+    z = z / np.maximum(np.linalg.norm(z, axis=1, keepdims=True), 1e-300)
+    origins = np.asarray(origins, dtype=np.float64).reshape(-1, 3)
+    hx, hy = np.asarray(x_hint, dtype=np.float64), np.asarray(y_hint, dtype=np.float64)
+    helper = np.where(np.abs(z @ hx)[:, None] < 0.9, hx, hy)
+    t1 = helper - z * np.einsum("ij,ij->i", helper, z)[:, None]
+    t1 /= np.linalg.norm(t1, axis=1, keepdims=True)
+    t2 = np.cross(z, t1)
+    phi = 2 * np.pi * np.arange(rim) / rim
+    ring = (np.cos(phi)[None, :, None] * t1[:, None] + np.sin(phi)[None, :, None] * t2[:, None]) * radius
+    pts = np.concatenate([origins[:, None], origins[:, None] + ring], axis=1)  # (N, 1 + rim, 3)
+    _, under, _ = closest_points(mesh, pts.reshape(-1, 3))
+    return under.reshape(len(origins), 1 + rim)
+
+
+def rest_normals(mesh, points: np.ndarray, normals: np.ndarray, face: np.ndarray, radius: float,
+                 lean_deg: float) -> np.ndarray:
+    """(N, 3) taxel normals true to the faces a taxel rests on.
+
+    The interpolated normals (:func:`surface_normals`) are smoothed over whole faces round a vertex:
+    on a coarse mesh (a collision hull's facets meeting at 10 to 30 degrees) that spreads wider than
+    a taxel, so a taxel near a hull edge leans towards the next facet by more than any face under it
+    does (issue 25: 8 degrees off every normal under a 4 mm disc on UR10's wrist-3 hull). Where a
+    normal (N, 3) leans more than ``lean_deg`` degrees from its face's (``face`` (N,) on ``mesh``,
+    ``points`` (N, 3) on it), it becomes the mean of the face normals under the taxel's footprint
+    (disc of ``radius`` metres): the face's own normal on one facet, between the two where the disc
+    lies across an edge, which is where a flexible taxel resting on them points. Elsewhere (fine or
+    smooth meshes) the smoothed normal is kept as it is."""
+    normals = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
+    if not len(normals):
+        return normals
+    fn = np.asarray(mesh.face_normals)
+    lean = np.einsum("ij,ij->i", fn[np.asarray(face)], normals) < np.cos(np.radians(lean_deg))
+    if not lean.any():
+        return normals
+    idx = np.flatnonzero(lean)
+    under = footprint_faces(mesh, np.asarray(points, dtype=np.float64).reshape(-1, 3)[idx], normals[idx], radius)
+    mean = fn[under].sum(axis=1)
+    length = np.linalg.norm(mean, axis=1, keepdims=True)
+    out = normals.copy()
+    out[idx] = np.where(length > 1e-9, mean / np.maximum(length, 1e-300), fn[np.asarray(face)[idx]])
+    return out
+
+
 def normal_deviation(mesh, points: np.ndarray, normals: np.ndarray) -> np.ndarray:
     """(n,) degrees between ``normals`` (n, 3) and the normal of the face of ``mesh`` nearest
     each point (n, 3)."""

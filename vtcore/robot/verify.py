@@ -42,7 +42,7 @@ def surface_errors(mesh, origins, z_axes, footprint: float = FOOTPRINT_M, frame=
     (three or more faces meet at a vertex: the arcs between pairs are its edges, not its inside).
     frame : (3, 3) the rotation of the mesh's own frame in the frame of the points (default identity):
     the rim points start from its x axis, so the result does not depend on where the link is."""
-    from ..layout.surface import closest_points
+    from ..layout.surface import closest_points, footprint_faces
 
     z = np.asarray(z_axes, dtype=np.float64)
     z = z / np.linalg.norm(z, axis=1, keepdims=True)
@@ -51,14 +51,7 @@ def surface_errors(mesh, origins, z_axes, footprint: float = FOOTPRINT_M, frame=
     fn = np.asarray(mesh.face_normals)
     facet = np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", fn[face], z), -1, 1)))
     rot = np.eye(3) if frame is None else np.asarray(frame, dtype=np.float64)
-    helper = np.where(np.abs(z @ rot[:, 0])[:, None] < 0.9, rot[:, 0], rot[:, 1])  # the link's x, or its y
-    t1 = helper - z * np.einsum("ij,ij->i", helper, z)[:, None]
-    t1 /= np.linalg.norm(t1, axis=1, keepdims=True)
-    t2 = np.cross(z, t1)
-    phi = 2 * np.pi * np.arange(FOOTPRINT_RIM) / FOOTPRINT_RIM
-    ring = (np.cos(phi)[None, :, None] * t1[:, None] + np.sin(phi)[None, :, None] * t2[:, None]) * footprint
-    pts = np.concatenate([origins[:, None], origins[:, None] + ring], axis=1)  # (N, 13, 3)
-    _, under, _ = closest_points(mesh, pts.reshape(-1, 3))
+    under = footprint_faces(mesh, origins, z, footprint, FOOTPRINT_RIM, rot[:, 0], rot[:, 1])
     nrm = fn[under].reshape(len(z), -1, 3)
     best = np.einsum("nkj,nj->nk", nrm, z).max(axis=1)  # cos of the angle to the nearest single normal
     i, j = np.triu_indices(nrm.shape[1], 1)
