@@ -18,7 +18,7 @@ from .patches import Patch, make_patch
 from .repair import boundary_faces, clean_mesh
 from .report import (NORMAL_DEVIATION_DEG, OVERLAP_FRACTION, PlacementReport, coverage_of, find_overlaps, find_overlaps_between,
                      layout_strain, overlap_note)
-from .surface import at_notes, closest_points, frame_at, rest_normals, snap, surface_normals
+from .surface import REST_LEAN_DEG, at_notes, closest_points, frame_at, rest_normals, snap, surface_normals
 
 def _as_patch(patch, module) -> Patch:
     if isinstance(patch, Patch):
@@ -103,9 +103,9 @@ def finish(p: Patch, pos, nrm, found, surf_mesh, *, method, notes, info, offset,
     """The layout of patch ``p`` with taxels at ``pos`` (N, 3) on ``surf_mesh`` (normals ``nrm``,
     ``found`` (N,) bool), moved ``offset`` metres along the normals, and its report."""
     _, sface, dist = closest_points(surf_mesh, pos)
-    # a normal smoothed across a coarse mesh's facets that leans past the report's limit from the
-    # face under it rests on the faces under its footprint instead (surface.rest_normals)
-    nrm = rest_normals(surf_mesh, pos, nrm, sface, TAXEL_DIAMETER / 2, NORMAL_DEVIATION_DEG)
+    # a normal smoothed across a coarse mesh's facets that leans from the face under it rests on the
+    # faces under its footprint instead (surface.rest_normals)
+    nrm = rest_normals(surf_mesh, pos, nrm, sface, TAXEL_DIAMETER / 2, REST_LEAN_DEG)
     # taxels whose normal is still more than a few degrees off the face they lie on (a taxel across a
     # coarse mesh's edge, or next to a crease): listed, never hidden
     fn = np.asarray(surf_mesh.face_normals)[sface] if len(pos) else np.zeros((0, 3))

@@ -259,6 +259,45 @@ def footprint_faces(mesh, origins: np.ndarray, z: np.ndarray, radius: float, rim
     return under.reshape(len(origins), 1 + rim)
 
 
+#: degrees: a smoothed taxel normal leaning more than this from the face under it is brought to the
+#: faces under its footprint (:func:`rest_normals`); below the placement report's 5 degrees so that
+#: every normal ends within 5 degrees of the surface under it with a margin. On a fine mesh (a
+#: 48-chord tube leans at most 3.75 degrees) a taxel's disc spans the chords its smoothed normal lies
+#: between, so the nearest direction they allow is that normal itself: smooth normals stay smooth.
+REST_LEAN_DEG = 3.0
+
+
+def nearest_in_footprint(under: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The direction nearest each ``z`` (N, 3, unit) among the normals ``under`` (N, K, 3, unit) of
+    the faces under a taxel and the great-circle arcs between every pair of them (where a flexible
+    taxel lying across those faces can point). Returns ``(direction (N, 3), cos (N,))``: the
+    direction, and the cosine of its angle to ``z``. Three or more faces meeting at a vertex span a
+    cone whose inside is not searched (its edges are), so the angle is an upper bound there."""
+    cos = np.einsum("nkj,nj->nk", under, z)
+    pick = cos.argmax(axis=1)
+    best = cos[np.arange(len(z)), pick]
+    out = under[np.arange(len(z)), pick]
+    i, j = np.triu_indices(under.shape[1], 1)
+    a, b = under[:, i], under[:, j]  # (N, P, 3): the arcs between every pair of normals
+    m = np.cross(a, b)
+    lm = np.linalg.norm(m, axis=2, keepdims=True)
+    m = m / np.maximum(lm, 1e-300)
+    zz = np.broadcast_to(z[:, None], a.shape)
+    zp = zz - np.einsum("npj,npj->np", zz, m)[..., None] * m  # z projected onto the arc's plane
+    inside = ((np.einsum("npj,npj->np", np.cross(a, zp), m) >= 0)
+              & (np.einsum("npj,npj->np", np.cross(zp, b), m) >= 0) & (lm[..., 0] > 1e-9))
+    lp = np.linalg.norm(zp, axis=2)
+    arc = np.where(inside, lp, -1.0)  # cos of the angle between z and the arc's nearest point
+    k = arc.argmax(axis=1) if arc.shape[1] else np.zeros(len(z), np.int64)
+    on_arc = arc.shape[1] > 0
+    if on_arc:
+        better = arc[np.arange(len(z)), k] > best
+        best = np.where(better, arc[np.arange(len(z)), k], best)
+        hit = zp[np.arange(len(z)), k] / np.maximum(lp[np.arange(len(z)), k], 1e-300)[:, None]
+        out = np.where(better[:, None], hit, out)
+    return out, best
+
+
 def rest_normals(mesh, points: np.ndarray, normals: np.ndarray, face: np.ndarray, radius: float,
                  lean_deg: float) -> np.ndarray:
     """(N, 3) taxel normals true to the faces a taxel rests on.
@@ -268,10 +307,10 @@ def rest_normals(mesh, points: np.ndarray, normals: np.ndarray, face: np.ndarray
     a taxel, so a taxel near a hull edge leans towards the next facet by more than any face under it
     does (issue 25: 8 degrees off every normal under a 4 mm disc on UR10's wrist-3 hull). Where a
     normal (N, 3) leans more than ``lean_deg`` degrees from its face's (``face`` (N,) on ``mesh``,
-    ``points`` (N, 3) on it), it becomes the mean of the face normals under the taxel's footprint
-    (disc of ``radius`` metres): the face's own normal on one facet, between the two where the disc
-    lies across an edge, which is where a flexible taxel resting on them points. Elsewhere (fine or
-    smooth meshes) the smoothed normal is kept as it is."""
+    ``points`` (N, 3) on it), it becomes the direction nearest it that the faces under the taxel's
+    footprint (disc of ``radius`` metres) allow (:func:`nearest_in_footprint`): the face's own normal
+    on one facet, a direction between two facets where the disc lies across their edge. Elsewhere
+    (fine or smooth meshes) the smoothed normal is kept as it is."""
     normals = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
     if not len(normals):
         return normals
@@ -280,11 +319,10 @@ def rest_normals(mesh, points: np.ndarray, normals: np.ndarray, face: np.ndarray
     if not lean.any():
         return normals
     idx = np.flatnonzero(lean)
-    under = footprint_faces(mesh, np.asarray(points, dtype=np.float64).reshape(-1, 3)[idx], normals[idx], radius)
-    mean = fn[under].sum(axis=1)
-    length = np.linalg.norm(mean, axis=1, keepdims=True)
+    z = normals[idx] / np.linalg.norm(normals[idx], axis=1, keepdims=True)
+    under = footprint_faces(mesh, np.asarray(points, dtype=np.float64).reshape(-1, 3)[idx], z, radius)
     out = normals.copy()
-    out[idx] = np.where(length > 1e-9, mean / np.maximum(length, 1e-300), fn[np.asarray(face)[idx]])
+    out[idx] = nearest_in_footprint(fn[under], z)[0]
     return out
 
 

@@ -42,7 +42,7 @@ def surface_errors(mesh, origins, z_axes, footprint: float = FOOTPRINT_M, frame=
     (three or more faces meet at a vertex: the arcs between pairs are its edges, not its inside).
     frame : (3, 3) the rotation of the mesh's own frame in the frame of the points (default identity):
     the rim points start from its x axis, so the result does not depend on where the link is."""
-    from ..layout.surface import closest_points, footprint_faces
+    from ..layout.surface import closest_points, footprint_faces, nearest_in_footprint
 
     z = np.asarray(z_axes, dtype=np.float64)
     z = z / np.linalg.norm(z, axis=1, keepdims=True)
@@ -52,21 +52,7 @@ def surface_errors(mesh, origins, z_axes, footprint: float = FOOTPRINT_M, frame=
     facet = np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", fn[face], z), -1, 1)))
     rot = np.eye(3) if frame is None else np.asarray(frame, dtype=np.float64)
     under = footprint_faces(mesh, origins, z, footprint, FOOTPRINT_RIM, rot[:, 0], rot[:, 1])
-    nrm = fn[under].reshape(len(z), -1, 3)
-    best = np.einsum("nkj,nj->nk", nrm, z).max(axis=1)  # cos of the angle to the nearest single normal
-    i, j = np.triu_indices(nrm.shape[1], 1)
-    a, b = nrm[:, i], nrm[:, j]  # (N, P, 3): the arcs between every pair of normals under the footprint
-    m = np.cross(a, b)
-    lm = np.linalg.norm(m, axis=2, keepdims=True)
-    m = m / np.maximum(lm, 1e-300)
-    zz = np.broadcast_to(z[:, None], a.shape)
-    h = np.einsum("npj,npj->np", zz, m)  # z's height over the arc's great circle
-    zp = zz - h[..., None] * m  # z's projection onto its plane
-    inside = ((np.einsum("npj,npj->np", np.cross(a, zp), m) >= 0)
-              & (np.einsum("npj,npj->np", np.cross(zp, b), m) >= 0) & (lm[..., 0] > 1e-9))
-    lp = np.linalg.norm(zp, axis=2)
-    arc_cos = np.where(inside, lp, -1.0)  # cos of the angle between z and the arc's nearest point
-    best = np.maximum(best, arc_cos.max(axis=1, initial=-1.0))
+    best = nearest_in_footprint(fn[under], z)[1]
     return dist * 1e3, facet, np.degrees(np.arccos(np.clip(best, -1, 1)))
 
 
