@@ -45,20 +45,12 @@ def read(path, units: str | None = None) -> Layout:
     text = raw.replace("\r\n", "\n").replace("\r", "\n")
     lines = text.split("\n")
     header: dict = {}
-    t2r = None
-    m = _T2R.search(text)
-    if m:
-        toks = m.group(1).split()
-        # read exactly: int(float(tok)) rounded 2**63 - 1 up past int64 (OverflowError on what the writer wrote)
-        ints = [int(tok.partition(".")[0]) for tok in toks if re.fullmatch(r"[-+]?\d+(\.0*)?", tok)]
-        t2r = np.array([v for v in ints if _I64.min <= v <= _I64.max], dtype=np.int64)
-        if len(t2r) != len(toks):
-            report.warn("taxel2Repr has entries that are not 64-bit integers; ignored them")
+    t2r = _taxel2repr(text, report)
     rows, row_lines, row_text, header_lines = [], [], [], []
     in_cal = False
     names = []
     for ln, line in enumerate(lines, start=1):
-        s = line.split("//")[0].split("#")[0].strip()
+        s = _comment_free(line)
         if not in_cal and not row_text:
             header_lines.append(line.rstrip())  # trimmed to the lines before the table below
         if not s:
@@ -96,21 +88,7 @@ def read(path, units: str | None = None) -> Layout:
     if not rows:
         raise FormatError("no [calibration] rows found", file=path)
     data = np.asarray(rows, dtype=np.float64)
-    # a name holding a control character cannot be written into the layout's formats (the JSON reader
-    # refuses it: fields.py), so it is not kept: the layout is written as one without a name line
-    usable = [n if text_problem(n) is None else None for n in names]
-    if names:
-        if usable[0] is None:
-            report.warn(f"the 'name' line {text_problem(names[0])}: the layout keeps no name")
-        else:
-            header["name"] = names[0]
-    if len(names) > 1:
-        if usable[1] is not None:
-            header["frame"] = names[1]
-            kept = "the second kept as 'frame' (a 'frame' line was probably meant)"
-        else:
-            kept = f"the second {text_problem(names[1])}, so it is not kept as 'frame'"
-        report.warn(f"{len(names)} 'name' lines ({', '.join(map(repr, names))}); the first is the name, {kept}")
+    header.update(_name_and_frame(names, report))
     nrows = len(data)
     if nrows % 12:
         report.warn(f"{nrows} calibration rows is not a multiple of 12 (slots per triangle)")
@@ -125,19 +103,7 @@ def read(path, units: str | None = None) -> Layout:
     scale = units_scale(pos, units, report)
     nrm, estimated = clean_normals(data[keep, 3:], pos, report)
     check_repeats(pos, report)
-    roles = np.full(len(keep), "pressure", dtype=object)
-    if t2r is not None:
-        t = np.full(nrows, -3, dtype=np.int64)
-        t[: min(len(t2r), nrows)] = t2r[:nrows]
-        roles[t[keep] == -2] = "thermal"
-        # taxel2Repr is kept as read; say where it contradicts the rows
-        has = ~empty[: len(t2r)]
-        known = t[: len(has)]
-        odd = np.flatnonzero((has & (known == -1)) | (~has & (known >= 0)))
-        if len(odd):
-            k = int(odd[0])
-            report.warn(f"taxel2Repr disagrees with the calibration rows at {len(odd)} slots (e.g. slot {k}: "
-                        f"{int(known[k])}, but the row {'has a taxel' if has[k] else 'is empty'}); kept as read")
+    roles = _roles(t2r, empty, keep, report)
     # the header: every line before the [calibration] line (or before the first row without one)
     header_lines = header_lines[: row_lines[0] - 1]
     cal = [i for i, h in enumerate(header_lines) if h.strip().lower().startswith("[calibration")]
@@ -152,6 +118,62 @@ def read(path, units: str | None = None) -> Layout:
                     frame=header.get("frame") or "end_effector", meta=meta, normals_estimated=estimated)
     layout.meta["icub_digests"] = row_digests(layout)
     return finish(layout, report, path, "icub")
+
+
+def _taxel2repr(text: str, report: ImportReport) -> np.ndarray | None:
+    """(K,) int64 of the file's ``taxel2Repr ( ... )`` list (it can span lines), or None without one."""
+    m = _T2R.search(text)
+    if not m:
+        return None
+    toks = m.group(1).split()
+    # read exactly: int(float(tok)) rounded 2**63 - 1 up past int64 (OverflowError on what the writer wrote)
+    ints = [int(tok.partition(".")[0]) for tok in toks if re.fullmatch(r"[-+]?\d+(\.0*)?", tok)]
+    t2r = np.array([v for v in ints if _I64.min <= v <= _I64.max], dtype=np.int64)
+    if len(t2r) != len(toks):
+        report.warn("taxel2Repr has entries that are not 64-bit integers; ignored them")
+    return t2r
+
+
+def _name_and_frame(names: list[str], report: ImportReport) -> dict:
+    """``{"name": ..., "frame": ...}`` from the file's 'name' lines (the second, if any, was probably
+    meant as 'frame'). A name holding a control character cannot be written into the layout's formats
+    (the JSON reader refuses it: fields.py), so it is not kept: the layout is one without that name."""
+    out = {}
+    usable = [n if text_problem(n) is None else None for n in names]
+    if names:
+        if usable[0] is None:
+            report.warn(f"the 'name' line {text_problem(names[0])}: the layout keeps no name")
+        else:
+            out["name"] = names[0]
+    if len(names) > 1:
+        if usable[1] is not None:
+            out["frame"] = names[1]
+            kept = "the second kept as 'frame' (a 'frame' line was probably meant)"
+        else:
+            kept = f"the second {text_problem(names[1])}, so it is not kept as 'frame'"
+        report.warn(f"{len(names)} 'name' lines ({', '.join(map(repr, names))}); the first is the name, {kept}")
+    return out
+
+
+def _roles(t2r: np.ndarray | None, empty: np.ndarray, keep: np.ndarray, report: ImportReport) -> np.ndarray:
+    """(len(keep),) roles of the kept rows: "thermal" where taxel2Repr says -2, else "pressure".
+    ``empty`` (R,) bool marks the all-zero rows; taxel2Repr is kept as read, and where it contradicts
+    the rows that is said."""
+    nrows = len(empty)
+    roles = np.full(len(keep), "pressure", dtype=object)
+    if t2r is None:
+        return roles
+    t = np.full(nrows, -3, dtype=np.int64)
+    t[: min(len(t2r), nrows)] = t2r[:nrows]
+    roles[t[keep] == -2] = "thermal"
+    has = ~empty[: len(t2r)]
+    known = t[: len(has)]
+    odd = np.flatnonzero((has & (known == -1)) | (~has & (known >= 0)))
+    if len(odd):
+        k = int(odd[0])
+        report.warn(f"taxel2Repr disagrees with the calibration rows at {len(odd)} slots (e.g. slot {k}: "
+                    f"{int(known[k])}, but the row {'has a taxel' if has[k] else 'is empty'}); kept as read")
+    return roles
 
 
 def _comment_free(line: str) -> str:
