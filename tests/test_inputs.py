@@ -328,7 +328,55 @@ def test_sigterm_removes_the_staging_folder(tmp_path):
         pytest.skip("the run finished before the signal arrived")
     assert proc.returncode == 143, err
     assert "vtcore: terminated" in err
-    assert not out.exists() or not any(out.iterdir())
+    # nothing, or (a signal that came during the commit, on a loaded machine) the whole set
+    assert_no_half_set(out)
+
+
+def assert_no_half_set(out: Path) -> list[str]:
+    """The output folder of a run that was stopped holds no staging folder and no half set of files."""
+    names = sorted(p.name for p in out.iterdir()) if out.exists() else []
+    assert not [n for n in names if n.startswith(".vtcore-run-")], names
+    if names:
+        result = json.loads((out / "result.json").read_text())
+        assert set(names) == {"result.json", "report.md", "arrays.npz", *result["figures"], *result["files"]}
+    return names
+
+
+def _signal_self_then(fn):
+    def wrapped(*a, **k):
+        os.kill(os.getpid(), signal.SIGTERM)
+        return fn(*a, **k)
+    return wrapped
+
+
+@pytest.mark.skipif(not hasattr(signal, "SIGTERM") or os.name != "posix", reason="POSIX signals")
+def test_sigterm_during_the_run_leaves_nothing_and_during_the_commit_everything(tmp_path, monkeypatch):
+    import threading
+
+    from vtcore.scene import runner
+
+    if threading.current_thread() is not threading.main_thread():
+        pytest.skip("the SIGTERM handler is installed from the main thread only")
+    # while the arrays are written (the run is under way): nothing lands
+    with monkeypatch.context() as m:
+        m.setattr(runner, "save_npz", _signal_self_then(runner.save_npz))
+        rc, _, err = cli("run", SCENE, "--out", tmp_path / "a", "--set", "output.plots=false")
+    assert rc == 143 and "vtcore: terminated" in err, err
+    assert assert_no_half_set(tmp_path / "a") == []
+    # while the first file is moved in: the commit finishes, then the CLI stops with 143
+    real = os.replace
+    calls = []
+
+    def replace(src, dst):  # os.replace is also atomic_write's rename inside the staging folder
+        if Path(dst).parent == tmp_path / "b":
+            calls.append(dst)
+        return (_signal_self_then(real) if len(calls) == 1 and Path(dst).parent == tmp_path / "b" else real)(src, dst)
+
+    with monkeypatch.context() as m:
+        m.setattr(runner.os, "replace", replace)
+        rc, _, err = cli("run", SCENE, "--out", tmp_path / "b", "--set", "output.plots=false")
+    assert rc == 143 and "vtcore: terminated" in err, err
+    assert len(calls) > 1 and len(assert_no_half_set(tmp_path / "b")) == len(calls)
 
 
 # ----------------------------------------------------------------------------- layout readers

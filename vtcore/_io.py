@@ -17,6 +17,7 @@ class Terminated(KeyboardInterrupt):
 
 
 _TERMINATED = threading.Event()
+_HELD = threading.Event()
 
 
 @contextlib.contextmanager
@@ -34,6 +35,8 @@ def sigterm_raises():
 
     def handler(signum, frame):
         _TERMINATED.set()
+        if _HELD.is_set():
+            return  # inside sigterm_held(): the steps finish, the next check_terminated() raises
         f = frame
         while f is not None:
             # an exception raised inside the import of a C extension (open3d, ...) can crash the
@@ -50,6 +53,21 @@ def sigterm_raises():
     finally:
         signal.signal(signal.SIGTERM, old)
         _TERMINATED.clear()
+
+
+@contextlib.contextmanager
+def sigterm_held():
+    """Steps that must not be cut in half (making a staging folder, moving a run's files in):
+    a SIGTERM that arrives meanwhile is only remembered, and :func:`check_terminated` raises it later.
+
+    A flag the handler reads rather than ``pthread_sigmask``: the mask is per thread, and a
+    signal delivered to a BLAS or pool thread still runs the Python handler in the main thread.
+    """
+    _HELD.set()
+    try:
+        yield
+    finally:
+        _HELD.clear()
 
 
 def check_terminated() -> None:

@@ -24,7 +24,7 @@ from typing import Any, Callable
 import numpy as np
 
 from .. import __version__
-from .._io import atomic_write, check_terminated, save_npz, write_json
+from .._io import atomic_write, check_terminated, save_npz, sigterm_held, write_json
 from ..errors import Cancelled, VtError
 from ..inputs import check_output_dir, os_error
 from .._progress import progress
@@ -170,14 +170,19 @@ def _run_staged(scene: Scene, out, notes) -> dict:
         final.mkdir(parents=True, exist_ok=True)
         # Everything is written into a staging folder inside ``out`` and moved in at the end:
         # a run that fails or is interrupted (Ctrl-C, SIGTERM) leaves no half set of files.
-        stage = Path(tempfile.mkdtemp(prefix=".vtcore-run-", dir=final))
+        with sigterm_held():  # a SIGTERM between mkdtemp's mkdir and its return would orphan the folder
+            stage = Path(tempfile.mkdtemp(prefix=".vtcore-run-", dir=final))
     except OSError as exc:
         raise os_error(exc, final, key="--out") from None
     try:
         result = _run(scene, stage, notes)
-        check_terminated()  # a SIGTERM swallowed by a C extension still stops the commit
-        for f in sorted(stage.iterdir()):
-            os.replace(f, final / f.name)
+        # The commit is all or nothing: a SIGTERM that arrived before it (or was swallowed by a C
+        # extension) stops it here; one that arrives during it is raised by the CLI once every
+        # file is in (exit 143, a complete set), never between two files.
+        with sigterm_held():
+            check_terminated()
+            for f in sorted(stage.iterdir()):
+                os.replace(f, final / f.name)
     except BaseException:
         shutil.rmtree(stage, ignore_errors=True)
         if made:
