@@ -32,6 +32,11 @@ def test_missing_and_odd_fields_are_left_out():
                  "surface_distance_max_mm": pytest.approx(0.2)}
     assert report_lines(f) == ["overlaps 2 module pairs (1 within the patch, 1 with modules already there)",
                                "3 taxels off the mapped surface"]
+    # a field that overflows in the unit it is shown in (the fuzz of issue 28: -1e308 m printed
+    # -Infinity in `layout info --json` as -1e311 mm)
+    assert report_fields({"surface_distance_max_m": -1e308, "coverage": 1e307, "strain_max": 2e306,
+                          "seconds": 1e308}) == {"seconds": 1e308}
+    assert report_fields({"coverage": 10 ** 400}) == {}
     assert report_lines({"charts": 7, "seam_modules": 3}) == ["grown through 7 charts, 3 modules closing the seam"]
     assert report_lines({"charts": 1, "normal_outliers": []}) == []
     assert report_lines({"normal_outliers": [4, 9], "normal_deviation_max_deg": 81.2}) == [

@@ -13,15 +13,16 @@ from __future__ import annotations
 import math
 
 
-def _num(value):
-    """A finite float, or None (missing, None, nan)."""
+def _num(value, shown_times: float = 1.0):
+    """A finite float, or None (missing, None, nan; or a value that overflows once shown in the unit
+    it is printed in, ``value x shown_times``: 1e308 m is not a distance in mm, -1e308 printed -Infinity)."""
     if value is None or isinstance(value, bool):
         return None
     try:
         v = float(value)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         return None
-    return v if math.isfinite(v) else None
+    return v if math.isfinite(v * shown_times) else None
 
 
 def _count(value):
@@ -48,8 +49,9 @@ def report_fields(placement: dict | None) -> dict:
     out = {}
     if isinstance(p.get("method"), str):
         out["method"] = p["method"]
-    for key in ("coverage", "strain_max", "strain_mean", "seconds", "normal_deviation_max_deg"):
-        v = _num(p.get(key))
+    for key, shown in (("coverage", 100), ("strain_max", 100), ("strain_mean", 100), ("seconds", 1),
+                       ("normal_deviation_max_deg", 1)):
+        v = _num(p.get(key), shown)
         if v is not None:
             out[key] = v
     for key in ("overlaps", "overlaps_within", "overlaps_existing", "off_boundary", "charts", "seam_modules",
@@ -57,7 +59,7 @@ def report_fields(placement: dict | None) -> dict:
         v = _count(p.get(key))
         if v is not None:
             out[key] = v
-    d = _num(p.get("surface_distance_max_m"))
+    d = _num(p.get("surface_distance_max_m"), 1e3)
     if d is not None:
         out["surface_distance_max_mm"] = d * 1e3
     return out
