@@ -9,7 +9,7 @@ import warnings
 import numpy as np
 
 from ...errors import FormatError, InputError
-from ...inputs import read_text
+from ...inputs import clean, read_text
 from ...tolerances import ZERO_NORMAL
 from ..mesh import LayoutWarning, nn_spacing, estimate_normals
 from ..model import Layout
@@ -124,7 +124,10 @@ def transform_of(values, path, key: str, *, line: int | None = None, column_majo
 
 def check_repeats(positions: np.ndarray, report: ImportReport):
     from ..mesh import find_duplicates
+    from .checks import MAX_COORDINATE_M
 
+    if len(positions) and not np.abs(positions).max() <= 1e3 * MAX_COORDINATE_M:
+        return  # (the bound in mm) io.load refuses such a layout by name; a k-d tree overflows on 1e308
     rep = find_duplicates(positions, 1e-7)
     k = int((rep != np.arange(len(positions))).sum())
     if k:
@@ -138,6 +141,20 @@ def parse_number(token: str, path, line: int, what: str) -> float:
         raise FormatError(f"{what}: {token!r} is not a number", file=path, line=line) from None
     if not math.isfinite(v):
         raise FormatError(f"{what}: {token!r} is not a finite number", file=path, line=line)
+    return v
+
+
+def parse_integer(token: str, path, line: int, what: str) -> int:
+    """An integer token, exactly: ``9223372036854775807`` read through a float is 2**63, past int64."""
+    try:
+        v = int(token)
+    except ValueError:
+        f = parse_number(token, path, line, what)
+        if f != math.floor(f):
+            raise FormatError(f"{what}: {token!r} is not an integer", file=path, line=line) from None
+        v = int(f)
+    if not -2**63 <= v < 2**63:
+        raise FormatError(f"{what}: {clean(token, 40)} lies outside 64-bit integers", file=path, line=line)
     return v
 
 

@@ -19,7 +19,8 @@ from ...errors import FormatError
 from ...inputs import read_text
 from ..model import Layout
 from ..uids import cyskin_modules
-from .common import ImportReport, check_repeats, clean_normals, finish, number, parse_number, units_scale
+from .common import (ImportReport, check_repeats, clean_normals, finish, number, parse_integer, parse_number,
+                     units_scale)
 
 NAME = "csv"
 SUFFIXES = (".csv",)
@@ -124,12 +125,8 @@ def read(path, units: str | None = None) -> Layout:
         i = col[name]
         out = []
         for ln, toks in rows:
-            v = parse_number(toks[i], path, ln, f"column {header[i]}")
-            if integer:
-                if v != int(v):
-                    raise FormatError(f"column {header[i]}: {toks[i]!r} is not an integer", file=path, line=ln)
-                v = int(v)
-            out.append(v)
+            parse = parse_integer if integer else parse_number
+            out.append(parse(toks[i], path, ln, f"column {header[i]}"))
         return np.asarray(out, dtype=np.int64 if integer else np.float64)
 
     n = len(rows)

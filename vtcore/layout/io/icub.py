@@ -208,6 +208,25 @@ def row_problem(row: str) -> str | None:
     return None
 
 
+def _text_says(row: str, position, normal, estimated: bool) -> bool:
+    """Whether a row's text as read still says this taxel's position (the file's unit) and normal.
+
+    The digests say the taxel's values are those read; the text is checked too because a JSON
+    layout carries ``meta.icub_row_text`` apart from the values (edited, or fuzzed: a row whose x
+    read 1e308 was written back for a taxel at 3.5e-18 m)."""
+    try:
+        v = np.array([float(t) for t in _comment_free(row).split()[:6]])
+    except ValueError:
+        return False
+    if len(v) < 6 or not np.isfinite(v).all() or not np.allclose(v[:3], position, rtol=1e-9, atol=1e-12):
+        return False
+    with np.errstate(over="ignore"):
+        n = float(np.linalg.norm(v[3:]))
+    if n == 0.0:
+        return bool(estimated)      # the file had no normal; ours was estimated
+    return bool(np.isfinite(n) and np.allclose(v[3:] / n, normal, atol=1e-9))
+
+
 def _icub_slots(layout: Layout) -> np.ndarray:
     """Row of each taxel in an iCub positions file: its id under the iCub scheme, else its
     module's triangle (module order) times 12 plus its rank inside the module."""
@@ -297,7 +316,8 @@ def write(layout: Layout, path, *, estimate_normals: bool = False) -> None:
     rows = [raw[s] if s < len(raw) and not any(float(t) for t in raw[s].split()[:6]) else "0 0 0 0 0 0"
             for s in range(nrows)]  # empty slots: as read
     for k, s in enumerate(slots.tolist()):
-        if same[k] and s < len(raw) and (not est[k] or not estimate_normals):
+        if same[k] and s < len(raw) and (not est[k] or not estimate_normals) and \
+                _text_says(raw[s], layout.positions[k] / scale, layout.normals[k], est[k]):
             rows[s] = raw[s]
             continue
         n = layout.normals[k] if (estimate_normals or not est[k]) else np.zeros(3)
