@@ -2,6 +2,7 @@
 the contact rule and the finger-pad indenter."""
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -11,6 +12,8 @@ from vtcore.calibrate.recordings import contact_frames, idle_mask
 from vtcore.contact.objects import make_object, placement_pose
 from vtcore.contact.profile import PROFILES_DIR, load_profile, profile_toml, save_profile
 from vtcore.errors import FormatError, InputError
+
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def test_shipped_cyskin_profile_loads_with_measured_noise():
@@ -58,6 +61,12 @@ def _doc(**patch):
     ({"response__thickness_m": 0.5, "response__young_modulus_pa": 5e4, "response__counts_per_pa": 1.0},
      "response.thickness_m"),
     ({"response__thickness_m": 0.003, "response__counts_per_pa": 1.0}, "response.young_modulus_pa"),
+    ({"response__thickness_m": 0.005, "response__young_modulus_pa": 5e4, "response__counts_per_pa": 1.0,
+      "response__indenter": {"kind": "fingerpad", "radius": 0.007, "wrap": 1.5}}, "response.indenter.wrap"),
+    ({"response__thickness_m": 0.005, "response__young_modulus_pa": 5e4, "response__counts_per_pa": 1.0,
+      "response__indenter": {"kind": "finger", "radius": 0.007}}, "response.indenter.kind"),
+    ({"response__thickness_m": 0.005, "response__young_modulus_pa": 5e4, "response__counts_per_pa": 1.0,
+      "response__indenter": {"kind": "fingerpad", "radius": "7 mm"}}, "response.indenter.radius"),
     ({"taxels__uid": [17, 18], "taxels__sigma_counts": [100.0]}, "taxels.sigma_counts"),
     ({"taxels__uid": [17, 18], "taxels__sigma_counts": [100.0, -1.0]}, "taxels.sigma_counts"),
 ])
@@ -139,6 +148,37 @@ def test_fingerpad_is_a_closed_capsule_lying_along_x():
     pose = placement_pose(m, xy=(0.01, 0.0), yaw=np.pi / 2, top=0.003)
     v = m.vertices @ pose[:3, :3].T + pose[:3, 3]
     assert np.isclose(v[:, 2].min(), 0.003) and np.ptp(v[:, 1]) > np.ptp(v[:, 0])   # yawed: long along y
+
+
+def test_a_finger_pad_wraps_a_convex_skin_by_its_wrap():
+    """``wrap`` (the fitted pad's, issue 27): the fraction of the curvature of the arc concentric with the
+    skin that the pad's axis follows; 1 wraps it, 0 is straight, and a value outside 0-1 names the key."""
+    from vtcore.calibrate.simulate import MatchedPress, check_wrap
+    from vtcore.contact import SoftLayer
+    from vtcore.layout import load
+
+    lay = load(ROOT / "scenes" / "layouts" / "seed001_hexagon.cyskin.json")
+    layer = SoftLayer(thickness=0.005, material="ecoflex_00_20")
+    pad = {"kind": "fingerpad", "radius": 0.007, "length": 0.06}
+    kappa = 1 / 0.076                                          # the shared patch's radius
+
+    def sag(wrap):           # how far the pad's pressed line lies lower at its middle than where its caps begin
+        v = MatchedPress(lay, layer, {**pad, "wrap": wrap}).mesh(kappa).vertices
+        line = v[(np.abs(v[:, 1]) < 1e-4) & (v[:, 2] < 0.007)]
+        mid = line[np.argmin(np.abs(line[:, 0]))]
+        end = line[np.argmin(np.abs(np.abs(line[:, 0]) - 0.023))]
+        return end[2] - mid[2]
+
+    full, part, none = sag(1.0), sag(0.5), sag(0.0)
+    r_full = 0.076 + 0.005 + 0.007
+    assert none == pytest.approx(0.0, abs=1e-4)                # straight
+    assert part == pytest.approx(full / 2, rel=0.15)           # half the curvature: half the sag
+    assert full == pytest.approx(r_full - np.sqrt(r_full**2 - 0.023**2), rel=0.15)   # the concentric arc
+    assert MatchedPress(lay, layer, pad).wrap == 1.0           # the default: wrap fully
+    for bad in (1.5, -0.1, "a", None, True, float("nan")):
+        with pytest.raises(InputError) as e:
+            check_wrap(bad)
+        assert e.value.key == "wrap"
 
 
 PRESS = """

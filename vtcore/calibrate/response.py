@@ -17,10 +17,14 @@ Force enters through F / E only, and a finger pad that conforms to the skin prin
 at any force, so nothing in the footprints keeps the fit from vanishing forces through the
 thickest layer: a plausible force range (:data:`FORCE_BOUNDS_N`, at the assumed modulus) bounds it.
 
-The finger pad's length (tip to tip) is the probe's, not the sensor's, but the recordings are
-the only measure of it (how long the footprints are), so it is scanned with the rest.
+The finger pad's length (tip to tip), radius and wrap are the probe's, not the sensor's, but the
+recordings are the only measure of them (how long and wide the footprints are, how even along their
+length), so they are scanned with the rest. The wrap is how far the pad's axis follows a convex skin:
+a pad fully wrapped (as soft as the layer) presses evenly along its length, and its footprint's first
+ring is then stronger than a finger's (0.35 of the peak against the recorded 0.29 with wrap 1; a
+finger's bone under the pulp makes its pressure peak under the middle).
 
-The fit scans a grid of (pad length, thickness, gain, p_half) within stated bounds. Each point
+The fit scans a grid of (pad length, thickness, wrap, gain, p_half) within stated bounds. Each point
 simulates every contact frame of the fit's recordings as the validation does (the force rule, the
 recording's baseline, one seeded draw of the measured noise, the clip at 0) and is scored by how
 far the quartiles (25, 50, 75 %) of its footprint statistics over all frames (ring ratios, active
@@ -58,6 +62,12 @@ THICKNESS_GRID_M = (0.002, 0.003, 0.004, 0.005, 0.006, 0.008)
 LENGTH_GRID_M = (0.04, 0.05, 0.06)
 #: finger pad radius, m: half the width of an adult fingertip's pad, 7-11 mm (wider as it flattens)
 RADIUS_GRID_M = (0.007, 0.008, 0.009, 0.010, 0.011)
+#: how far the pad wraps a convex skin (vtcore.calibrate.simulate.MatchedPress): 1 an even pressure along
+#: it (a pad as soft as the layer), less a pressure that peaks at its middle (a finger's bone under the pulp)
+WRAP_GRID = (0.7, 0.85, 1.0)
+#: pad lengths of the wrap stage, m: a pad that wraps less lifts its ends, so a longer finger (distal and
+#: middle phalanx, up to most of an index finger's ~75 mm) may be what touches
+WRAP_LENGTH_GRID_M = (0.05, 0.06, 0.07, 0.08)
 #: counts per pascal at Ecoflex 00-20's modulus: 0.05-20 (seed scenes assume 0.1-1)
 GAIN_GRID = tuple(float(x) for x in np.geomspace(0.05, 20.0, 15))
 #: half-ceiling pressures, Pa (inf: linear)
@@ -96,7 +106,7 @@ class ResponseFit:
         b, iv = self.best, self.intervals
         out = []
         for name, unit, scale in (("radius_m", "mm (finger pad)", 1e3), ("length_m", "mm (finger pad)", 1e3),
-                                  ("thickness_m", "mm", 1e3),
+                                  ("wrap", "(finger pad; 1: follows the skin)", 1.0), ("thickness_m", "mm", 1e3),
                                   ("counts_per_pa", "counts/Pa", 1.0), ("p_half_pa", "kPa", 1e-3)):
             lo, hi, ok = iv[name]
             v = b[name]
@@ -120,9 +130,11 @@ class ResponseFit:
             "material": MATERIAL, "base": "bonded",
             "counts_per_pa": float(b["counts_per_pa"]),
             "counts_per_pa_ci": [float(iv["counts_per_pa"][0]), float(iv["counts_per_pa"][1])],
-            "indenter": {**INDENTER, "radius": float(b["radius_m"]), "length": float(b["length_m"]), "conform": True},
+            "indenter": {**INDENTER, "radius": float(b["radius_m"]), "length": float(b["length_m"]), "conform": True,
+                         "wrap": float(b["wrap"])},
             "radius_ci_m": [float(iv["radius_m"][0]), float(iv["radius_m"][1])],
             "length_ci_m": [float(iv["length_m"][0]), float(iv["length_m"][1])],
+            "wrap_ci": [float(iv["wrap"][0]), float(iv["wrap"][1])],
             "fitted": sorted({"/".join(Path(p).parts[-2:]) for p, _ in self.frames}),
             "force_over_modulus_m2_median": float(np.median(self.force_over_modulus)),
             "force_over_modulus_m2_iqr": [float(x) for x in np.percentile(self.force_over_modulus, [25, 75])],
@@ -139,8 +151,9 @@ class ResponseFit:
         lo, hi, _ = iv["p_half_pa"]
         t["p_half_ci_pa"] = [float(lo), float(hi) if np.isfinite(hi) else 1e12]
         note = ("Response fitted to the footprints of the recordings' contact frames (vtcore.calibrate.response):\n"
-                "a finger pad conforming to the skin, pressed through a bonded layer with the force that gives each\n"
-                "frame's recorded peak; scanned thickness x gain x p_half, scored by the distance of the frames' footprint\n"
+                "a finger pad wrapping the skin (wrap: the fraction of its curvature), pressed through a bonded layer\n"
+                "with the force that gives each frame's recorded peak; scanned in three stages (pad length x thickness,\n"
+                "pad radius, wrap x pad length; each with gain x p_half), scored by the distance of the frames' footprint\n"
                 "statistics (rings, active taxels, principal radii) from the recorded ones. Intervals: 95 % bootstrap\n"
                 "over the recordings.\n"
                 "young_modulus_pa is an ASSUMPTION (Ecoflex 00-20): force is not recorded, only F/E and counts_per_pa x E\n"
@@ -306,22 +319,22 @@ def _quantile_score(sim, valid, real, scales, rows=None):
 
 def fit_response(recs, contacts, layout, sigma, baselines=None, *, k: float = 5.0, progress=None,
                  thicknesses=THICKNESS_GRID_M, gains=GAIN_GRID, p_halfs=P_HALF_GRID, lengths=LENGTH_GRID_M,
-                 radii=RADIUS_GRID_M, force_bounds=FORCE_BOUNDS_N,
+                 radii=RADIUS_GRID_M, wraps=WRAP_GRID, wrap_lengths=WRAP_LENGTH_GRID_M, force_bounds=FORCE_BOUNDS_N,
                  frames_per_recording: int = FRAMES_PER_RECORDING, grid_spacing: float = 1e-3) -> ResponseFit:
-    """Fit the pad's length and radius, the layer's thickness, the gain and the saturation to the contact
-    frames of ``recs`` (see the module docstring).
+    """Fit the pad's length, radius and wrap, the layer's thickness, the gain and the saturation to the
+    contact frames of ``recs`` (see the module docstring).
 
     recs : LoadedRecording list; contacts : (T_i,) bool per recording; sigma : (N,) counts (the noise
     fit; NaN: the taxel is left out of the score); baselines : (R, N) counts, each recording's idle
     offsets (added to the model before the clip at 0), or None (0).
 
-    Two stages (coordinate descent, so the presses stay affordable): (pad length x thickness x gain
-    x p_half) at the pad's default radius, then (pad radius x gain x p_half) at the best length and
-    thickness. The radius's interval therefore holds the other two fixed.
+    Three stages (coordinate descent, so the presses stay affordable): (pad length x thickness x gain
+    x p_half) at the pad's default radius, fully wrapped; (pad radius x gain x p_half) at the best
+    length and thickness; (wrap x pad length x gain x p_half) at the best radius and thickness. Each
+    interval therefore holds the parameters of the other stages fixed; the gain's and p_half's are the
+    last stage's.
     """
     import time
-
-    from .._progress import progress as bar
 
     t0 = time.perf_counter()
     sig = np.asarray(sigma, float)
@@ -340,56 +353,87 @@ def fit_response(recs, contacts, layout, sigma, baselines=None, *, k: float = 5.
     poses = [recording_pose(frame_poses(np.where(np.isfinite(r.counts[fr]), r.counts[fr], np.nan), layout,
                                         detection_sigma(sig), k), layout) for r, fr in per_rec]
     frames = _Frames(per_rec, offs, layout, sig, k, poses)
-    ladders: dict = {}
-
-    def press_all(geoms, desc):
-        jobs = [(g, i) for g in geoms for i in range(len(per_rec))]
-        for (radius, ln, h), i in bar(jobs, desc=desc, total=len(jobs), unit="ladder"):
-            if ((radius, ln, h), i) in ladders:
-                continue
-            mp = MatchedPress(layout, SoftLayer(thickness=h, material=MATERIAL),
-                              {**INDENTER, "radius": radius, "length": ln}, grid=ContactGrid(spacing=grid_spacing))
-            ladders[((radius, ln, h), i)] = mp.ladder(poses[i], CAL_LADDER_N)
-            if progress is not None:
-                progress()
-
-    real = np.concatenate([np.stack([rm[name] for name in SCORED], axis=1) for rm in frames.real])   # (F, M)
-    rec_of = np.concatenate([np.full(len(fr), i) for i, (_, fr) in enumerate(per_rec)])
-    noise = np.where(np.isfinite(sig), sig, np.nanmedian(sig))
-
-    # stage 1: length x thickness at the default radius
+    stage = _Stages(frames, layout, poses, gains, p_halfs, force_bounds, sig, grid_spacing, progress)
     r0 = INDENTER["radius"]
-    geoms1 = [(r0, ln, h) for ln in lengths for h in thicknesses]
-    press_all(geoms1, "calibrate: pressing (length x thickness)")
-    sim1, ok1, _, _ = _scan(frames, lambda g, r: ladders[(geoms1[g], r)], len(geoms1), gains, p_halfs,
-                            force_bounds, noise)
-    sc1 = _quantile_score(sim1, ok1, real, frames.scales)
-    g1 = int(np.unravel_index(np.argmin(sc1), sc1.shape)[0])
-    _, ln_best, h_best = geoms1[g1]
-    # stage 2: the pad's radius at the best length and thickness
-    geoms2 = [(rad, ln_best, h_best) for rad in radii]
-    press_all(geoms2, "calibrate: pressing (pad radius)")
-    sim2, ok2, f2, c2 = _scan(frames, lambda g, r: ladders[(geoms2[g], r)], len(geoms2), gains, p_halfs,
-                              force_bounds, noise)
-    sc2 = _quantile_score(sim2, ok2, real, frames.scales)
-    at2 = np.unravel_index(np.argmin(sc2), sc2.shape)
-    rad_best = geoms2[at2[0]][0]
-    best = {"radius_m": float(rad_best), "length_m": float(ln_best), "thickness_m": float(h_best),
-            "counts_per_pa": float(gains[at2[1]]), "p_half_pa": float(p_halfs[at2[2]])}
-    # intervals: resample the recordings (each one placement of the finger), refit on the grid
-    grid1 = {"length_m": lengths, "thickness_m": thicknesses, "counts_per_pa": gains, "p_half_pa": p_halfs}
-    shape1 = (len(lengths), len(thicknesses), len(gains), len(p_halfs))
-    intervals = _bootstrap(lambda rows: _quantile_score(sim1, ok1, real, frames.scales, rows).reshape(shape1),
-                           rec_of, grid1)
-    intervals.update({k_: v for k_, v in _bootstrap(
-        lambda rows: _quantile_score(sim2, ok2, real, frames.scales, rows), rec_of,
-        {"radius_m": radii, "counts_per_pa": gains, "p_half_pa": p_halfs}).items() if k_ == "radius_m"})
-    fe = f2[at2] / E
-    comp = c2[at2]
-    score = sc2
-    return ResponseFit(best=best, intervals=intervals, score=score, dof=3 * len(SCORED),
-                       grids={"radius_m": [float(x) for x in radii], "length_m": [float(x) for x in lengths],
+    s1 = stage.run([(r0, ln, h, 1.0) for ln in lengths for h in thicknesses], "length x thickness")
+    _, ln1, h1, _ = s1.best_geometry
+    s2 = stage.run([(rad, ln1, h1, 1.0) for rad in radii], "pad radius")
+    rad2 = s2.best_geometry[0]
+    s3 = stage.run([(rad2, ln, h1, w) for w in wraps for ln in wrap_lengths], "wrap x length")
+    _, ln3, _, w3 = s3.best_geometry
+    best = {"radius_m": float(rad2), "length_m": float(ln3), "thickness_m": float(h1), "wrap": float(w3),
+            "counts_per_pa": float(gains[s3.at[1]]), "p_half_pa": float(p_halfs[s3.at[2]])}
+    # intervals: resample the recordings (each one placement of the finger), refit on each stage's grid
+    intervals = {name: iv for name, iv in stage.intervals(
+        s1, {"length_m": lengths, "thickness_m": thicknesses}).items() if name == "thickness_m"}
+    intervals["radius_m"] = stage.intervals(s2, {"radius_m": radii})["radius_m"]
+    intervals.update(stage.intervals(s3, {"wrap": wraps, "length_m": wrap_lengths}))
+    return ResponseFit(best=best, intervals=intervals, score=s3.score, dof=3 * len(SCORED),
+                       grids={"radius_m": [float(x) for x in radii], "length_m": [float(x) for x in wrap_lengths],
+                              "wrap": [float(x) for x in wraps],
                               "thickness_m": [float(x) for x in thicknesses], "counts_per_pa": [float(x) for x in gains],
                               "p_half_pa": [float(x) for x in p_halfs]},
-                       force_over_modulus=fe, compression=comp, frames=[(r.path, int(j)) for r, fr in per_rec for j in fr],
+                       force_over_modulus=s3.force[s3.at] / E, compression=s3.compression[s3.at],
+                       frames=[(r.path, int(j)) for r, fr in per_rec for j in fr],
                        young_modulus=float(E), seconds=time.perf_counter() - t0)
+
+
+@dataclass
+class _Stage:
+    """One scanned stage of the fit: ``geoms`` (radius, length, thickness, wrap) tuples; ``sim``, ``ok``,
+    ``force``, ``compression`` as :func:`_scan` returns them; ``score`` (n_geom, G, P); ``at`` the
+    best (geometry, gain, p_half) index."""
+
+    geoms: list
+    sim: np.ndarray
+    ok: np.ndarray
+    force: np.ndarray
+    compression: np.ndarray
+    score: np.ndarray
+    at: tuple
+
+    @property
+    def best_geometry(self):
+        return self.geoms[self.at[0]]
+
+
+class _Stages:
+    """Presses (cached per geometry and recording) and scans of the fit's stages."""
+
+    def __init__(self, frames, layout, poses, gains, p_halfs, force_bounds, sigma, grid_spacing, progress):
+        self.frames, self.layout, self.poses = frames, layout, poses
+        self.gains, self.p_halfs, self.force_bounds = gains, p_halfs, force_bounds
+        self.noise = np.where(np.isfinite(sigma), sigma, np.nanmedian(sigma))
+        self.grid_spacing, self.progress = grid_spacing, progress
+        self.ladders: dict = {}
+        self.real = np.concatenate([np.stack([rm[name] for name in SCORED], axis=1) for rm in frames.real])  # (F, M)
+        self.rec_of = np.concatenate([np.full(len(fr), i) for i, (_, fr) in enumerate(frames.per_rec)])
+
+    def _press(self, geoms, desc):
+        from .._progress import progress as bar
+
+        jobs = [(g, i) for g in geoms for i in range(len(self.poses)) if (g, i) not in self.ladders]
+        for (radius, ln, h, wrap), i in bar(jobs, desc=f"calibrate: pressing ({desc})", total=len(jobs),
+                                            unit="ladder"):
+            mp = MatchedPress(self.layout, SoftLayer(thickness=h, material=MATERIAL),
+                              {**INDENTER, "radius": radius, "length": ln, "wrap": wrap},
+                              grid=ContactGrid(spacing=self.grid_spacing))
+            self.ladders[((radius, ln, h, wrap), i)] = mp.ladder(self.poses[i], CAL_LADDER_N)
+            if self.progress is not None:
+                self.progress()
+
+    def run(self, geoms, desc) -> _Stage:
+        self._press(geoms, desc)
+        sim, ok, f, c = _scan(self.frames, lambda g, r: self.ladders[(geoms[g], r)], len(geoms), self.gains,
+                              self.p_halfs, self.force_bounds, self.noise)
+        sc = _quantile_score(sim, ok, self.real, self.frames.scales)
+        at = tuple(int(x) for x in np.unravel_index(np.argmin(sc), sc.shape))
+        return _Stage(list(geoms), sim, ok, f, c, sc, at)
+
+    def intervals(self, st: _Stage, geom_grids: dict) -> dict:
+        """Bootstrap intervals of a stage whose geometries span ``geom_grids`` (name -> values, in the
+        order the stage's geometries were made, outermost first), with the gain and p_half."""
+        shape = tuple(len(v) for v in geom_grids.values()) + (len(self.gains), len(self.p_halfs))
+        return _bootstrap(lambda rows: _quantile_score(st.sim, st.ok, self.real, self.frames.scales,
+                                                       rows).reshape(shape),
+                          self.rec_of, {**geom_grids, "counts_per_pa": self.gains, "p_half_pa": self.p_halfs})

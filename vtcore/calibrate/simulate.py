@@ -80,13 +80,29 @@ def recording_pose(poses: list[FramePose], layout) -> FramePose:
     return FramePose(point, normal, axis / max(np.linalg.norm(axis), 1e-12), kappa)
 
 
+def check_wrap(value) -> float:
+    """A finger pad's ``wrap`` (0-1, see :class:`MatchedPress`) as a float, or an InputError naming it."""
+    try:
+        w = float(value)
+    except (TypeError, ValueError, OverflowError):
+        w = float("nan")
+    if isinstance(value, bool) or not 0.0 <= w <= 1.0:
+        raise InputError(f"must be a number from 0 (a straight pad) to 1 (wrapping the skin), got {value!r}",
+                         key="wrap")
+    return w
+
+
 class MatchedPress:
     """Presses of one indenter through one layer on a layout, at recorded poses.
 
     layout : the real layout. layer : SoftLayer. indenter : dict for make_object (``kind`` and its
-    dimensions, e.g. ``{"kind": "fingerpad", "radius": 0.008, "length": 0.04}``). conform : a finger
-    pad's axis is bent to the skin's curvature along it (radius 1/curvature + h + pad radius; a
-    soft pad lying along a convex skin wraps it), straight where the skin is flat or concave.
+    dimensions, e.g. ``{"kind": "fingerpad", "radius": 0.008, "length": 0.04}``; a finger pad's may
+    hold ``wrap``, below). conform : a finger pad's axis is bent along the skin's curvature (a soft
+    pad lying along a convex skin wraps it), straight where the skin is flat or concave. How far:
+    ``wrap`` (0-1, default 1) of the curvature of the arc concentric with the skin (radius
+    1/curvature + h + pad radius): 1 wraps it fully (the pad as soft as the layer, an even
+    pressure along its length), 0 leaves it straight (a rigid finger touching at one point of the
+    arc); a real finger, about as soft as Ecoflex 00-20, lies in between.
     grid : ContactGrid; samples_per_taxel as in press().
     """
 
@@ -94,7 +110,8 @@ class MatchedPress:
                  grid: ContactGrid | None = None, samples_per_taxel: int = 7, window: float = WINDOW_M):
         self.layout, self.layer = layout, layer
         self.indenter = dict(indenter)
-        self.conform = conform and self.indenter.get("kind") == "fingerpad"
+        self.wrap = check_wrap(self.indenter.pop("wrap", 1.0))
+        self.conform = conform and self.indenter.get("kind") == "fingerpad" and self.wrap > 0
         self.grid = grid or ContactGrid(spacing=1e-3)
         self.samples = samples_per_taxel
         self.window = window
@@ -108,7 +125,7 @@ class MatchedPress:
         bend = 0.0
         if self.conform and curvature > 1.0:               # radius below 1 m: conform; flatter: straight
             r_skin = 1.0 / curvature
-            radius = r_skin + self.layer.thickness + dims.get("radius", 0.008)
+            radius = (r_skin + self.layer.thickness + dims.get("radius", 0.008)) / self.wrap
             if not radius < 1e6:  # layer.thickness 1e308: round(inf) was an OverflowError (contact.press's bound)
                 raise InputError(f"a layer {self.layer.thickness:g} m thick bends the finger pad round a radius of "
                                  f"{radius:.3g} m, beyond any skin", key="thickness")

@@ -28,6 +28,7 @@ import numpy as np
 
 from ..errors import FormatError, InputError
 from ..inputs import Spec, clean, read_text, validate
+from .objects import DEFAULTS as OBJECT_KINDS
 
 #: the folder of the profiles shipped with vtcore
 PROFILES_DIR = Path(__file__).with_name("profiles")
@@ -154,7 +155,12 @@ _RESPONSE = {
     "p_half_pa": Spec("float", required=False, default=None, lo=1e-3, hi=1e9),
     "base": Spec("str", required=False, default="bonded", choices=("bonded", "frictionless")),
     "material": Spec("str", required=False, default="ecoflex_00_20"),
-    "indenter": Spec("dict", required=False, default={}),
+    "indenter": Spec("record", required=False, default={}, fields={
+        "kind": Spec("str", choices=tuple(OBJECT_KINDS)),
+        "radius": Spec("float", required=False, lo=1e-3, hi=0.1),
+        "length": Spec("float", required=False, lo=1e-3, hi=0.5),
+        "conform": Spec("bool", required=False),
+        "wrap": Spec("float", required=False, lo=0.0, hi=1.0)}),
 }
 
 
@@ -218,7 +224,7 @@ def parse_profile(doc: dict, path="<profile>") -> SensorProfile:
         extra = {k: v for k, v in doc["response"].items() if k not in _RESPONSE}
         resp = Response(thickness=r["thickness_m"], thickness_ci=tuple(ci) if ci is not None else (math.nan,) * 2,
                         young_modulus=r["young_modulus_pa"], poisson=r["poisson"], counts_per_pa=r["counts_per_pa"],
-                        p_half=r["p_half_pa"], base=r["base"], material=r["material"], indenter=dict(r["indenter"]),
+                        p_half=r["p_half_pa"], base=r["base"], material=r["material"], indenter={k: v for k, v in r["indenter"].items() if v is not None},
                         fields=extra)
     tx = _taxels(doc["taxels"], path) if "taxels" in doc else None
 

@@ -33,6 +33,9 @@ PARAMS = Section({
                           "(default: the gain profile's [response] held_out)"),
     "object": Field("int", default=0, ge=0, doc="which [[objects]] entry is the indenter"),
     "conform": Field("bool", default=True, doc="a finger pad's axis follows the skin's curvature along it"),
+    "wrap": Field("float", default=None, ge=0, le=1,
+                  doc="how far a conforming finger pad wraps the skin: 1 its full curvature, 0 straight "
+                      "(default: the profile's fitted indenter's, else 1)"),
     "indenter_from_profile": Field("bool", default=False,
                                    doc="press with the finger pad the gain profile was fitted with ([response] "
                                        "indenter) instead of the [[objects]] entry"),
@@ -71,7 +74,7 @@ def run(scene, ctx) -> TaskResult:
     if task["indenter_from_profile"]:
         if prof is None or prof.response is None or not prof.response.indenter:
             raise scene.error("task.indenter_from_profile", "[effects.gain] has no profile with a fitted indenter")
-        indenter = {k: v for k, v in prof.response.indenter.items() if k in ("kind", "radius", "length")}
+        indenter = {k: v for k, v in prof.response.indenter.items() if k in ("kind", "radius", "length", "wrap")}
     else:
         if not scene["objects"] or task["object"] >= len(scene["objects"]):
             raise scene.error("objects", "task 'validate' needs an [[objects]] table for the indenter")
@@ -80,6 +83,8 @@ def run(scene, ctx) -> TaskResult:
             raise scene.error(f"objects[{task['object']}].kind", "validate presses a primitive indenter")
         indenter = {"kind": obj["kind"], **{k: obj[k] for k in DEFAULTS[obj["kind"]] if obj.get(k) is not None}}
     indenter.pop("bend_radius", None)            # conform decides the bend per frame
+    if task["wrap"] is not None and indenter["kind"] == "fingerpad":
+        indenter["wrap"] = task["wrap"]
     sigma = np.asarray(noise.sigmas(len(layout)), float) * np.ones(len(layout))
     sat = ctx.pipeline.get("saturation")
     quant = ctx.pipeline.get("quantisation")
