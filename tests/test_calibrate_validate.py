@@ -10,7 +10,6 @@ import pytest
 
 from vtcore.calibrate.footprint import footprint_metrics
 from vtcore.cli import main
-from vtcore.errors import InputError
 from vtcore.layout import load
 
 ROOT = Path(__file__).resolve().parents[1]

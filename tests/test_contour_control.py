@@ -9,7 +9,7 @@ from vtcore.control import (AnalyticContact, CircleContour, ContourFollower, Lin
                             facing_down, motion, motion_matrix, summarize)
 from vtcore.errors import InputError
 from vtcore.filters import MeshEdgeDetector, SubtaxelEdgeDetector, features
-from vtcore.layout import Layout, mesh_from_triangles, skin_mesh
+from vtcore.layout import Layout, mesh_from_triangles
 
 
 def planar_skin(rings=3, pitch=7.5e-3):

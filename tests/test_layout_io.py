@@ -145,7 +145,7 @@ def test_icub_errors_name_the_line(tmp_path, bad, msg):
     with pytest.raises(FormatError, match=msg) as exc:
         load(f)
     assert exc.value.line == 12  # 6 header lines, bad is the 6th calibration row
-    assert f"bad.txt:12" in str(exc.value)
+    assert "bad.txt:12" in str(exc.value)
 
 
 def test_icub_import_export_import_unchanged(tmp_path):
