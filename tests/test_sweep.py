@@ -343,8 +343,14 @@ def test_sweep_through_a_real_scheduler_and_two_workers(tmp_path):
 def test_ctrl_c_keeps_finished_points_and_writes_nothing_half(tmp_path):
     out = tmp_path / "out"
     # 60 points: after the first two (~7 s, the workers' imports) the rest take ~0.25 s each, so 12 points
-    # finished ~1.5 s after the first "ok" and a loaded CI machine's SIGINT sometimes came after the end
-    cmd = [sys.executable, "-m", "vtcore", "sweep", str(DEMO), "--grid", "task.force=" + ",".join(
+    # finished ~1.5 s after the first "ok": little time for the SIGINT on a loaded machine
+    # Started as a terminal starts a foreground job: SIGINT at its default. A test run launched in the
+    # background by a non-interactive shell (`cmd &`, nohup) has SIGINT ignored, and a child inherits
+    # that: the sweep then never sees the Ctrl-C (this test failed so in both lanes of such a run).
+    as_a_terminal = ("import os, signal, sys; signal.signal(signal.SIGINT, signal.SIG_DFL); "
+                     "signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT}); "
+                     "os.execv(sys.executable, [sys.executable, '-m', 'vtcore', *sys.argv[1:]])")
+    cmd = [sys.executable, "-c", as_a_terminal, "sweep", str(DEMO), "--grid", "task.force=" + ",".join(
         str(f) for f in range(2, 14)), "--seeds", "1-5", "--set", FAST[0], "--set", "task.readings=100",
         "--out", str(out), "--workers", "2"]
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
