@@ -401,3 +401,22 @@ def test_icub_row_text_that_no_longer_says_the_taxel_is_not_written_back(seed_fi
     (tmp_path / "far.txt").write_text("\n".join(bad) + "\n")
     rc, _, err = run("layout", "info", tmp_path / "far.txt")
     one_error(rc, err, "far.txt", "within +-1000 m")
+
+
+def test_a_ply_without_faces_round_trips_through_json(tmp_path):
+    """A PLY whose face element is empty (found by CI's default fuzz of the PLY reader, py313): the
+    reader keeps `meta.faces = []`, the JSON writer wrote it, and the JSON reader refused `[]` as
+    'must have shape (N x 3), got (0,)'. An empty list is no rows."""
+    from vtcore.layout import load, save
+
+    src = tmp_path / "nf.ply"
+    src.write_text("ply\nformat ascii 1.0\ncomment vtcore layout, units metres\nelement vertex 3\n"
+                   "property double x\nproperty double y\nproperty double z\nelement face 0\n"
+                   "property list uchar int vertex_indices\nend_header\n0 0 0\n0.005 0 0\n0 0.005 0\n")
+    rc, _, err = run("layout", "import", src, "--format", "ply", "--out", tmp_path / "nf.json")
+    assert rc == 0, err
+    back = load(tmp_path / "nf.json")
+    assert back.meta["faces"] == [] and len(back) == 3
+    for fmt, name in (("ply", "o.ply"), ("csv", "o.csv"), ("cyskin", "o.cyskin.json"), ("json", "o.json")):
+        save(back, tmp_path / name, fmt)
+        assert len(load(tmp_path / name, fmt)) == 3

@@ -349,6 +349,9 @@ def float_array(values, *, finite: bool = True, shape: tuple | None = None,
         a = a.astype(np.float64)
     except (ValueError, TypeError, OverflowError):
         raise InputError("must be numbers", **where) from None
+    if shape is not None and a.size == 0 and a.ndim == 1 and len(shape) > 1 and shape[0] is None \
+            and None not in shape[1:]:
+        a = a.reshape((0,) + tuple(shape[1:]))  # [] is no rows: a PLY without faces has meta.faces == []
     if shape is not None and (a.ndim != len(shape) or any(s is not None and s != n for s, n in zip(shape, a.shape))):
         want = " x ".join("N" if s is None else str(s) for s in shape)
         raise InputError(f"must have shape ({want}), got {a.shape}", **where)
@@ -436,7 +439,7 @@ def _convert(v, s: Spec, file, kk: str, line):
         if s.kind == "ints":
             v = int_array(v, dtype=s.dtype, lo=s.lo, hi=s.hi, **where)
             if s.shape is not None:
-                float_array(v, shape=s.shape, **where)
+                v = v.reshape(float_array(v, shape=s.shape, **where).shape)
         else:
             v = float_array(v, shape=s.shape, finite=False, **where)
             bad = ~np.isfinite(v)
