@@ -81,7 +81,7 @@ def run(out: Path, quick: bool = False) -> list[dict]:
     r = prof.response
     layer = SoftLayer(thickness=r.thickness, material=r.material, young_modulus=r.young_modulus,
                       poisson=r.poisson, base=r.base)
-    indenter = {k: v for k, v in r.indenter.items() if k in ("kind", "radius", "length", "wrap")}
+    indenter = r.press_indenter()
     recs = touched[:4] if quick else touched
     grids = (1.5e-3,) if quick else (2e-3, 1.5e-3, 1e-3, 0.75e-3)
     results = {}

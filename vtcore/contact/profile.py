@@ -43,8 +43,8 @@ class Response:
     assumption (force is not recorded: only force / modulus is identified). counts_per_pa : the
     transfer's slope at 0 for that modulus. p_half : Pa or None (linear), half-ceiling pressure.
     base : "bonded" or "frictionless". indenter : dict (the probe the fit used: kind, radius,
-    length, m). fields : every other key of the section as read (intervals, notes, the fit's
-    quality), kept for reports.
+    length, m; conform; wrap, 0-1). fields : every other key of the section as read (intervals,
+    notes, the fit's quality), kept for reports.
     """
 
     thickness: float
@@ -57,6 +57,11 @@ class Response:
     material: str
     indenter: dict
     fields: dict = field(default_factory=dict)
+
+    def press_indenter(self) -> dict:
+        """The fitted probe as a matched press takes it: kind, its dimensions (m) and its wrap
+        (``conform`` is the press's own switch)."""
+        return {k: v for k, v in self.indenter.items() if k in ("kind", "radius", "length", "wrap")}
 
 
 @dataclass(frozen=True)
@@ -224,8 +229,8 @@ def parse_profile(doc: dict, path="<profile>") -> SensorProfile:
         extra = {k: v for k, v in doc["response"].items() if k not in _RESPONSE}
         resp = Response(thickness=r["thickness_m"], thickness_ci=tuple(ci) if ci is not None else (math.nan,) * 2,
                         young_modulus=r["young_modulus_pa"], poisson=r["poisson"], counts_per_pa=r["counts_per_pa"],
-                        p_half=r["p_half_pa"], base=r["base"], material=r["material"], indenter={k: v for k, v in r["indenter"].items() if v is not None},
-                        fields=extra)
+                        p_half=r["p_half_pa"], base=r["base"], material=r["material"],
+                        indenter={k: v for k, v in r["indenter"].items() if v is not None}, fields=extra)
     tx = _taxels(doc["taxels"], path) if "taxels" in doc else None
 
     def pair(v):

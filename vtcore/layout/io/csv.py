@@ -123,10 +123,8 @@ def read(path, units: str | None = None) -> Layout:
 
     def numeric(name, integer=False):
         i = col[name]
-        out = []
-        for ln, toks in rows:
-            parse = parse_integer if integer else parse_number
-            out.append(parse(toks[i], path, ln, f"column {header[i]}"))
+        parse = parse_integer if integer else parse_number
+        out = [parse(toks[i], path, ln, f"column {header[i]}") for ln, toks in rows]
         return np.asarray(out, dtype=np.int64 if integer else np.float64)
 
     n = len(rows)

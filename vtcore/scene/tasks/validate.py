@@ -74,7 +74,7 @@ def run(scene, ctx) -> TaskResult:
     if task["indenter_from_profile"]:
         if prof is None or prof.response is None or not prof.response.indenter:
             raise scene.error("task.indenter_from_profile", "[effects.gain] has no profile with a fitted indenter")
-        indenter = {k: v for k, v in prof.response.indenter.items() if k in ("kind", "radius", "length", "wrap")}
+        indenter = prof.response.press_indenter()
     else:
         if not scene["objects"] or task["object"] >= len(scene["objects"]):
             raise scene.error("objects", "task 'validate' needs an [[objects]] table for the indenter")
@@ -83,7 +83,9 @@ def run(scene, ctx) -> TaskResult:
             raise scene.error(f"objects[{task['object']}].kind", "validate presses a primitive indenter")
         indenter = {"kind": obj["kind"], **{k: obj[k] for k in DEFAULTS[obj["kind"]] if obj.get(k) is not None}}
     indenter.pop("bend_radius", None)            # conform decides the bend per frame
-    if task["wrap"] is not None and indenter["kind"] == "fingerpad":
+    if task["wrap"] is not None:
+        if indenter["kind"] != "fingerpad":
+            raise scene.error("task.wrap", f"applies to a finger pad; the indenter is a {indenter['kind']}")
         indenter["wrap"] = task["wrap"]
     sigma = np.asarray(noise.sigmas(len(layout)), float) * np.ones(len(layout))
     sat = ctx.pipeline.get("saturation")
