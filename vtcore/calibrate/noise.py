@@ -104,6 +104,117 @@ def _loglik(off, dt, theta, onehot, tc, yy, cens, w, clip):
     return (w * ll).sum(axis=0)
 
 
+@dataclass
+class _Tobit:
+    """The data of a censored fit, laid out once: T samples, N taxels, S segments.
+
+    y, yy : (T, N) counts (yy: 0 where not valid); tc : (T,) s, time centred per segment (0 without
+    drift); ok : (T, N) valid; sid : (T,) segment index; onehot : (T, S); cens0 : (T, N) at or
+    below the clip; live : (S, N) pairs with a sample above the clip; w : (T, N) weight of a
+    sample (0 for dead pairs); cens : (T, N) censored and weighted; clip : counts.
+    """
+
+    y: np.ndarray
+    yy: np.ndarray
+    tc: np.ndarray
+    ok: np.ndarray
+    sid: np.ndarray
+    onehot: np.ndarray
+    cens0: np.ndarray
+    live: np.ndarray
+    w: np.ndarray
+    cens: np.ndarray
+    clip: float
+
+    def loglik(self, off, dt, theta):
+        return _loglik(off, dt, theta, self.onehot, self.tc, self.yy, self.cens, self.w, self.clip)
+
+
+def _tobit_data(segments, clip: float, fit_drift: bool) -> _Tobit:
+    """Stack the segments and mark which (segment, taxel) pairs carry information."""
+    y, tc, ok, sid = _stack(segments)
+    if not fit_drift:
+        tc = np.zeros_like(tc)
+    _, sid = np.unique(sid, return_inverse=True)
+    n_seg = int(sid.max()) + 1
+    onehot = np.zeros((len(y), n_seg))
+    onehot[np.arange(len(y)), sid] = 1.0                 # (T, S)
+    cens0 = ok & (y <= clip)
+    obs_seg = onehot.T @ (ok & ~cens0).astype(float)     # (S, N) samples above the clip per segment
+    live = obs_seg > 0                                   # (S, N) pairs that carry information
+    w = ok.astype(float) * (onehot @ live.astype(float))  # drop the samples of dead pairs
+    cens = cens0 & (w > 0)
+    yy = np.where(ok, y, 0.0)
+    return _Tobit(y, yy, tc, ok, sid, onehot, cens0, live, w, cens, clip)
+
+
+def _newton_direction(d: _Tobit, off, dt, theta, ident, fit_drift: bool):
+    """One Newton direction for all taxels: ``step_a (S, N)`` in the offsets, ``step_b (N, 2)`` in
+    (drift, theta), and the Hessian's diagonal block ``A (S, N)`` and Schur complement ``S_ (N, 2, 2)``
+    (for the standard errors)."""
+    onehot, tc, yy, w, clip, live = d.onehot, d.tc, d.yy, d.w, d.clip, d.live
+    n_tax = len(theta)
+    wu_ = w * (~d.cens)
+    xd = onehot @ off + tc[:, None] * dt
+    a = theta * clip - xd
+    _, lam = _log_mills(a)
+    k = lam * (a + lam)                              # in (0, 1): the censored curvature
+    r = theta * yy - xd
+    wc = w * d.cens
+    q = wu_ + wc * k                                 # (T, N) curvature weight of a location shift
+    e = wu_ * r - wc * lam                           # (T, N) score of a location shift
+    cy = wu_ * yy + wc * k * clip                    # (T, N) cross term with theta
+    g_a = onehot.T @ e                               # (S, N)
+    g_b = np.stack([(e * tc[:, None]).sum(0), (wu_ * (1.0 / theta - r * yy) + wc * lam * clip).sum(0)], 1)
+    A = -(onehot.T @ q)                              # (S, N) diagonal block
+    A = np.where(live, A, -1.0)                      # dead pairs: a dummy, zero-gradient coordinate
+    g_a = np.where(live, g_a, 0.0)
+    B = np.stack([-(onehot.T @ (q * tc[:, None])), onehot.T @ cy], axis=2)   # (S, N, 2)
+    B = np.where(live[..., None], B, 0.0)
+    C = np.empty((n_tax, 2, 2))
+    C[:, 0, 0] = -(q * tc[:, None] ** 2).sum(0) - (0.0 if fit_drift else 1.0)
+    C[:, 0, 1] = C[:, 1, 0] = (cy * tc[:, None]).sum(0)
+    C[:, 1, 1] = -(wu_ * (1.0 / theta**2 + yy * yy) + wc * k * clip * clip).sum(0)
+    # Schur complement of the diagonal block: (C - B' A^-1 B) y = -g_b + B' A^-1 g_a
+    ainv = 1.0 / A
+    S_ = C - np.einsum("sni,sn,snj->nij", B, ainv, B) - 1e-12 * np.eye(2)
+    rhs = -g_b + np.einsum("sni,sn,sn->ni", B, ainv, g_a)
+    step_b = np.linalg.solve(S_, rhs[..., None])[..., 0]          # (N, 2)
+    step_a = ainv * (-g_a - np.einsum("sni,ni->sn", B, step_b))   # (S, N)
+    step_a[:, ~ident] = 0.0
+    step_b[~ident] = 0.0
+    if not fit_drift:
+        step_b[:, 0] = 0.0
+    return step_a, step_b, A, S_
+
+
+def _halve_steps(d: _Tobit, off, dt, theta, step_a, step_b, ll):
+    """Step halving, per taxel, until the log-likelihood does not fall and theta stays > 0
+    (at most 40 halvings). Returns the new ``(off, dt, theta, loglik)`` and each taxel's step length."""
+    t_len = np.ones(len(theta))
+    for _ in range(40):
+        no = off + t_len * step_a
+        nd = dt + t_len * step_b[:, 0]
+        nt = theta + t_len * step_b[:, 1]
+        bad = nt <= 0
+        nt = np.where(bad, theta, nt)
+        nll = d.loglik(no, nd, nt)
+        worse = bad | ~(nll >= ll - 1e-12 * np.abs(ll))
+        if not worse.any():
+            break
+        t_len = np.where(worse, t_len / 2, t_len)
+    return no, nd, nt, nll, t_len
+
+
+def _sign_lag1(d: _Tobit, n) -> np.ndarray:
+    """``(N,)``: lag-1 correlation of the sign ``y > clip`` within segments, mean removed."""
+    sgn = np.where(d.y > d.clip, 1.0, -1.0)
+    same = (d.sid[1:] == d.sid[:-1])[:, None] & d.ok[1:] & d.ok[:-1]
+    r1 = np.where(same, sgn[1:] * sgn[:-1], 0.0).sum(axis=0) / np.maximum(same.sum(axis=0), 1)
+    pbar = np.where(d.ok, sgn, 0.0).sum(axis=0) / np.maximum(n, 1)
+    return (r1 - pbar**2) / np.maximum(1 - pbar**2, 1e-9)
+
+
 def censored_normal_fit(segments, *, clip: float = 0.0, min_observed: int = 5, max_iter: int = 100,
                         tol: float = 1e-9, fit_drift: bool = True) -> NoiseFit:
     """Fit ``y = offset_s + drift (t - t_s) + N(0, sigma^2)`` per taxel, observed as ``max(y, clip)``.
@@ -123,77 +234,24 @@ def censored_normal_fit(segments, *, clip: float = 0.0, min_observed: int = 5, m
     Newton step uses the Hessian's arrow shape (diagonal in the segment offsets, dense in drift and
     sigma) through its Schur complement, vectorised over taxels.
     """
-    y, tc, ok, sid = _stack(segments)
-    if not fit_drift:
-        tc = np.zeros_like(tc)
-    _, sid = np.unique(sid, return_inverse=True)
-    n_seg = int(sid.max()) + 1
-    onehot = np.zeros((len(y), n_seg))
-    onehot[np.arange(len(y)), sid] = 1.0                 # (T, S)
-    cens0 = ok & (y <= clip)
-    obs_seg = onehot.T @ (ok & ~cens0).astype(float)     # (S, N) samples above the clip per segment
-    live = obs_seg > 0                                   # (S, N) pairs that carry information
-    w = ok.astype(float) * (onehot @ live.astype(float))  # drop the samples of dead pairs
-    cens = cens0 & (w > 0)
-    yy = np.where(ok, y, 0.0)
+    d = _tobit_data(segments, clip, fit_drift)
+    ok, w, onehot, live = d.ok, d.w, d.onehot, d.live
     n = ok.sum(axis=0).astype(float)
-    n_obs = ((~cens0) & ok).sum(axis=0)
+    n_obs = ((~d.cens0) & ok).sum(axis=0)
     ident = n_obs >= min_observed
-    n_tax = y.shape[1]
     # start: per-segment means of the observed samples, sigma from the naive spread (floored at 1)
     wsum = onehot.T @ w
-    mu0 = (onehot.T @ (w * yy)) / np.maximum(wsum, 1)     # (S, N)
-    sd0 = np.sqrt(np.maximum((w * (yy - onehot @ mu0) ** 2).sum(0) / np.maximum(w.sum(0), 1), 1.0))
+    mu0 = (onehot.T @ (w * d.yy)) / np.maximum(wsum, 1)     # (S, N)
+    sd0 = np.sqrt(np.maximum((w * (d.yy - onehot @ mu0) ** 2).sum(0) / np.maximum(w.sum(0), 1), 1.0))
     theta = 1.0 / sd0
     off = mu0 * theta
-    dt = np.zeros(n_tax)
-    ll = _loglik(off, dt, theta, onehot, tc, yy, cens, w, clip)
+    dt = np.zeros(d.y.shape[1])
+    ll = d.loglik(off, dt, theta)
     it, converged = 0, False
-    wu_ = w * (~cens)
     for it in range(1, max_iter + 1):
-        xd = onehot @ off + tc[:, None] * dt
-        a = theta * clip - xd
-        _, lam = _log_mills(a)
-        k = lam * (a + lam)                              # in (0, 1): the censored curvature
-        r = theta * yy - xd
-        wc = w * cens
-        q = wu_ + wc * k                                 # (T, N) curvature weight of a location shift
-        e = wu_ * r - wc * lam                           # (T, N) score of a location shift
-        cy = wu_ * yy + wc * k * clip                    # (T, N) cross term with theta
-        g_a = onehot.T @ e                               # (S, N)
-        g_b = np.stack([(e * tc[:, None]).sum(0), (wu_ * (1.0 / theta - r * yy) + wc * lam * clip).sum(0)], 1)
-        A = -(onehot.T @ q)                              # (S, N) diagonal block
-        A = np.where(live, A, -1.0)                      # dead pairs: a dummy, zero-gradient coordinate
-        g_a = np.where(live, g_a, 0.0)
-        B = np.stack([-(onehot.T @ (q * tc[:, None])), onehot.T @ cy], axis=2)   # (S, N, 2)
-        B = np.where(live[..., None], B, 0.0)
-        C = np.empty((n_tax, 2, 2))
-        C[:, 0, 0] = -(q * tc[:, None] ** 2).sum(0) - (0.0 if fit_drift else 1.0)
-        C[:, 0, 1] = C[:, 1, 0] = (cy * tc[:, None]).sum(0)
-        C[:, 1, 1] = -(wu_ * (1.0 / theta**2 + yy * yy) + wc * k * clip * clip).sum(0)
-        # Schur complement of the diagonal block: (C - B' A^-1 B) y = -g_b + B' A^-1 g_a
-        ainv = 1.0 / A
-        S_ = C - np.einsum("sni,sn,snj->nij", B, ainv, B) - 1e-12 * np.eye(2)
-        rhs = -g_b + np.einsum("sni,sn,sn->ni", B, ainv, g_a)
-        step_b = np.linalg.solve(S_, rhs[..., None])[..., 0]          # (N, 2)
-        step_a = ainv * (-g_a - np.einsum("sni,ni->sn", B, step_b))   # (S, N)
-        step_a[:, ~ident] = 0.0
-        step_b[~ident] = 0.0
-        if not fit_drift:
-            step_b[:, 0] = 0.0
-        t_len = np.ones(n_tax)
-        for _ in range(40):                             # step halving, per taxel, keeping theta > 0
-            no = off + t_len * step_a
-            nd = dt + t_len * step_b[:, 0]
-            nt = theta + t_len * step_b[:, 1]
-            bad = nt <= 0
-            nt = np.where(bad, theta, nt)
-            nll = _loglik(no, nd, nt, onehot, tc, yy, cens, w, clip)
-            worse = bad | ~(nll >= ll - 1e-12 * np.abs(ll))
-            if not worse.any():
-                break
-            t_len = np.where(worse, t_len / 2, t_len)
-        off, dt, theta, gain = no, nd, nt, nll - ll
+        step_a, step_b, A, S_ = _newton_direction(d, off, dt, theta, ident, fit_drift)
+        off, dt, theta, nll, t_len = _halve_steps(d, off, dt, theta, step_a, step_b, ll)
+        gain = nll - ll
         ll = nll
         size = np.maximum(np.abs(step_a).max(axis=0), np.abs(step_b).max(axis=1)) * t_len
         if np.all(np.abs(gain[ident]) <= tol * (1 + np.abs(ll[ident]))) and np.all(size[ident] <= 1e-7):
@@ -211,12 +269,7 @@ def censored_normal_fit(segments, *, clip: float = 0.0, min_observed: int = 5, m
     wts = seg_n / np.maximum(seg_n.sum(axis=0), 1)
     offset = (wts * off).sum(axis=0) * sigma             # sample-weighted mean offset over the live segments
     se_off = np.sqrt((wts**2 * np.where(live, -1.0 / A, 0.0)).sum(axis=0)) * sigma
-    # lag-1 correlation of the sign within segments
-    sgn = np.where(y > clip, 1.0, -1.0)
-    same = (sid[1:] == sid[:-1])[:, None] & ok[1:] & ok[:-1]
-    r1 = np.where(same, sgn[1:] * sgn[:-1], 0.0).sum(axis=0) / np.maximum(same.sum(axis=0), 1)
-    pbar = np.where(ok, sgn, 0.0).sum(axis=0) / np.maximum(n, 1)
-    r_sign = (r1 - pbar**2) / np.maximum(1 - pbar**2, 1e-9)
+    r_sign = _sign_lag1(d, n)
 
     def nan_unless(v):
         return np.where(ident, v, np.nan)
@@ -225,7 +278,7 @@ def censored_normal_fit(segments, *, clip: float = 0.0, min_observed: int = 5, m
                     drift=nan_unless(drift) if fit_drift else np.where(ident, 0.0, np.nan),
                     sigma_se=nan_unless(se_sigma), offset_se=nan_unless(se_off),
                     drift_se=nan_unless(se_drift) if fit_drift else np.where(ident, 0.0, np.nan),
-                    censored=np.where(n > 0, (cens0 & ok).sum(axis=0) / np.maximum(n, 1), np.nan), n=n,
+                    censored=np.where(n > 0, (d.cens0 & ok).sum(axis=0) / np.maximum(n, 1), np.nan), n=n,
                     lag1=nan_unless(np.sin(np.pi / 2 * np.clip(r_sign, -1, 1))), iterations=it,
                     converged=converged,
                     segment_offset=np.where(live & ident[None, :], off * sigma[None, :], np.nan))

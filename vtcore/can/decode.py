@@ -42,6 +42,8 @@ from ..errors import InputError
 from ..inputs import need_memory
 from .codecs import Codec
 from .frames import REASONS, FrameBatch, Summary
+from .rows import (chain_rows, clock_jumps, fill_empty_times, out_of_order, stream_runs, unique_ints,
+                   unit_error_cells)
 
 _CLOCK_JUMP = REASONS.index("clock_jump")
 
@@ -283,21 +285,10 @@ class StreamDecoder:
         so the median is evaluated at a handful of places (the log's hot path is one ``diff``).
         """
         k = self.JUMP_CONTEXT
-        m = len(t)
         before = np.r_[np.full(k - len(self._ctx), np.nan), self._ctx]
         after = np.zeros(0) if ahead is None else ahead[:k]
         after = np.r_[after, np.full(k - len(after), np.nan)]
-        ext = np.r_[before, t, after]                    # t[i] is ext[k + i]
-        jump = np.zeros(m, bool)
-        limit = self.window * self.period
-        # forward steps, over the context frames too: a step just before this chunk still
-        # makes the next k frames candidates (results must not depend on the chunking)
-        prev, cur = ext[:k + m - 1], ext[1:k + m]
-        with np.errstate(invalid="ignore"):
-            step = (np.isnan(prev) & ~np.isnan(cur)) | (cur - prev > limit)   # nan: the log's first frame
-        fwd = np.flatnonzero(step) + 1 - k                                      # index into t of the step
-        if len(fwd) == 0:
-            return jump
+        return clock_jumps(t, before, after, self.window * self.period)
         cand = np.unique((fwd[:, None] + np.arange(k)[None, :]).reshape(-1))
         cand = cand[(cand >= 0) & (cand < m)]
         med = np.nanmedian(ext[cand[:, None] + np.arange(2 * k + 1)[None, :]], axis=1)
@@ -305,71 +296,74 @@ class StreamDecoder:
         return jump
 
     def _process(self, batch: FrameBatch, jump: np.ndarray) -> Block | None:
+        """One chunk (after the clock-jump vote): reject frames by reason, place the rest in rows,
+        scatter their channels into the pending grid, and return the rows that closed."""
         s = self.summary
-        m = len(batch)
-        s.frames_read += m
-        if m == 0:
+        s.frames_read += len(batch)
+        if len(batch) == 0:
             return None
+        keys, acc = self._accept(batch, jump)
+        if len(acc) == 0:
+            return None
+        s.period_s = self.period
+        ki = self._stream_indices(keys[acc])
+        kept = self._drop_out_of_order(batch, acc, batch.timestamps[acc], ki)
+        if kept is None:
+            return None
+        o, ts, ks = kept
+        rows = self._place_rows(ts, ks)
+        o, rows, ks, ts = self._drop_late(batch, acc, o, rows, ks, ts)
+        if not len(rows):
+            return self._emit(final=False)
+        self._grow_pending(batch, acc, o, rows)
+        o, r, ks, ts = self._drop_duplicates(batch, acc, o, rows - self._row0, ks, ts)
+        src = acc[o]
+        s.frames_used += len(src)
+        self._scatter(batch, src, r, ks, ts)
+        self._record_unit_errors(batch, keys, src, r, ks)
+        self.max_pending_rows = max(self.max_pending_rows, len(self._pt))
+        return self._emit(final=False)
+
+    def _accept(self, batch: FrameBatch, jump: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Classify the frames, count the rejected ones by reason (codec's, then clock jumps);
+        return the stream key of every frame ``(M,)`` and the indices of the accepted ones."""
         keys, reason = self.codec.classify(batch)
         reason = np.where((reason < 0) & jump, _CLOCK_JUMP, reason).astype(np.int8)
         for code in np.unique(reason[reason >= 0]):
             sel = reason == code
-            s.reject(REASONS[code], int(sel.sum()), batch.lines[sel])
-        acc = np.flatnonzero(reason < 0)
-        if len(acc) == 0:
-            return None
-        t = batch.timestamps[acc]
-        k = keys[acc]
-        s.period_s = self.period
+            self.summary.reject(REASONS[code], int(sel.sum()), batch.lines[sel])
+        return keys, np.flatnonzero(reason < 0)
+
+    def _stream_indices(self, k: np.ndarray) -> np.ndarray:
+        """Stream index of each key, adding the streams seen for the first time."""
         ki = self._index_of(k)
         unknown = ki < 0
         if unknown.any():
-            self._add_keys(_unique(k[unknown]))
+            self._add_keys(unique_ints(k[unknown]))
             ki = self._index_of(k)
+        return ki
 
-        # --- out of order: earlier than the running max of its stream (segmented cummax) ---
+    def _drop_out_of_order(self, batch: FrameBatch, acc: np.ndarray, t: np.ndarray, ki: np.ndarray):
+        """Sort the accepted frames by stream (file order within) and reject those earlier than the
+        running maximum of their stream. Returns ``(o, ts, ks)``: the order into ``acc``, times and
+        stream indices of the frames kept, or None when none is."""
         # by stream, file order within (16-bit keys get numpy's O(n) radix sort)
         o = np.argsort(ki.astype(np.uint16) if len(self._keys) < 65536 else ki, kind="stable")
         ts, ks = t[o], ki[o]
-        start = np.r_[True, ks[1:] != ks[:-1]]
-        seg = np.cumsum(start) - 1
-        carry = self._klast_t[ks]
-        base = min(ts.min(), carry[np.isfinite(carry)].min() if np.isfinite(carry).any() else ts.min())
-        a = ts - base
-        c = np.where(np.isfinite(carry), carry - base, -1.0)
-        span = max(a.max(), c.max()) + 2.0
-        off = seg * span
-        cm = np.maximum.accumulate(a + off)
-        prev = np.maximum(c + off, np.r_[-np.inf, cm[:-1]])
-        ooo = (a + off) < prev
+        ooo = out_of_order(ts, ks, self._klast_t[ks])
         if ooo.any():
-            s.reject("out_of_order", int(ooo.sum()), batch.lines[acc[o[ooo]]])
+            self.summary.reject("out_of_order", int(ooo.sum()), batch.lines[acc[o[ooo]]])
             keep = ~ooo
             o, ts, ks = o[keep], ts[keep], ks[keep]
             if len(o) == 0:
                 return None
-            start = np.r_[True, ks[1:] != ks[:-1]]
-            seg = np.cumsum(start) - 1
-        first = np.flatnonzero(start)
+        return o, ts, ks
 
-        # --- rows: chained per stream ---
-        p = self.period
-        prev_t = np.r_[ts[0], ts[:-1]]
-        inc = np.rint((ts - prev_t) / p).astype(np.int64)
-        known_first = self._klast_row[ks[first]] >= 0
-        inc[first] = 0
-        first_row = np.zeros(len(first), np.int64)
-        kf = first[known_first]
-        first_row[known_first] = self._klast_row[ks[kf]] + np.rint((ts[kf] - self._klast_t[ks[kf]]) / p).astype(np.int64)
-        csum = np.cumsum(inc)
-        rows = np.empty(len(ts), np.int64)
-        # rows of known streams first: they are references for new ones
-        rel = csum - csum[first][seg]
-        known_el = known_first[seg]
-        rows[known_el] = first_row[seg[known_el]] + rel[known_el]
-        if (~known_first).any():
-            ref_t = [ts[known_el]]
-            ref_r = [rows[known_el]]
+    def _place_rows(self, ts: np.ndarray, ks: np.ndarray) -> np.ndarray:
+        """Row of every frame (chained per stream) and each stream's state for the next chunk."""
+        def references():
+            # rows known outside this chunk, for streams new here: pending rows, the last emitted
+            ref_t, ref_r = [], []
             if len(self._pt):
                 has = np.isfinite(self._pt)
                 ref_t.append(self._pt[has])
@@ -377,27 +371,20 @@ class StreamDecoder:
             if self._last_emit is not None:
                 ref_t.append(np.array([self._last_emit[1]]))
                 ref_r.append(np.array([self._last_emit[0]]))
-            ref_t = np.concatenate(ref_t)
-            ref_r = np.concatenate(ref_r)
-            nf = first[~known_first]
-            tf = ts[nf]
-            if len(ref_t) == 0:
-                # very first frames: row 0 at the earliest of them
-                ref_t, ref_r = np.array([tf.min()]), np.array([0])
-            ro = np.argsort(ref_t, kind="stable")
-            ref_t, ref_r = ref_t[ro], ref_r[ro]
-            j = np.clip(np.searchsorted(ref_t, tf), 1, max(len(ref_t) - 1, 1))
-            j0 = np.clip(j - 1, 0, len(ref_t) - 1)
-            j1 = np.clip(j, 0, len(ref_t) - 1)
-            near = np.where(np.abs(ref_t[j1] - tf) < np.abs(tf - ref_t[j0]), j1, j0)
-            first_row[~known_first] = ref_r[near] + np.rint((tf - ref_t[near]) / p).astype(np.int64)
-            new_el = ~known_el
-            rows[new_el] = first_row[seg[new_el]] + rel[new_el]
-        # stream state for the next chunk (last frame of each segment)
-        last = np.r_[first[1:] - 1, len(ts) - 1]
+            return ref_t, ref_r
+
+        rows = chain_rows(ts, ks, self.period, self._klast_row, self._klast_t, references)
+        # stream state for the next chunk (last frame of each run)
+        start, _ = stream_runs(ks)
+        last = np.r_[np.flatnonzero(start)[1:] - 1, len(ts) - 1]
         self._klast_t[ks[last]] = ts[last]
         self._klast_row[ks[last]] = rows[last]
+        return rows
 
+    def _drop_late(self, batch: FrameBatch, acc, o, rows, ks, ts):
+        """Reject frames whose row was already emitted (or is ``window`` rows behind the newest read
+        before them, in file order); refuse a forward gap of more than ``MAX_GAP_ROWS`` rows.
+        Returns ``(o, rows, ks, ts)`` of the frames kept."""
         # lateness needs the file order: running max of rows over the frames read before
         rows_f = np.full(len(acc), np.iinfo(np.int64).min // 2, np.int64)
         rows_f[o] = rows
@@ -417,13 +404,13 @@ class StreamDecoder:
                              "appended?), decode its parts separately", line=line or None)
         self._maxrow = max(self._maxrow, newest)
         if late.any():
-            s.reject("late", int(late.sum()), batch.lines[acc[o[late]]])
+            self.summary.reject("late", int(late.sum()), batch.lines[acc[o[late]]])
             ok = ~late
             o, rows, ks, ts = o[ok], rows[ok], ks[ok], ts[ok]
-            if not len(rows):
-                return self._emit(final=False)
+        return o, rows, ks, ts
 
-        # grow the pending grid to the newest row
+    def _grow_pending(self, batch: FrameBatch, acc, o, rows) -> None:
+        """Extend the pending grid (values, mask, times, stream flags) to the newest row."""
         need = self._maxrow - self._row0 + 1
         have = len(self._pt)
         if need > have:
@@ -433,21 +420,25 @@ class StreamDecoder:
             self._pm = np.concatenate([self._pm, np.zeros((need - have, n), bool)])
             self._pt = np.concatenate([self._pt, np.full(need - have, np.inf)])
             self._pfill = np.concatenate([self._pfill, np.zeros((need - have, len(self._keys)), bool)])
-        r = rows - self._row0
 
-        # duplicates: rows never decrease within a stream here (out-of-order frames are gone),
-        # so a duplicate is the same row as the previous frame of its stream; the first read wins
+    def _drop_duplicates(self, batch: FrameBatch, acc, o, r, ks, ts):
+        """Reject a second frame of a stream in one row (the first read wins) and flag the rows
+        each stream filled. ``r``: rows relative to the first pending row. Returns ``(o, r, ks, ts)``."""
+        # rows never decrease within a stream here (out-of-order frames are gone),
+        # so a duplicate is the same row as the previous frame of its stream
         dup = np.r_[False, (ks[1:] == ks[:-1]) & (r[1:] == r[:-1])]
         dup |= self._pfill[r, ks]
         if dup.any():
-            s.reject("duplicate", int(dup.sum()), batch.lines[acc[o[dup]]])
+            self.summary.reject("duplicate", int(dup.sum()), batch.lines[acc[o[dup]]])
             ok = ~dup
             o, r, ks, ts = o[ok], r[ok], ks[ok], ts[ok]
         self._pfill[r, ks] = True
-        src = acc[o]
-        s.frames_used += len(src)
+        return o, r, ks, ts
 
-        # scatter the channels into the grid
+    def _scatter(self, batch: FrameBatch, src, r, ks, ts) -> None:
+        """Write the channels of frames ``src`` into rows ``r`` of the pending grid; count the
+        channels without a column (unmapped); a row's time is its earliest frame."""
+        s = self.summary
         vals = self.codec.values(batch)[src]
         # channel presence and columns depend only on (stream, DLC): work them out once per
         # combination seen (a handful), then gather one (M, C) column table for the frames
@@ -476,16 +467,19 @@ class StreamDecoder:
         self._pv.reshape(-1)[lin] = vals
         self._pm.reshape(-1)[lin] = True
         np.minimum.at(self._pt, r, ts)
+
+    def _record_unit_errors(self, batch: FrameBatch, keys, src, r, ks) -> None:
+        """Count the codec's nonzero diagnostic codes and keep ``(row, unit, code)`` for masking
+        the unit's samples when its row is emitted."""
         err, _oor = self.codec.diagnostics(batch, keys)
         err = err[src]
         bad = err > 0
         if bad.any():
+            s = self.summary
             codes, counts = np.unique(err[bad], return_counts=True)
             for code, cnt in zip(codes.tolist(), counts.tolist()):
                 s.triangle_errors[code] = s.triangle_errors.get(code, 0) + cnt
             self._perr.append(np.column_stack([r[bad] + self._row0, self._kunit[ks[bad]], err[bad]]).astype(np.int64))
-        self.max_pending_rows = max(self.max_pending_rows, len(self._pt))
-        return self._emit(final=False)
 
     def finish(self) -> Block | None:
         """Close and return every pending row."""
@@ -504,32 +498,11 @@ class StreamDecoder:
         now = now[np.lexsort((now[:, 1], now[:, 0]))]
         if len(now):
             # mask every sample of an erroring unit (triangle) in that row
-            # the streams of each error's unit by a search in the units' sort order: an (errors x
-            # streams) comparison table is a product of two sizes a log sets (64k x 64k in a chunk)
-            by_unit = np.argsort(self._kunit, kind="stable")
-            lo = np.searchsorted(self._kunit[by_unit], now[:, 1], "left")
-            cnt = np.searchsorted(self._kunit[by_unit], now[:, 1], "right") - lo
-            e_i = np.repeat(np.arange(len(now)), cnt)                     # pairs (error, stream)
-            k_i = by_unit[np.repeat(lo - (np.cumsum(cnt) - cnt), cnt) + np.arange(int(cnt.sum()))]
-            cols = self._kcols[k_i]                                       # (pairs, C)
-            rws = np.broadcast_to((now[e_i, 0] - self._row0)[:, None], cols.shape)
-            good = (cols >= 0) & (cols < n)
             msk = msk.copy()
-            msk[rws[good], cols[good]] = False
+            msk[unit_error_cells(now, self._kunit, self._kcols, self._row0, n)] = False
         # rows without any frame: previous row's time + period
         empty = ~np.isfinite(tt)
-        if empty.any():
-            idx = np.arange(upto)
-            has = np.where(~empty, idx, -1)
-            lastgood = np.maximum.accumulate(has)
-            if self._last_emit is not None:
-                ref_row, ref_t = self._last_emit
-            else:
-                ref_row, ref_t = self._row0 - 1, (tt[~empty][0] - self.period * (np.flatnonzero(~empty)[0] + 1)
-                                                   if (~empty).any() else 0.0)
-            base_t = np.where(lastgood >= 0, tt[np.maximum(lastgood, 0)], ref_t)
-            base_r = np.where(lastgood >= 0, lastgood + self._row0, ref_row)
-            tt = np.where(empty, base_t + (idx + self._row0 - base_r) * self.period, tt)
+        tt = fill_empty_times(tt, self._row0, self.period, self._last_emit)
         ids = self.taxel_ids
         if self._expand is not None:
             v, msk, ids = v[:, self._expand], msk[:, self._expand], self.out_ids
@@ -548,16 +521,6 @@ class StreamDecoder:
         self._pfill = self._pfill[upto:].copy()
         self._row0 += upto
         return block
-
-
-def _unique(k: np.ndarray) -> np.ndarray:
-    """Sorted unique values of an int array; a bincount when the range is small (no sort)."""
-    if len(k) == 0:
-        return k
-    lo, hi = int(k.min()), int(k.max())
-    if hi - lo < 4 * len(k) + 65536:
-        return np.flatnonzero(np.bincount(k - lo, minlength=hi - lo + 1)) + lo
-    return np.unique(k)
 
 
 def _join_blocks(a: Block | None, b: Block | None) -> Block | None:

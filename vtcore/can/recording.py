@@ -54,6 +54,31 @@ def read_cyskin_txt(path, layout=None, taxel_ids=None) -> Recording:
     text = read_text(path, "recording").splitlines()
     while text and not text[0].strip():
         text = text[1:]
+    uids = _header_uids(text, path)
+    n = len(uids)
+    if layout is not None:
+        taxel_ids = layout.taxel_ids
+    ids = np.asarray(taxel_ids if taxel_ids is not None else np.unique(uids[cyskin_sensors(uids) != 0]), np.int64)
+    rows, rejected = _sample_rows(text, n)
+    t = rows[:, 1]
+    vals = rows[:, 2:]
+    clipped_high = int((vals > 65535).sum())
+    clipped_low = int((vals < 0).sum())
+    vals = np.clip(np.rint(vals), 0, 65535).astype(np.uint16)
+    frames, mask, report = _join_by_uid(uids, ids, vals)
+    report.update({
+        "rejected_lines": [{"line": i, "reason": r} for i, r in rejected],
+        "time_backwards": int((t[1:] < t[:-1]).sum()),  # not np.diff: 1e308 - -1e308 overflows
+        "clipped_high": clipped_high,
+        "clipped_low": clipped_low,
+        "rows": int(len(t)),
+        "layout_taxels": int(len(ids)),
+    })
+    return Recording(t, frames, mask, ids, rows[:, 0].astype(np.int64), report)
+
+
+def _header_uids(text: list[str], path: Path) -> np.ndarray:
+    """``(n,) int64``: the taxel UIDs of line 1 (the first non-blank line ``text[0]``)."""
     if not text:
         raise FormatError("empty recording: line 1 must list the taxel UIDs", file=path, line=1)
     try:
@@ -65,14 +90,15 @@ def read_cyskin_txt(path, layout=None, taxel_ids=None) -> Recording:
             raise
         raise FormatError(f"line 1 must list integer taxel UIDs, got {clean(text[0], 60)!r}", file=path,
                           line=1) from None
-    n = len(uids)
-    if n == 0:
+    if len(uids) == 0:
         raise FormatError("line 1 lists no UIDs", file=path, line=1)
-    if layout is not None:
-        taxel_ids = layout.taxel_ids
-    ids = np.asarray(taxel_ids if taxel_ids is not None else np.unique(uids[cyskin_sensors(uids) != 0]), np.int64)
+    return uids
 
-    # rows: vectorised conversion of all well-formed lines at once
+
+def _sample_rows(text: list[str], n: int) -> tuple[np.ndarray, list[tuple[int, str]]]:
+    """The sample lines as ``(T, n + 2)`` float rows ``row_index time_s v1 .. vn``, and the
+    rejected lines as sorted ``(line, reason)``. All well-formed lines convert at once; only
+    when one holds a non-number are they converted one by one to find which."""
     good, rejected = [], []
     for i, line in enumerate(text[1:], start=2):
         parts = line.split()
@@ -106,22 +132,24 @@ def read_cyskin_txt(path, layout=None, taxel_ids=None) -> Recording:
                      for j in np.flatnonzero(~ok)]
         rows = rows[ok]
     rejected.sort()
-    t = rows[:, 1]
-    vals = rows[:, 2:]
-    clipped_high = int((vals > 65535).sum())
-    clipped_low = int((vals < 0).sum())
-    vals = np.clip(np.rint(vals), 0, 65535).astype(np.uint16)
+    return rows, rejected
 
-    # join by UID, from the layout's side: every layout taxel takes the column of its UID
-    # (the first column when the file repeats a UID), so taxels sharing a UID all get data
+
+def _join_by_uid(uids: np.ndarray, ids: np.ndarray, vals: np.ndarray) -> tuple[np.ndarray, np.ndarray, dict]:
+    """Columns ``vals (T, n)`` of file UIDs ``uids (n,)`` joined to the layout's ``ids (N,)``:
+    ``frames (T, N)`` uint16, ``mask (T, N)`` and the report of what matched.
+
+    Joined from the layout's side: every layout taxel takes the column of its UID (the first
+    column when the file repeats a UID), so taxels sharing a UID all get data."""
+    n = len(uids)
     uniq, first = np.unique(uids, return_index=True)           # first file column of each UID
     dup = np.setdiff1d(np.arange(n), first)
     is_temp = cyskin_sensors(uids) == 0
     pos = np.clip(np.searchsorted(uniq, ids), 0, len(uniq) - 1)
     got = uniq[pos] == ids                                       # (N,) layout taxel recorded
     src = first[pos[got]]
-    frames = np.zeros((len(t), len(ids)), np.uint16)
-    mask = np.zeros((len(t), len(ids)), bool)
+    frames = np.zeros((len(vals), len(ids)), np.uint16)
+    mask = np.zeros((len(vals), len(ids)), bool)
     frames[:, got] = vals[:, src]
     mask[:, got] = True
     used = np.isin(uids, ids) & np.isin(np.arange(n), first)     # file columns that reached the layout
@@ -134,14 +162,8 @@ def read_cyskin_txt(path, layout=None, taxel_ids=None) -> Recording:
         "unrecorded_taxels": sorted(int(u) for u in np.setdiff1d(ids, uids)),
         "duplicate_uids": sorted(int(u) for u in uids[dup]),
         "shared_layout_uids": [int(u) for u in lid[lcount > 1]],
-        "rejected_lines": [{"line": i, "reason": r} for i, r in rejected],
-        "time_backwards": int((t[1:] < t[:-1]).sum()),  # not np.diff: 1e308 - -1e308 overflows
-        "clipped_high": clipped_high,
-        "clipped_low": clipped_low,
-        "rows": int(len(t)),
-        "layout_taxels": int(len(ids)),
     }
-    return Recording(t, frames, mask, ids, rows[:, 0].astype(np.int64), report)
+    return frames, mask, report
 
 
 def mismatch_lines(recording_only, layout_only, layout_size: int) -> list[str]:
