@@ -38,6 +38,35 @@ def read(path, units: str | None = None) -> Layout:
 def parse(doc, path, units: str | None = None) -> Layout:
     """The Layout of a decoded CySkin document ``doc`` (``path`` names it in messages)."""
     report = ImportReport(path)
+    info, skin, maps = _sections(doc, path, report)
+    pos, nrm, ids, types, faces, flat, chosen_map = _taxels(skin, maps, path, report)
+    _check_faces_and_ids(faces, ids, len(pos), path, report)
+    scale = units_scale(pos, units, report)
+    if chosen_map is not None:
+        uv, _, _, _, _ = _taxels_of(chosen_map, "tactile_maps", 2, path, report)
+        flat = uv * scale
+    elif flat is not None:
+        flat = flat * scale
+    nrm, estimated = clean_normals(nrm, pos, report)
+    if skin is None:
+        estimated[:] = True  # (0, 0, 1) was invented for a maps-only file
+    check_repeats(pos, report)
+    parents = (skin or {}).get("parent_frames") or []
+    transform, frame, parent = _parent_frame(parents, scale, path, report)
+    # UID = module_uid << 4 | sensor; our module ids are 0-based (module_uid - 1), -1 unknown
+    mods = cyskin_modules(ids)
+    meta = {"info": info, "id_scheme": "cyskin", "parent_frame": parents[0] if parents else None,
+            "faces": faces.tolist(), "maps": [{k: m.get(k) for k in ("key", "name", "type", "description")}
+                                              for m in maps],
+            "cyskin_doc": doc, "cyskin_units": "mm" if scale == 1e-3 else "m"}
+    layout = Layout(pos * scale, nrm, ids, mods, flat, types, frame, transform, meta,
+                    normals_estimated=estimated, parent=parent)
+    layout.meta.update(_digests(layout))
+    return finish(layout, report, path, "cyskin")
+
+
+def _sections(doc, path, report: ImportReport):
+    """``(info, skin, maps)`` of the document: ``maps`` always a list (a bare object wrapped)."""
     if not isinstance(doc, dict):
         raise FormatError("the top level must be an object with 'skin' and/or 'tactile_maps'", file=path)
     info = doc.get("info") or {}
@@ -50,55 +79,71 @@ def parse(doc, path, units: str | None = None) -> Layout:
         raise FormatError("neither 'skin' nor 'tactile_maps' found", file=path)
     if info and str(info.get("file_version", "2")) != "2":
         report.warn(f"file_version {info.get('file_version')!r}; this reader knows version 2")
+    return info, skin, maps
 
-    def taxels_of(obj, key, dim):
-        tl = obj.get("taxels")
-        if not isinstance(tl, list):
-            raise FormatError("'taxels' must be a list", file=path, key=f"{key}.taxels")
-        xs, ids, types = [], [], []
-        ns = []
-        for i, t in enumerate(tl):
-            k = f"{key}.taxels[{i}]"
-            if not isinstance(t, dict) or "x" not in t:
-                raise FormatError("each taxel needs 'x'", file=path, key=k)
-            x = t["x"]
-            if not isinstance(x, list) or len(x) < dim:
-                raise FormatError(f"'x' must have {dim} numbers, got {x!r}", file=path, key=k)
-            xs.append([parse_number(str(v), path, None, f"{k}.x") for v in x[:dim]])
-            if dim == 3:
-                nn = t.get("n", [0, 0, 0])
-                if not isinstance(nn, list) or len(nn) < 3:
-                    raise FormatError(f"'n' must have 3 numbers, got {nn!r}", file=path, key=k)
-                ns.append([parse_number(str(v), path, None, f"{k}.n") for v in nn[:3]])
-            ids.append(int(t.get("id", 0)))
-            types.append(str(t.get("type", "pressure")) or "pressure")
-        declared = obj.get("n_taxels")
-        if declared is not None and declared != len(tl):
-            report.warn(f"{key}.n_taxels says {declared} but the list has {len(tl)}; using the list")
-        faces = np.asarray(obj.get("faces") or np.zeros((0, 3)), dtype=np.int64).reshape(-1, 3)
-        if obj.get("n_faces") is not None and obj["n_faces"] != len(faces):
-            report.warn(f"{key}.n_faces says {obj['n_faces']} but the list has {len(faces)}; using the list")
-        return np.asarray(xs, float).reshape(-1, dim), np.asarray(ns, float).reshape(-1, 3), \
-            np.asarray(ids, np.int64), np.asarray(types, dtype=object), faces
 
+def _taxels_of(obj, key: str, dim: int, path, report: ImportReport):
+    """The taxels of a ``skin`` (``dim`` 3) or a tactile map (``dim`` 2): ``x (n, dim)`` in the
+    file's unit, normals ``(n, 3)`` (``(0, 3)`` for a map), ids ``(n,)``, types ``(n,)`` and faces
+    ``(F, 3)``. ``key`` names the object in messages."""
+    tl = obj.get("taxels")
+    if not isinstance(tl, list):
+        raise FormatError("'taxels' must be a list", file=path, key=f"{key}.taxels")
+    xs, ids, types = [], [], []
+    ns = []
+    for i, t in enumerate(tl):
+        k = f"{key}.taxels[{i}]"
+        if not isinstance(t, dict) or "x" not in t:
+            raise FormatError("each taxel needs 'x'", file=path, key=k)
+        x = t["x"]
+        if not isinstance(x, list) or len(x) < dim:
+            raise FormatError(f"'x' must have {dim} numbers, got {x!r}", file=path, key=k)
+        xs.append([parse_number(str(v), path, None, f"{k}.x") for v in x[:dim]])
+        if dim == 3:
+            nn = t.get("n", [0, 0, 0])
+            if not isinstance(nn, list) or len(nn) < 3:
+                raise FormatError(f"'n' must have 3 numbers, got {nn!r}", file=path, key=k)
+            ns.append([parse_number(str(v), path, None, f"{k}.n") for v in nn[:3]])
+        ids.append(int(t.get("id", 0)))
+        types.append(str(t.get("type", "pressure")) or "pressure")
+    declared = obj.get("n_taxels")
+    if declared is not None and declared != len(tl):
+        report.warn(f"{key}.n_taxels says {declared} but the list has {len(tl)}; using the list")
+    faces = np.asarray(obj.get("faces") or np.zeros((0, 3)), dtype=np.int64).reshape(-1, 3)
+    if obj.get("n_faces") is not None and obj["n_faces"] != len(faces):
+        report.warn(f"{key}.n_faces says {obj['n_faces']} but the list has {len(faces)}; using the list")
+    return np.asarray(xs, float).reshape(-1, dim), np.asarray(ns, float).reshape(-1, 3), \
+        np.asarray(ids, np.int64), np.asarray(types, dtype=object), faces
+
+
+def _taxels(skin, maps: list, path, report: ImportReport):
+    """The taxels of the skin, or of the first isomap (else first map) of a maps-only file placed
+    in the plane z = 0: ``(pos, nrm, ids, types, faces, flat, chosen_map)``, where ``flat`` is the
+    maps-only file's map coordinates and ``chosen_map`` the skin's isomap (or flat placement) of
+    as many taxels, if any."""
     flat = None
     chosen_map = None
     if skin is not None:
-        pos, nrm, ids, types, faces = taxels_of(skin, "skin", 3)
+        pos, nrm, ids, types, faces = _taxels_of(skin, "skin", 3, path, report)
         for mp in maps:
             if mp.get("type") in ("isomap", "flat_sensors_placement") and len(mp.get("taxels", [])) == len(pos):
                 chosen_map = mp
                 break
     else:
         mp = next((m for m in maps if m.get("type") == "isomap"), maps[0])
-        uv, _, ids, types, faces = taxels_of(mp, "tactile_maps", 2)
+        uv, _, ids, types, faces = _taxels_of(mp, "tactile_maps", 2, path, report)
         pos = np.column_stack([uv, np.zeros(len(uv))])
         nrm = np.tile([0.0, 0.0, 1.0], (len(uv), 1))
         flat = uv
         report.warn("no 'skin' (3-D positions): taxels placed at the 2-D map coordinates in the plane z = 0")
     if len(pos) == 0:
         raise FormatError("no taxels", file=path)
-    n = len(pos)
+    return pos, nrm, ids, types, faces, flat, chosen_map
+
+
+def _check_faces_and_ids(faces: np.ndarray, ids: np.ndarray, n: int, path, report: ImportReport) -> None:
+    """Refuse faces indexing past the ``n`` taxels; warn of duplicated faces, taxels in no face
+    and repeated (nonzero) taxel ids."""
     if len(faces) and (faces.min() < 0 or faces.max() >= n):
         raise FormatError(f"faces index taxels 0..{n - 1} but contain {faces.min()}..{faces.max()}",
                           file=path, key="skin.faces")
@@ -112,19 +157,13 @@ def parse(doc, path, units: str | None = None) -> Layout:
     nz = ids[ids > 0]
     if len(np.unique(nz)) < len(nz):
         report.warn(f"{len(nz) - len(np.unique(nz))} repeated taxel ids (positions all kept)")
-    scale = units_scale(pos, units, report)
-    if chosen_map is not None:
-        uv, _, _, _, _ = taxels_of(chosen_map, "tactile_maps", 2)
-        flat = uv * scale
-    elif flat is not None:
-        flat = flat * scale
-    nrm, estimated = clean_normals(nrm, pos, report)
-    if skin is None:
-        estimated[:] = True  # (0, 0, 1) was invented for a maps-only file
-    check_repeats(pos, report)
+
+
+def _parent_frame(parents: list, scale: float, path, report: ImportReport):
+    """``(transform (4, 4) m, frame, parent)`` from the skin's first parent frame: its ``tf_matrix``
+    (column-major by the format; a row-major one is recognised and warned of) scaled to metres."""
     transform = np.eye(4)
     frame, parent = "end_effector", None
-    parents = (skin or {}).get("parent_frames") or []
     if parents:
         pf = parents[0]
         tf = pf.get("tf_matrix")
@@ -143,16 +182,7 @@ def parse(doc, path, units: str | None = None) -> Layout:
         frame = f"{parent}_patch" if parent else frame
         if len(parents) > 1:
             report.warn(f"{len(parents)} parent frames; used the first")
-    # UID = module_uid << 4 | sensor; our module ids are 0-based (module_uid - 1), -1 unknown
-    mods = cyskin_modules(ids)
-    meta = {"info": info, "id_scheme": "cyskin", "parent_frame": parents[0] if parents else None,
-            "faces": faces.tolist(), "maps": [{k: m.get(k) for k in ("key", "name", "type", "description")}
-                                              for m in maps],
-            "cyskin_doc": doc, "cyskin_units": "mm" if scale == 1e-3 else "m"}
-    layout = Layout(pos * scale, nrm, ids, mods, flat, types, frame, transform, meta,
-                    normals_estimated=estimated, parent=parent)
-    layout.meta.update(_digests(layout))
-    return finish(layout, report, path, "cyskin")
+    return transform, frame, parent
 
 
 def doc_problem(doc: dict) -> str | None:

@@ -85,8 +85,37 @@ _PLY_TYPES = {"char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1", "short":
 
 
 def read(path, units: str | None = None) -> Layout:
+    """A layout from a PLY file (ASCII or binary) whose vertices are the taxels."""
     report = ImportReport(path)
     raw = read_bytes(path, "layout file")
+    head, body, fmt, elements, frame, transform, parent = _header(raw, path)
+    if fmt == "ascii":
+        vert, faces = _ascii_elements(body, len(head), elements, path)
+    else:
+        vert, faces = _binary_elements(body, "<" if fmt == "binary_little_endian" else ">", elements, path, report)
+    _check_vertices(vert, path)
+    pos = np.column_stack([vert["x"], vert["y"], vert["z"]])
+    n = len(pos)
+    nrm = np.column_stack([vert[c] for c in ("nx", "ny", "nz")]) if all(c in vert for c in ("nx", "ny", "nz")) \
+        else np.zeros((n, 3))
+    scale = units_scale(pos, units, report, "m" if "vtcore" in "".join(head) else None)
+    nrm, estimated = clean_normals(nrm, pos, report)
+    ids = vert["taxel_id"].astype(np.int64) if "taxel_id" in vert else np.arange(n)
+    mods = vert["module_id"].astype(np.int64) if "module_id" in vert else np.zeros(n, np.int64)
+    inv = {v: k for k, v in _ROLE_CODE.items()}
+    roles = np.asarray([inv.get(int(r), "other") for r in vert["role"]], dtype=object) if "role" in vert else None
+    flat = np.column_stack([vert["u"], vert["v"]]) * scale if ("u" in vert and "v" in vert) else None
+    can = vert["can_id"].astype(np.int64) if "can_id" in vert else None
+    if len(faces) and (faces.min() < 0 or faces.max() >= n):
+        raise FormatError("face indices out of range", file=path)
+    layout = Layout(pos * scale, nrm, ids, mods, flat, roles, frame, transform,
+                    {"faces": faces.tolist()}, can, normals_estimated=estimated, parent=parent)
+    return finish(layout, report, path, "ply")
+
+
+def _header(raw: bytes, path):
+    """The header lines, the body's bytes, the format, the elements ``[(name, count, [(type, name) or
+    ('list', count type, index type, name)])]`` and our comments' frame, transform (4, 4) and parent."""
     end = raw.find(b"end_header")
     if not raw.startswith(b"ply") or end < 0:
         raise FormatError("not a PLY file (no 'ply' magic or no end_header)", file=path, line=1)
@@ -118,58 +147,75 @@ def read(path, units: str | None = None) -> Layout:
                 elements[-1][2].append((tok[1], tok[2]))
     if fmt not in ("ascii", "binary_little_endian", "binary_big_endian"):
         raise FormatError(f"unknown PLY format {fmt!r}", file=path)
+    return head, body, fmt, elements, frame, transform, parent
+
+
+def _ascii_elements(body: bytes, head_lines: int, elements: list, path):
+    """``(vertex columns {name: (n,) float} or None, triangles (F, 3) int)`` of an ASCII body;
+    ``head_lines`` counts the header's lines before ``end_header`` (for line numbers)."""
     vert = None
     faces = np.zeros((0, 3), np.int64)
-    if fmt == "ascii":
-        lines = body.decode("utf-8", errors="replace").replace("\r", "").split("\n")
-        hl = len(head) + 1
-        pos_line = 0
-        for name, count, props in elements:
-            if name == "vertex":
-                names = [p[-1] for p in props]
-                vals = []
-                for k in range(count):
-                    ln = hl + pos_line + k + 1
-                    if pos_line + k >= len(lines):
-                        raise FormatError(f"file ends after {k} of {count} vertices", file=path, line=ln)
-                    toks = lines[pos_line + k].split()
-                    if len(toks) < len(names):
-                        raise FormatError(f"vertex row has {len(toks)} values, needs {len(names)}",
-                                          file=path, line=ln)
-                    vals.append([parse_number(t, path, ln, f"vertex {names[j]}") for j, t in enumerate(toks[:len(names)])])
-                vert = {nm: np.asarray(vals, float).reshape(count, -1)[:, j] for j, nm in enumerate(names)}
-            elif name in ("face", "skin_face"):
-                fl = []
-                for k in range(count):
-                    toks = lines[pos_line + k].split()
-                    if toks and int(toks[0]) == 3 and len(toks) >= 4:
-                        fl.append([int(t) for t in toks[1:4]])
-                faces = np.asarray(fl, np.int64).reshape(-1, 3)
-            pos_line += count
-    else:
-        order = "<" if fmt == "binary_little_endian" else ">"
-        off = 0
-        for name, count, props in elements:
-            if any(p[0] == "list" for p in props):
-                if name not in ("face", "skin_face") or len(props) != 1:
-                    report.warn(f"skipped element {name!r} with list properties")
-                    break
-                _, ct, it, _ = props[0]
-                dt = np.dtype([("n", order + _PLY_TYPES[ct]), ("i", order + _PLY_TYPES[it], 3)])
-                arr = np.frombuffer(body, dtype=dt, count=count, offset=off)
-                if np.any(arr["n"] != 3):
-                    report.warn("non-triangle faces ignored")
-                faces = arr["i"][arr["n"] == 3].astype(np.int64)
-                off += dt.itemsize * count
-                continue
-            dt = np.dtype([(p[1], order + _PLY_TYPES[p[0]]) for p in props])
-            try:
-                arr = np.frombuffer(body, dtype=dt, count=count, offset=off)
-            except ValueError:
-                raise FormatError(f"file too short for {count} {name} elements", file=path) from None
+    lines = body.decode("utf-8", errors="replace").replace("\r", "").split("\n")
+    hl = head_lines + 1
+    pos_line = 0
+    for name, count, props in elements:
+        if name == "vertex":
+            names = [p[-1] for p in props]
+            vals = []
+            for k in range(count):
+                ln = hl + pos_line + k + 1
+                if pos_line + k >= len(lines):
+                    raise FormatError(f"file ends after {k} of {count} vertices", file=path, line=ln)
+                toks = lines[pos_line + k].split()
+                if len(toks) < len(names):
+                    raise FormatError(f"vertex row has {len(toks)} values, needs {len(names)}",
+                                      file=path, line=ln)
+                vals.append([parse_number(t, path, ln, f"vertex {names[j]}") for j, t in enumerate(toks[:len(names)])])
+            vert = {nm: np.asarray(vals, float).reshape(count, -1)[:, j] for j, nm in enumerate(names)}
+        elif name in ("face", "skin_face"):
+            fl = []
+            for k in range(count):
+                toks = lines[pos_line + k].split()
+                if toks and int(toks[0]) == 3 and len(toks) >= 4:
+                    fl.append([int(t) for t in toks[1:4]])
+            faces = np.asarray(fl, np.int64).reshape(-1, 3)
+        pos_line += count
+    return vert, faces
+
+
+def _binary_elements(body: bytes, order: str, elements: list, path, report: ImportReport):
+    """``(vertex columns {name: (n,) float} or None, triangles (F, 3) int)`` of a binary body
+    (``order`` ``<`` little-, ``>`` big-endian); reading stops at an element with list properties
+    that is not the faces (its size is unknown without parsing every row)."""
+    vert = None
+    faces = np.zeros((0, 3), np.int64)
+    off = 0
+    for name, count, props in elements:
+        if any(p[0] == "list" for p in props):
+            if name not in ("face", "skin_face") or len(props) != 1:
+                report.warn(f"skipped element {name!r} with list properties")
+                break
+            _, ct, it, _ = props[0]
+            dt = np.dtype([("n", order + _PLY_TYPES[ct]), ("i", order + _PLY_TYPES[it], 3)])
+            arr = np.frombuffer(body, dtype=dt, count=count, offset=off)
+            if np.any(arr["n"] != 3):
+                report.warn("non-triangle faces ignored")
+            faces = arr["i"][arr["n"] == 3].astype(np.int64)
             off += dt.itemsize * count
-            if name == "vertex":
-                vert = {nm: arr[nm].astype(np.float64) for nm in arr.dtype.names}
+            continue
+        dt = np.dtype([(p[1], order + _PLY_TYPES[p[0]]) for p in props])
+        try:
+            arr = np.frombuffer(body, dtype=dt, count=count, offset=off)
+        except ValueError:
+            raise FormatError(f"file too short for {count} {name} elements", file=path) from None
+        off += dt.itemsize * count
+        if name == "vertex":
+            vert = {nm: arr[nm].astype(np.float64) for nm in arr.dtype.names}
+    return vert, faces
+
+
+def _check_vertices(vert: dict | None, path) -> None:
+    """Refuse a file without vertices, without x, y or z, or with a value that is not finite."""
     if vert is None:
         raise FormatError("no vertex element", file=path)
     for c in ("x", "y", "z"):
@@ -179,22 +225,3 @@ def read(path, units: str | None = None) -> Layout:
         if not np.isfinite(col).all():
             raise FormatError(f"vertex {int(np.flatnonzero(~np.isfinite(col))[0])} is not finite", file=path,
                               key=f"vertex.{nm}")
-    pos = np.column_stack([vert["x"], vert["y"], vert["z"]])
-    n = len(pos)
-    nrm = np.column_stack([vert[c] for c in ("nx", "ny", "nz")]) if all(c in vert for c in ("nx", "ny", "nz")) \
-        else np.zeros((n, 3))
-    scale = units_scale(pos, units, report, "m" if "vtcore" in "".join(head) else None)
-    nrm, estimated = clean_normals(nrm, pos, report)
-    ids = vert["taxel_id"].astype(np.int64) if "taxel_id" in vert else np.arange(n)
-    mods = vert["module_id"].astype(np.int64) if "module_id" in vert else np.zeros(n, np.int64)
-    inv = {v: k for k, v in _ROLE_CODE.items()}
-    roles = np.asarray([inv.get(int(r), "other") for r in vert["role"]], dtype=object) if "role" in vert else None
-    flat = np.column_stack([vert["u"], vert["v"]]) * scale if ("u" in vert and "v" in vert) else None
-    can = vert["can_id"].astype(np.int64) if "can_id" in vert else None
-    if len(faces) and (faces.min() < 0 or faces.max() >= n):
-        raise FormatError("face indices out of range", file=path)
-    layout = Layout(pos * scale, nrm, ids, mods, flat, roles, frame, transform,
-                    {"faces": faces.tolist()}, can, normals_estimated=estimated, parent=parent)
-    return finish(layout, report, path, "ply")
-
-
