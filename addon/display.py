@@ -31,7 +31,8 @@ def _socket(group, name, in_out, socket_type, default=None):
 
 
 def node_group():
-    """The (shared) geometry-nodes group, built once per file."""
+    """The (shared) geometry-nodes group, built once per file: each taxel's colour, a disc on
+    every taxel, and the skin mesh's edges as tubes, joined."""
     ng = bpy.data.node_groups.get(GROUP)
     if ng is not None:
         return ng
@@ -44,7 +45,24 @@ def node_group():
     n, link = ng.nodes, ng.links.new
     gin = n.new("NodeGroupInput")
     gout = n.new("NodeGroupOutput")
+    colour_nodes = _colour_nodes(n, link, gin)
+    disc_nodes = _disc_nodes(n, link, gin, colour_nodes[-1])
+    setpos, inst = disc_nodes[-2], disc_nodes[-1]
+    tube_nodes = _edge_tube_nodes(n, link, setpos)
 
+    join = n.new("GeometryNodeJoinGeometry")
+    link(inst.outputs["Instances"], join.inputs["Geometry"])
+    link(tube_nodes[-1].outputs["Instances"], join.inputs["Geometry"])
+    link(join.outputs["Geometry"], gout.inputs["Geometry"])
+    for i, node in enumerate((gin, *colour_nodes, *disc_nodes, *tube_nodes, join, gout)):
+        node.location = (200 * i, 0)
+    return ng
+
+
+def _colour_nodes(n, link, gin) -> tuple:
+    """The colour of each taxel, stored on the points as ``DISPLAY_ATTR``: the named attribute
+    through the viridis ramp (normalised by its min/max), or as is when it is a colour. Returns
+    the nodes in the order they are laid out, the store node last."""
     value = n.new("GeometryNodeInputNamedAttribute")
     value.data_type = "FLOAT"
     link(gin.outputs["Attribute"], value.inputs["Name"])
@@ -77,7 +95,13 @@ def node_group():
     store.inputs["Name"].default_value = DISPLAY_ATTR
     link(gin.outputs["Geometry"], store.inputs["Geometry"])
     link(switch.outputs["Output"], store.inputs["Value"])
+    return value, stats, norm, ramp, colour, switch, store
 
+
+def _disc_nodes(n, link, gin, store) -> tuple:
+    """A disc of the group's radius on every taxel point of ``store``'s geometry, along its normal,
+    lifted off the surface. Returns the nodes in layout order, ending with the set-position node
+    (the lifted geometry) and the discs' instance node."""
     circle = n.new("GeometryNodeMeshCircle")
     circle.fill_type = "NGON"
     circle.inputs["Vertices"].default_value = 16
@@ -108,11 +132,15 @@ def node_group():
     link(setpos.outputs["Geometry"], inst.inputs["Points"])
     link(setmat.outputs["Geometry"], inst.inputs["Instance"])
     link(align.outputs["Rotation"], inst.inputs["Rotation"])
+    return circle, setmat, normal, align, lift, setpos, inst
 
-    # The skin mesh's edges as thin dark tubes (faces would z-fight with the surface): one
-    # instanced cylinder per edge, at its midpoint, along it, as long as it. Not Mesh to Curve +
-    # Curve to Mesh: that realises every tube on every frame, which cost 3/4 of the playback
-    # time of a 4,000-taxel skin (about 12,000 edges); instances are drawn, not built.
+
+def _edge_tube_nodes(n, link, setpos) -> tuple:
+    """The skin mesh's edges as thin dark tubes (faces would z-fight with the surface): one
+    instanced cylinder per edge, at its midpoint, along it, as long as it. Not Mesh to Curve +
+    Curve to Mesh: that realises every tube on every frame, which cost 3/4 of the playback
+    time of a 4,000-taxel skin (about 12,000 edges); instances are drawn, not built. Returns the
+    nodes in layout order, the tubes' instance node last."""
     edge_vec = n.new("GeometryNodeInputMeshEdgeVertices")
     span = n.new("ShaderNodeVectorMath")
     span.operation = "SUBTRACT"
@@ -153,16 +181,7 @@ def node_group():
     link(wire_mat.outputs["Geometry"], tubes.inputs["Instance"])
     link(along.outputs["Rotation"], tubes.inputs["Rotation"])
     link(scale.outputs["Vector"], tubes.inputs["Scale"])
-
-    join = n.new("GeometryNodeJoinGeometry")
-    link(inst.outputs["Instances"], join.inputs["Geometry"])
-    link(tubes.outputs["Instances"], join.inputs["Geometry"])
-    link(join.outputs["Geometry"], gout.inputs["Geometry"])
-    for i, node in enumerate((gin, value, stats, norm, ramp, colour, switch, store, circle, setmat,
-                              normal, align, lift, setpos, inst, edge_vec, span, store_span, mids, span_pt, along,
-                              length, scale, rod, wire_mat, tubes, join, gout)):
-        node.location = (200 * i, 0)
-    return ng
+    return edge_vec, span, store_span, mids, span_pt, along, length, scale, rod, wire_mat, tubes
 
 
 def _viridis(ramp):

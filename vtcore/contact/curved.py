@@ -31,6 +31,8 @@ solve; the local model stays a single sort.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from ..errors import InputError, UnreachableTargetError
@@ -152,29 +154,16 @@ def press_unrolled(layout, local, scene, pose, layer, *, force, indentation, dir
     h = layer.thickness
     sk = unrolled_skin(layout, h, layer.extent, grid, taxel_radius)
     u, n, e1, e2 = press_frame(layout, direction)
-    pts, nr, dx = sk["pts"], sk["nrm"], grid.spacing
-    c = np.einsum("xyi,i->xy", nr, n)  # cos of the tilt between cell normal and motion
-    ok = sk["skin"] & (c > 0.1) & np.all(np.isfinite(pts), axis=-1)
-    gap = np.full(c.shape, np.inf)
-    # only cells under the object's footprint (projected along u) can meet it
-    b1, b2 = footprint(local, pose, e1, e2)
-    p1, p2 = np.einsum("xyi,i->xy", pts, e1), np.einsum("xyi,i->xy", pts, e2)  # einsum: no BLAS threads
-    cand = ok & (p1 >= b1.min() - dx) & (p1 <= b1.max() + dx) & (p2 >= b2.min() - dx) & (p2 <= b2.max() + dx)
-    if cand.any():
-        gap[cand] = envelope_posed(pts[cand], n, local, scene, pose, backend)
+    pts, dx = sk["pts"], grid.spacing
+    gap, c = _cell_gaps(sk, n, e1, e2, local, scene, pose, backend, dx)
     finite = np.isfinite(gap)
     gmin = float(gap[finite].min()) if finite.any() else np.inf
     require_contact(finite, force, u)
     cell = dx * dx
     afac = sk["area_factor"]
     cf = np.where(finite, c, 0.0)
-    mx, my = gap.shape
+    normal_gap = functools.partial(_normal_gap, gap, finite, cf)
     iters, conv_ok, trunc = 0, True, 0.0
-
-    def normal_gap(d):
-        """Gap along each cell's normal after a travel d (inf where the object is absent)."""
-        return np.where(finite, cf * (np.where(finite, gap, 0.0) - d), np.inf)
-
     if not finite.any() or (force is not None and force == 0) or (indentation is not None and indentation == 0):
         pflat = np.zeros_like(gap)
         d = gmin if np.isfinite(gmin) else 0.0
@@ -187,58 +176,11 @@ def press_unrolled(layout, local, scene, pose, layer, *, force, indentation, dir
             d = gmin + indentation if indentation is not None else 0.0
         pflat = np.where(finite, k * np.clip(-normal_gap(d), 0.0, None) * afac, 0.0)
     else:
-        ii, jj = np.nonzero(finite)
-        bi, bj = -(-(ii.max() + 1 - ii.min() + 4) // 8) * 8, -(-(jj.max() + 1 - jj.min() + 4) // 8) * 8
-        i1, j1 = min(max(ii.min() - 2, 0) + bi, mx), min(max(jj.min() - 2, 0) + bj, my)
-        i0, j0 = max(i1 - bi, 0), max(j1 - bj, 0)
-        win = (slice(i0, i1), slice(j0, j1))
-        op, op32 = elastic.compliance_operators((i1 - i0, j1 - j0), dx, dx, layer, model,
-                                                 tol if truncation is None else truncation, precision)
-        trunc = op.truncation
-        state = {"p": None, "pflat": None}
-        if warm_start is not None and warm_start.field is not None and warm_start.field.domain == "flat" \
-                and warm_start.field.pressure.shape == gap.shape:
-            state["p"] = (warm_start.field.pressure * afac)[win]
-
-        def solve(d):
-            """Force (N) along the press after a travel d; keeps the pressure per flat area in state."""
-            nonlocal iters, conv_ok
-            sol = elastic.solve_pk(normal_gap(d)[win], op, cell, approach=0.0, p0=state["p"], tol=tol,
-                                   maxiter=maxiter, conv32=op32)
-            iters += sol.iterations
-            conv_ok = conv_ok and sol.converged
-            p = np.zeros_like(gap)
-            p[win] = sol.pressure            # force per flat area, along the cell normals
-            if p.any():
-                state["p"] = sol.pressure
-            state["pflat"] = p
-            return float((p * cf).sum() * cell)
-
-        if force is None:
-            d = gmin + indentation if indentation is not None else 0.0
-            solve(d)
-        else:
-            # the local model's travel is a bracket start; the elastic layer is stiffer or softer
-            lo, f_lo = gmin, 0.0
-            d = _local_force_travel(gap[finite], (layer.e_star / h * cf * cf * afac * cell)[finite], force)
-            f = solve(d)
-            step = max(d - gmin, 1e-6)
-            hi, f_hi = (d, f) if f >= force else (None, None)
-            while hi is None:
-                lo, f_lo = d, f
-                step *= 2
-                d = d + step
-                if d - gmin > 20 * h:
-                    raise UnreachableTargetError(
-                        f"{force} N not reached by a travel of {20 * h * 1e3:.3g} mm (model {model}, unrolled)")
-                f = solve(d)
-                if f >= force:
-                    hi, f_hi = d, f
-            # F(d) is monotone and piecewise smooth; the last solve is at the returned d
-            d, f, _ = illinois(solve, force, lo, f_lo, hi, f_hi, ftol=1e-9 * force, xtol=1e-13, max_steps=60)
-            if f > 0:
-                state["pflat"] = state["pflat"] * (force / f)  # removes the last 1e-9 of force mismatch
-        pflat = state["pflat"]
+        solver = _FlatSolver(gap, finite, cf, afac, dx, layer, model, tol, maxiter, truncation, precision,
+                             warm_start)
+        trunc = solver.op.truncation
+        d = _solve_travel(solver, gap, finite, cf, afac, cell, gmin, layer, model, force, indentation)
+        pflat, iters, conv_ok = solver.pflat, solver.iterations, solver.converged
     pflat = np.where(np.isfinite(pflat) & (pflat > 0), pflat, 0.0)
     p = pflat / afac                          # pressure on the outer surface, Pa
     max_c, bottomed = check_compression(np.where(p > 0, -normal_gap(d), 0.0), h, force, model,
@@ -253,3 +195,91 @@ def press_unrolled(layout, local, scene, pose, layer, *, force, indentation, dir
                         model=model, iterations=iters, converged=conv_ok, spread=spread, spreading=spreading,
                         samples_per_taxel=samples_per_taxel, taxel_radius=taxel_radius, compliance=compliance,
                         local=local, truncation=trunc)
+
+
+def _cell_gaps(sk: dict, n, e1, e2, local, scene, pose, backend, dx: float):
+    """``(gap (mx, my) m, c (mx, my))``: each skin cell's gap to the object along ``-u`` from its
+    outer-surface point (inf where the object is absent) and the cosine of its tilt against the
+    motion. Only cells under the object's footprint (projected along ``u``) are queried."""
+    pts, nr = sk["pts"], sk["nrm"]
+    c = np.einsum("xyi,i->xy", nr, n)  # cos of the tilt between cell normal and motion
+    ok = sk["skin"] & (c > 0.1) & np.all(np.isfinite(pts), axis=-1)
+    gap = np.full(c.shape, np.inf)
+    b1, b2 = footprint(local, pose, e1, e2)
+    p1, p2 = np.einsum("xyi,i->xy", pts, e1), np.einsum("xyi,i->xy", pts, e2)  # einsum: no BLAS threads
+    cand = ok & (p1 >= b1.min() - dx) & (p1 <= b1.max() + dx) & (p2 >= b2.min() - dx) & (p2 <= b2.max() + dx)
+    if cand.any():
+        gap[cand] = envelope_posed(pts[cand], n, local, scene, pose, backend)
+    return gap, c
+
+
+def _normal_gap(gap, finite, cf, d):
+    """Gap along each cell's normal after a travel d (inf where the object is absent)."""
+    return np.where(finite, cf * (np.where(finite, gap, 0.0) - d), np.inf)
+
+
+class _FlatSolver:
+    """The elastic layer on the flat grid, on a window round the cells the object can meet (padded
+    to multiples of 8 for the FFTs). Calling it with a travel ``d`` solves, keeps the pressure per
+    flat area in ``pflat`` (the next solve's warm start) and returns the force (N) along the press."""
+
+    def __init__(self, gap, finite, cf, afac, dx, layer, model, tol, maxiter, truncation, precision, warm_start):
+        mx, my = gap.shape
+        ii, jj = np.nonzero(finite)
+        bi, bj = -(-(ii.max() + 1 - ii.min() + 4) // 8) * 8, -(-(jj.max() + 1 - jj.min() + 4) // 8) * 8
+        i1, j1 = min(max(ii.min() - 2, 0) + bi, mx), min(max(jj.min() - 2, 0) + bj, my)
+        i0, j0 = max(i1 - bi, 0), max(j1 - bj, 0)
+        self.win = (slice(i0, i1), slice(j0, j1))
+        self.op, self.op32 = elastic.compliance_operators((i1 - i0, j1 - j0), dx, dx, layer, model,
+                                                          tol if truncation is None else truncation, precision)
+        self.gap, self.finite, self.cf, self.cell = gap, finite, cf, dx * dx
+        self.tol, self.maxiter = tol, maxiter
+        self.iterations, self.converged = 0, True
+        self.p, self.pflat = None, None
+        if warm_start is not None and warm_start.field is not None and warm_start.field.domain == "flat" \
+                and warm_start.field.pressure.shape == gap.shape:
+            self.p = (warm_start.field.pressure * afac)[self.win]
+
+    def __call__(self, d: float) -> float:
+        sol = elastic.solve_pk(_normal_gap(self.gap, self.finite, self.cf, d)[self.win], self.op, self.cell,
+                               approach=0.0, p0=self.p, tol=self.tol, maxiter=self.maxiter, conv32=self.op32)
+        self.iterations += sol.iterations
+        self.converged = self.converged and sol.converged
+        p = np.zeros_like(self.gap)
+        p[self.win] = sol.pressure            # force per flat area, along the cell normals
+        if p.any():
+            self.p = sol.pressure
+        self.pflat = p
+        return float((p * self.cf).sum() * self.cell)
+
+
+def _solve_travel(solve: _FlatSolver, gap, finite, cf, afac, cell, gmin, layer, model, force, indentation) -> float:
+    """The travel ``d`` (m) of the press: ``gmin + indentation``, or the one whose force is ``force``
+    (the local model's travel a bracket start, doubled steps until the force is passed, then
+    Illinois). The last solve is at the returned ``d``; ``solve.pflat`` is its pressure."""
+    h = layer.thickness
+    if force is None:
+        d = gmin + indentation if indentation is not None else 0.0
+        solve(d)
+        return d
+    # the local model's travel is a bracket start; the elastic layer is stiffer or softer
+    lo, f_lo = gmin, 0.0
+    d = _local_force_travel(gap[finite], (layer.e_star / h * cf * cf * afac * cell)[finite], force)
+    f = solve(d)
+    step = max(d - gmin, 1e-6)
+    hi, f_hi = (d, f) if f >= force else (None, None)
+    while hi is None:
+        lo, f_lo = d, f
+        step *= 2
+        d = d + step
+        if d - gmin > 20 * h:
+            raise UnreachableTargetError(
+                f"{force} N not reached by a travel of {20 * h * 1e3:.3g} mm (model {model}, unrolled)")
+        f = solve(d)
+        if f >= force:
+            hi, f_hi = d, f
+    # F(d) is monotone and piecewise smooth; the last solve is at the returned d
+    d, f, _ = illinois(solve, force, lo, f_lo, hi, f_hi, ftol=1e-9 * force, xtol=1e-13, max_steps=60)
+    if f > 0:
+        solve.pflat = solve.pflat * (force / f)  # removes the last 1e-9 of force mismatch
+    return d

@@ -63,6 +63,35 @@ def _press_kw(settings: Settings, grid_spacing: float, margin: float):
             "grid": ContactGrid(spacing=grid_spacing, margin=margin)}
 
 
+class _Prober:
+    """Presses of the probe (or a pair of probes) at the sample points on the live taxels, counted."""
+
+    def __init__(self, live, mesh, layer, kw: dict, points, normals, e1s, e2s):
+        from ..contact import press
+
+        self._press = press
+        self.live, self.mesh, self.layer, self.kw = live, mesh, layer, kw
+        self.points, self.normals, self.e1s, self.e2s = points, normals, e1s, e2s
+        self.presses = 0
+
+    def read(self, i: int, force: float) -> np.ndarray:
+        """(N_live,) Pa: the probe pressed at point ``i`` along ``-normal`` to ``force`` N."""
+        self.presses += 1
+        pose = probe_pose(self.mesh, self.points[i], self.normals[i], self.e1s[i], self.e2s[i], self.layer.thickness)
+        res = self._press(self.live, self.mesh, pose, self.layer, force=force, direction=-self.normals[i], **self.kw)
+        return res.pressure
+
+    def read_pair(self, i: int, separation: float, e1, e2, force: float) -> np.ndarray:
+        """(N_live,) Pa: two probes ``separation`` m apart along ``e2`` pressed at point ``i``."""
+        pair = two_probes(self.mesh, separation)
+        self.presses += 1
+        pose = probe_pose(pair, self.points[i], self.normals[i], e1, e2, self.layer.thickness)
+        # overlapping copies are no closed mesh; the press needs only the surface facing
+        # the skin along the press direction (its lower envelope)
+        return self._press(self.live, pair, pose, self.layer, force=force, direction=-self.normals[i],
+                           open_mesh="envelope", **self.kw).pressure
+
+
 def reference_points(layout, points, normals, layer, settings: Settings, noise: SensorNoise, *,
                      threshold_points=(), two_point_points=(), two_point_directions=(0.0,),
                      grid_spacing: float = 5e-4, margin: float = 0.02, rel_tol: float = 0.01) -> Reference:
@@ -70,8 +99,8 @@ def reference_points(layout, points, normals, layer, settings: Settings, noise: 
     detection threshold at ``threshold_points`` (indices; bisection on the force to ``rel_tol``), the
     two-point distance at ``two_point_points`` for the pair's orientations ``two_point_directions``
     (radians from the point's first tangent, worst taken)."""
-    from ..contact import press
     from ..layout import skin_mesh
+    from .design import table_for
 
     points = np.asarray(points, float).reshape(-1, 3)
     normals = np.asarray(normals, float).reshape(-1, 3)
@@ -81,24 +110,15 @@ def reference_points(layout, points, normals, layer, settings: Settings, noise: 
     mesh = settings.probe.mesh()
     kw = _press_kw(settings, grid_spacing, margin)
     e1s, e2s = frames(normals, settings.probe.yaw, settings.probe_axis)
-    from .design import table_for
-
     reach = table_for(settings, layer).reach
     nb = neighbours(live.positions, live.normals, points, normals, reach, settings.probe.yaw,
                     axis=settings.probe_axis)
-    presses = 0
-
-    def read(i, force, m=mesh):
-        nonlocal presses
-        presses += 1
-        pose = probe_pose(m, points[i], normals[i], e1s[i], e2s[i], layer.thickness)
-        res = press(live, m, pose, layer, force=force, direction=-normals[i], **kw)
-        return res.pressure  # (N_live,) Pa
+    probe = _Prober(live, mesh, layer, kw, points, normals, e1s, e2s)
 
     mean = np.zeros(nb.index.shape)
     for i in range(len(points)):
         try:
-            p = read(i, settings.reference_force)
+            p = probe.read(i, settings.reference_force)
         except UnreachableTargetError:  # the probe bottoms out here (a curved patch's crest): reads nothing
             continue
         ok = nb.index[i] >= 0
@@ -106,23 +126,8 @@ def reference_points(layout, points, normals, layer, settings: Settings, noise: 
     loc = localise(mean, nb, noise, draws=settings.draws, seed=settings.seed, error_cap=settings.error_cap)
 
     thr = np.full(len(points), np.nan)
-    need = noise.threshold_pa
     for i in threshold_points:
-        lo, hi = 1e-3, settings.force_max
-        try:
-            if read(i, hi).max() < need:
-                thr[i] = np.inf
-                continue
-        except UnreachableTargetError:
-            hi = settings.force_max / 2
-        while hi / lo > 1 + rel_tol:
-            mid = np.sqrt(lo * hi)
-            try:
-                ok = read(i, mid).max() >= need
-            except UnreachableTargetError:
-                ok = True
-            lo, hi = (lo, mid) if ok else (mid, hi)
-        thr[i] = np.sqrt(lo * hi)
+        thr[i] = _threshold_force(probe, i, noise.threshold_pa, settings.force_max, rel_tol)
 
     tp = np.full(len(points), np.nan)
     if len(two_point_points):
@@ -132,23 +137,43 @@ def reference_points(layout, points, normals, layer, settings: Settings, noise: 
         for i in two_point_points:
             worst = 0.0
             for a in two_point_directions:
-                found = settings.max_separation
-                e1 = np.cos(a) * e1s[i] + np.sin(a) * e2s[i]
-                e2 = np.cross(normals[i], e1)
-                for s in seps:
-                    pair = two_probes(mesh, s)
-                    presses += 1
-                    pose = probe_pose(pair, points[i], normals[i], e1, e2, layer.thickness)
-                    # overlapping copies are no closed mesh; the press needs only the surface facing
-                    # the skin along the press direction (its lower envelope)
-                    p = press(live, pair, pose, layer, force=2 * settings.reference_force, direction=-normals[i],
-                              open_mesh="envelope", **kw).pressure
-                    rel = live.positions - points[i]
-                    p = np.where(np.abs(rel @ e1) <= band, noise.counts(p), 0.0)
-                    level = max(noise.threshold_counts, BLOB_FRACTION * p.max())
-                    if split_blobs((p > level)[None], np.arange(len(p))[None], (rel @ e2)[None], adj)[0]:
-                        found = s
-                        break
-                worst = max(worst, found)
+                worst = max(worst, _two_point_distance(probe, i, a, seps, band, adj, settings, noise))
             tp[i] = worst
-    return Reference(thr, loc, tp, presses, mean)
+    return Reference(thr, loc, tp, probe.presses, mean)
+
+
+def _threshold_force(probe: _Prober, i: int, need: float, force_max: float, rel_tol: float) -> float:
+    """The least force (N) at point ``i`` whose largest reading reaches ``need`` Pa, by bisection
+    on a log scale to ``rel_tol`` (inf when ``force_max`` does not reach it; a force the probe
+    cannot reach because it bottoms out counts as felt)."""
+    lo, hi = 1e-3, force_max
+    try:
+        if probe.read(i, hi).max() < need:
+            return np.inf
+    except UnreachableTargetError:
+        hi = force_max / 2
+    while hi / lo > 1 + rel_tol:
+        mid = np.sqrt(lo * hi)
+        try:
+            ok = probe.read(i, mid).max() >= need
+        except UnreachableTargetError:
+            ok = True
+        lo, hi = (lo, mid) if ok else (mid, hi)
+    return np.sqrt(lo * hi)
+
+
+def _two_point_distance(probe: _Prober, i: int, a: float, seps, band: float, adj, settings: Settings,
+                        noise: SensorNoise) -> float:
+    """The least separation (m) among ``seps`` at which two probes at point ``i``, their pair turned
+    by ``a`` radians from the point's first tangent, read as two blobs (``max_separation`` if none)."""
+    normal = probe.normals[i]
+    e1 = np.cos(a) * probe.e1s[i] + np.sin(a) * probe.e2s[i]
+    e2 = np.cross(normal, e1)
+    rel = probe.live.positions - probe.points[i]
+    for s in seps:
+        p = probe.read_pair(i, s, e1, e2, 2 * settings.reference_force)
+        p = np.where(np.abs(rel @ e1) <= band, noise.counts(p), 0.0)
+        level = max(noise.threshold_counts, BLOB_FRACTION * p.max())
+        if split_blobs((p > level)[None], np.arange(len(p))[None], (rel @ e2)[None], adj)[0]:
+            return s
+    return settings.max_separation

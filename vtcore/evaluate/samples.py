@@ -92,21 +92,9 @@ def sample_surface(mesh, taxels: np.ndarray, taxel_normals: np.ndarray | None = 
     taxel_normals = None if taxel_normals is None else np.asarray(taxel_normals, float).reshape(-1, 3)
     if not len(taxels):
         raise InputError("the skin has no live taxels", key="layout")
-    V = np.asarray(mesh.vertices, float)
-    F = np.asarray(mesh.faces, np.int64)
-    tri = V[F]
-    cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-    area2 = np.linalg.norm(cross, axis=1)
-    centre = tri.mean(axis=1)
-    rad = np.linalg.norm(tri - centre[:, None], axis=2).max(axis=1)
     tree = cKDTree(taxels)
     reach = cover + margin
-    d_face, _ = tree.query(centre)
-    keep = (area2 > 1e-18 * max(float(area2.max(initial=0.0)), 1e-300)) & (d_face - rad <= reach)
-    if not keep.any():
-        raise InputError(f"no face of the mesh lies within {reach * 1e3:.3g} mm of a taxel: is the layout on "
-                         "this mesh, in the same frame and units?", key="mesh")
-    tri, area2, nrm = tri[keep], area2[keep], cross[keep] / area2[keep, None]
+    tri, area2, nrm = _faces_near(mesh, tree, reach)
     # 2 per spacing^2 of area, counted in floating point first (a spacing of 1e-320 is infinitely many
     # points, 1e308 squared overflowed)
     with np.errstate(over="ignore"):   # infinitely many is refused just below
@@ -123,16 +111,49 @@ def sample_surface(mesh, taxels: np.ndarray, taxel_normals: np.ndarray | None = 
     pts, owner, w = pts[inside], owner[inside], w[inside]
     n_pt = nrm[owner]
     if taxel_normals is not None and len(pts):
-        kk = min(16, len(taxels))
-        d_k, i_k = tree.query(pts, k=kk, distance_upper_bound=reach)
-        d_k, i_k = d_k.reshape(len(pts), kk), i_k.reshape(len(pts), kk)
-        ok = i_k < len(taxels)
-        facing = np.einsum("pkc,pc->pk", taxel_normals[np.where(ok, i_k, 0)], n_pt) > FACING_AWAY
-        keep_pt = (ok & facing).any(axis=1)
+        keep_pt = _facing_the_skin(tree, taxel_normals, pts, n_pt, reach)
         pts, owner, w, n_pt = pts[keep_pt], owner[keep_pt], w[keep_pt], n_pt[keep_pt]
     if not len(pts):
         raise InputError(f"no surface within {reach * 1e3:.3g} mm of a taxel faces the skin's side", key="mesh")
-    # merge per voxel and per dominant normal direction (6 classes): opposite faces stay apart
+    pos, normals, wsum = _merge_per_voxel(pts, n_pt, w, spacing)
+    dist, _ = tree.query(pos)
+    return SurfaceSamples(pos, normals, wsum, dist, dist <= cover, spacing, cover, margin)
+
+
+def _faces_near(mesh, tree, reach: float):
+    """The faces of ``mesh`` that may hold a point within ``reach`` m of a taxel (``tree``, a KD-tree of
+    the taxels), degenerate ones left out: ``(triangles (F, 3, 3), twice their area (F,), unit normals
+    (F, 3))``."""
+    V = np.asarray(mesh.vertices, float)
+    F = np.asarray(mesh.faces, np.int64)
+    tri = V[F]
+    cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    area2 = np.linalg.norm(cross, axis=1)
+    centre = tri.mean(axis=1)
+    rad = np.linalg.norm(tri - centre[:, None], axis=2).max(axis=1)
+    d_face, _ = tree.query(centre)
+    keep = (area2 > 1e-18 * max(float(area2.max(initial=0.0)), 1e-300)) & (d_face - rad <= reach)
+    if not keep.any():
+        raise InputError(f"no face of the mesh lies within {reach * 1e3:.3g} mm of a taxel: is the layout on "
+                         "this mesh, in the same frame and units?", key="mesh")
+    return tri[keep], area2[keep], cross[keep] / area2[keep, None]
+
+
+def _facing_the_skin(tree, taxel_normals: np.ndarray, pts: np.ndarray, n_pt: np.ndarray, reach: float) -> np.ndarray:
+    """``(P,) bool``: points (normals ``n_pt``) within ``reach`` of a taxel (of its 16 nearest) whose
+    normal does not face away from theirs."""
+    kk = min(16, tree.n)
+    d_k, i_k = tree.query(pts, k=kk, distance_upper_bound=reach)
+    d_k, i_k = d_k.reshape(len(pts), kk), i_k.reshape(len(pts), kk)
+    ok = i_k < tree.n
+    facing = np.einsum("pkc,pc->pk", taxel_normals[np.where(ok, i_k, 0)], n_pt) > FACING_AWAY
+    return (ok & facing).any(axis=1)
+
+
+def _merge_per_voxel(pts: np.ndarray, n_pt: np.ndarray, w: np.ndarray, spacing: float):
+    """Merge the points per ``spacing`` voxel and per dominant normal direction (6 classes, so that
+    opposite faces stay apart): ``(positions (S, 3), unit normals (S, 3), area (S,) m^2)``; a sample
+    is the merged point nearest the voxel's weighted mean (it lies on the surface)."""
     vox = np.floor(pts / spacing).astype(np.int64)
     ax = np.argmax(np.abs(n_pt), axis=1)
     side = ax * 2 + (n_pt[np.arange(len(ax)), ax] > 0)
@@ -143,15 +164,13 @@ def sample_surface(mesh, taxels: np.ndarray, taxel_normals: np.ndarray | None = 
     wsum = np.bincount(inv, w, m)
     mean = np.column_stack([np.bincount(inv, w * pts[:, c], m) for c in range(3)]) / wsum[:, None]
     nsum = np.column_stack([np.bincount(inv, w * n_pt[:, c], m) for c in range(3)])
-    # the sample is the merged point nearest the voxel's mean (it lies on the surface)
     off = np.linalg.norm(pts - mean[inv], axis=1)
     order = np.lexsort((off, inv))
     first = order[np.r_[True, inv[order][1:] != inv[order][:-1]]]
     pos = pts[first]
     nn = np.linalg.norm(nsum, axis=1, keepdims=True)
     normals = np.where(nn > 1e-12, nsum / np.maximum(nn, 1e-300), n_pt[first])
-    dist, _ = tree.query(pos)
-    return SurfaceSamples(pos, normals, wsum, dist, dist <= cover, spacing, cover, margin)
+    return pos, normals, wsum
 
 
 def vertex_samples(samples: SurfaceSamples, vertices: np.ndarray, vertex_normals: np.ndarray,

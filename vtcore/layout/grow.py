@@ -105,6 +105,58 @@ def module_strain(patch: Patch, pos: np.ndarray, nrm: np.ndarray, modules: np.nd
     return ms[modules]
 
 
+@dataclass
+class _GrowState:
+    """What :func:`grow` knows while it goes, over M modules and N taxels of the lattice patch.
+
+    counts, starts : (M,) taxels of each module and its first taxel; centre : (M, 2) flat module
+    centres; pos, nrm : (N, 3) placed taxels (nan: not yet); face, found : (N,); chart_of : (M,);
+    tried : (M,) flat distance to the origin of the chart that last tried each module; gone : (M,)
+    left out for good (off the surface, overlapping, against the rules); kept : (M,); status : (M,)
+    int8 on the surface? (-1 unknown, 0 no, 1 yes, for seeding); frames : (M, 3, 3); reasons : counts
+    by reason; seam_at : flat centres of modules left out for overlapping another chart's (the seam);
+    reach : m, a module's radius plus half a pitch; min_gap : m, closest two taxels may come;
+    avoid : (P, 3) taxels already on the skin; ctree : KD-tree of ``centre``.
+    """
+
+    counts: np.ndarray
+    starts: np.ndarray
+    centre: np.ndarray
+    pos: np.ndarray
+    nrm: np.ndarray
+    face: np.ndarray
+    found: np.ndarray
+    chart_of: np.ndarray
+    tried: np.ndarray
+    gone: np.ndarray
+    kept: np.ndarray
+    status: np.ndarray
+    frames: np.ndarray
+    reasons: dict
+    seam_at: list
+    reach: float
+    min_gap: float
+    avoid: np.ndarray
+    ctree: cKDTree | None
+
+    @classmethod
+    def start(cls, patch: Patch, avoid) -> "_GrowState":
+        mod = patch.module
+        M, N = patch.n_modules, len(patch)
+        counts = np.bincount(patch.module_ids, minlength=M)
+        starts = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64)
+        centre = patch.poses[:, 1:]
+        # a chart maps a module when all its taxels are within the chart's trusted radius
+        reach = float(np.linalg.norm(mod.taxels, axis=1).max()) + 0.5 * mod.pitch
+        return cls(counts, starts, centre, np.full((N, 3), np.nan), np.full((N, 3), np.nan),
+                   np.full(N, -1, np.int64), np.zeros(N, bool), np.full(M, -1, np.int64), np.full(M, np.inf),
+                   np.zeros(M, bool), np.zeros(M, bool), np.full(M, -1, np.int8), np.full((M, 3, 3), np.nan),
+                   {"off": 0, "rules": 0, "strain": 0, "overlap": 0, "existing": 0}, [], reach,
+                   OVERLAP_FRACTION * mod.pitch,
+                   np.zeros((0, 3)) if avoid is None else np.asarray(avoid, float).reshape(-1, 3),
+                   cKDTree(centre) if M else None)
+
+
 def grow(prepared: PreparedSurface, at, direction, patch: Patch, *, check=None, max_strain: float | None = None,
          max_charts: int = 400, chart_radius: float | None = None, progress=None,
          first: LogMap | None = None, avoid: np.ndarray | None = None,
@@ -125,170 +177,192 @@ def grow(prepared: PreparedSurface, at, direction, patch: Patch, *, check=None, 
         radius only looks at those).
     """
     mod = patch.module
-    M, N = patch.n_modules, len(patch)
-    counts = np.bincount(patch.module_ids, minlength=M)
-    starts = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64)
-    centre = patch.poses[:, 1:]
-    pos, nrm = np.full((N, 3), np.nan), np.full((N, 3), np.nan)
-    face, found = np.full(N, -1, np.int64), np.zeros(N, bool)
-    chart_of = np.full(M, -1, np.int64)
-    tried = np.full(M, np.inf)  # flat distance to the origin of the chart that last tried the module
-    gone = np.zeros(M, bool)  # left out for good (off the surface, overlapping, against the rules)
-    kept = np.zeros(M, bool)
-    status = np.full(M, -1, np.int8)  # on the surface? -1 unknown, 0 no, 1 yes (for seeding)
-    frames = np.full((M, 3, 3), np.nan)
-    min_gap = OVERLAP_FRACTION * mod.pitch
-    # a chart maps a module when all its taxels are within the chart's trusted radius
-    reach = float(np.linalg.norm(mod.taxels, axis=1).max()) + 0.5 * mod.pitch
+    st = _GrowState.start(patch, avoid)
     charts: list[Chart] = []
-    reasons = {"off": 0, "rules": 0, "strain": 0, "overlap": 0, "existing": 0}
-    seam_at = []  # flat centres of modules left out for overlapping another chart's: the seam
-    avoid = np.zeros((0, 3)) if avoid is None else np.asarray(avoid, float).reshape(-1, 3)
     queue = [(np.zeros(2), np.asarray(at, float), direction)]
-    ctree = cKDTree(centre) if M else None
     while queue and len(charts) < max_charts:
         o, a3, d3 = queue.pop(0)
-        if first is not None and not charts:
-            lm = first
-        else:
-            try:
-                lm = LogMap(None, a3, d3, prepared=prepared)
-            except InputError as exc:
-                if not charts or exc.key != "direction":
-                    raise
-                # the lattice axis carried to this seed lies along the surface normal there (a
-                # sliver of a decimated mesh tilts the pushed-forward frame): another seed on the
-                # same front maps these modules, so this one is dropped, not the whole fill (modules
-                # no other chart reaches stay unplaced and are reported as such)
-                continue
-        R = lm.trusted_radius(faces=faces)
-        if chart_radius is not None:
-            R = min(R, chart_radius)
-        if not charts:
-            R = max(R, reach + mod.pitch)  # chart 0 always maps the module at 'at'
+        opened = _open_chart(prepared, a3, d3, first if not charts else None, bool(charts), faces, chart_radius,
+                             st.reach + mod.pitch)
+        if opened is None:
+            continue
+        lm, R = opened
         c = len(charts)
         charts.append(Chart(o, lm.at, lm.t1, lm, R))
-        d = np.linalg.norm(centre - o, axis=1)
-        elig = ~kept & ~gone & (d + reach <= R) & (d < tried - 1e-9)
+        d = np.linalg.norm(st.centre - o, axis=1)
+        elig = ~st.kept & ~st.gone & (d + st.reach <= R) & (d < st.tried - 1e-9)
         mods = np.flatnonzero(elig)
         mods = mods[np.argsort(d[mods], kind="stable")]
         if not len(mods):
             continue
-        ti = taxel_index(counts, starts, mods)
-        p_, n_, f_, ok_ = lm.exp(patch.flat[ti] - o, fallback=check is None)
-        tp, tn = pos.copy(), nrm.copy()
-        tp[ti], tn[ti] = p_, n_
-        tried[mods] = d[mods]
+        ti = taxel_index(st.counts, st.starts, mods)
+        mapped = lm.exp(patch.flat[ti] - o, fallback=check is None)
+        st.tried[mods] = d[mods]
         keep = np.ones(len(mods), bool)
         if check is not None:
-            tmod = np.repeat(np.arange(len(mods)), counts[mods])
-            whole = np.bincount(tmod, weights=ok_, minlength=len(mods)) == counts[mods]
-            rules = np.asarray(check(charts[c], patch, mods, f_, tmod), bool)
-            gone[mods[~whole | ~rules]] = True
-            reasons["off"] += int((~whole).sum())
-            reasons["rules"] += int((whole & ~rules).sum())
-            keep &= whole & rules
-            if max_strain is not None:
-                strained = keep & (module_strain(patch, tp, tn, mods) > max_strain)  # may fit in a nearer chart
-                reasons["strain"] += int(strained.sum())
-                keep &= ~strained
-            # overlaps with modules already placed (other charts, or the skin there before): for good
-            if len(avoid) and keep.any():
-                hit = cKDTree(avoid).query_ball_point(p_, min_gap, return_length=True) > 0
-                bad = np.bincount(tmod, weights=hit, minlength=len(mods)) > 0
-                gone[mods[bad & keep]] = True
-                reasons["existing"] += int((bad & keep).sum())
-                keep &= ~bad
-            placed = pos[np.isfinite(pos[:, 0])]
-            if len(placed) and keep.any():
-                hit = cKDTree(placed).query_ball_point(p_, min_gap, return_length=True) > 0
-                bad = np.bincount(tmod, weights=hit, minlength=len(mods)) > 0
-                gone[mods[bad & keep]] = True
-                reasons["overlap"] += int((bad & keep).sum())
-                seam_at.extend(centre[mods[bad & keep]].tolist())
-                keep &= ~bad
-            # overlaps within this chart (past a fold): the module nearer the chart's origin wins
-            if keep.sum() > 1:
-                kt = keep[tmod]
-                pairs = cKDTree(p_[kt]).query_pairs(min_gap, output_type="ndarray")
-                if len(pairs):
-                    mt = tmod[kt]
-                    a, b = mt[pairs[:, 0]], mt[pairs[:, 1]]
-                    for x, y in sorted({(min(u, v), max(u, v)) for u, v in zip(a, b) if u != v}):
-                        if keep[x] and keep[y]:  # mods are sorted by distance: y is the farther
-                            keep[y] = False
-                            gone[mods[y]] = True
-                            reasons["overlap"] += 1
+            keep = _judge(st, charts[c], patch, mods, ti, mapped, check, max_strain)
         km = mods[keep]
         if not len(km):
             continue
-        kti = taxel_index(counts, starts, km)
-        sel = np.isin(ti, kti)
-        pos[ti[sel]], nrm[ti[sel]], face[ti[sel]], found[ti[sel]] = p_[sel], n_[sel], f_[sel], ok_[sel]
-        kept[km], chart_of[km] = True, c
-        # each placed module's frame on the surface: origin, lattice x axis, normal
-        eps = 0.5 * mod.pitch
-        probe = np.concatenate([centre[km], centre[km] + [eps, 0.0], centre[km] - [eps, 0.0]]) - o
-        fp, fn, _, _ = lm.exp(probe)
-        k = len(km)
-        x = fp[k:2 * k] - fp[2 * k:]
-        x -= fn[:k] * np.einsum("ij,ij->i", x, fn[:k])[:, None]
-        x /= np.maximum(np.linalg.norm(x, axis=1, keepdims=True), 1e-300)
-        frames[km] = np.stack([fp[:k], x, fn[:k]], axis=1)
+        _place(st, lm, o, c, km, ti, mapped, mod.pitch)
         if progress is not None:
             # the share of charts done among those known so far (the queue grows as it goes)
             keep_going(progress, min(0.95, len(charts) / (len(charts) + len(queue) + 1)), "the fill")
-        # new charts at the frontier: placed modules (of any chart) next to modules still to try
-        # that lie on the surface; seeds at least ``spacing`` apart (each chart costs a solve)
-        spacing = max(0.7 * (R - reach), mod.pitch)
-        pending = ~kept & ~gone
-        if not pending.any():
-            continue
-        hood = 2 * reach + mod.pitch
-        # a pending module counts once this chart's map, even past its trusted radius, finds its
-        # centre on the surface (lattice modules past an open edge would seed charts for nothing)
-        near_km = ctree.query_ball_point(centre[km], hood)
-        test = np.unique(np.concatenate([np.asarray(nb, np.int64) for nb in near_km]))
-        test = test[pending[test] & (status[test] < 0)]
-        if len(test):
-            status[test] = lm.exp(centre[test] - o, fallback=False, on_surface=False)[3].astype(np.int8)
-        want = pending & (status == 1)
-        if not want.any():
-            continue
-        # seeds: the centres of wanted modules inside this chart's trusted disc (a chart there maps
-        # the module whole), else placed modules next to wanted ones; apart in the lattice (flat)
-        # and on the surface (3-D: round a closed link the lattice goes on, the surface does not)
-        inner = np.flatnonzero(want & (d <= R - 0.5 * mod.pitch))
-        inner = inner[np.argsort(-d[inner], kind="stable")]  # farthest first: fewer charts
-        near_want = cKDTree(centre[want]).query_ball_point(centre[kept], hood, return_length=True) > 0
-        front = np.flatnonzero(kept)[near_want]
-        front = front[np.argsort(np.linalg.norm(centre[front], axis=1), kind="stable")]
-        cand = np.concatenate([inner, front])
-        if not len(cand):
-            continue
-        eps = 0.5 * mod.pitch
-        cen = centre[cand]
-        k = len(cand)
-        fp, fn, _, _ = lm.exp(np.concatenate([cen, cen + [eps, 0.0], cen - [eps, 0.0]]) - o, fallback=False)
-        x = fp[k:2 * k] - fp[2 * k:]
-        x -= fn[:k] * np.einsum("ij,ij->i", x, fn[:k])[:, None]
-        src = np.concatenate([np.zeros(len(inner), bool), np.ones(len(front), bool)])
-        origins = [(ch.origin, ch.at) for ch in charts] + [(q[0], q[1]) for q in queue]
-        if min_gain > 1:
-            # a chart costs a solve: seed one only where it can add min_gain wanted modules (the
-            # few strained modules left along a region's rim would each cost a chart for one module)
-            wt = cKDTree(centre[want])
-            gain = wt.query_ball_point(centre[cand], hood, return_length=True)
-            ok = gain >= min(min_gain, int(want.sum()))
-            cand, src, fp, x = cand[ok], src[ok], fp[:k][ok], x[ok]
-        for t, m in enumerate(cand):
-            p3, x3 = (frames[m, 0], frames[m, 1]) if src[t] else (fp[t], x[t])
-            if all(np.linalg.norm(centre[m] - q2) >= spacing and np.linalg.norm(p3 - q3) >= 0.5 * spacing
-                   for q2, q3 in origins):
-                queue.append((centre[m].copy(), p3, x3))
-                origins.append((centre[m], p3))
-    return Growth(pos, nrm, face, found, chart_of, kept, np.zeros(M, bool), frames, charts, reasons,
-                  np.asarray(seam_at, float).reshape(-1, 2))
+        _seed_charts(st, lm, o, d, R, km, charts, queue, mod.pitch, min_gain)
+    return Growth(st.pos, st.nrm, st.face, st.found, st.chart_of, st.kept, np.zeros(patch.n_modules, bool),
+                  st.frames, charts, st.reasons, np.asarray(st.seam_at, float).reshape(-1, 2))
+
+
+def _open_chart(prepared: PreparedSurface, a3, d3, first: LogMap | None, later: bool, faces, chart_radius,
+                min_first: float):
+    """``(log map, trusted radius m)`` of a chart at ``a3`` (3,) with x axis ``d3``, or None when a
+    later chart's axis lies along the surface normal there. Chart 0 (``later`` False) reuses
+    ``first`` if given and always reaches ``min_first`` (it maps the module at ``at``)."""
+    if first is not None:
+        lm = first
+    else:
+        try:
+            lm = LogMap(None, a3, d3, prepared=prepared)
+        except InputError as exc:
+            if not later or exc.key != "direction":
+                raise
+            # the lattice axis carried to this seed lies along the surface normal there (a
+            # sliver of a decimated mesh tilts the pushed-forward frame): another seed on the
+            # same front maps these modules, so this one is dropped, not the whole fill (modules
+            # no other chart reaches stay unplaced and are reported as such)
+            return None
+    R = lm.trusted_radius(faces=faces)
+    if chart_radius is not None:
+        R = min(R, chart_radius)
+    if not later:
+        R = max(R, min_first)  # chart 0 always maps the module at 'at'
+    return lm, R
+
+
+def _judge(st: _GrowState, chart: Chart, patch: Patch, mods, ti, mapped, check, max_strain) -> np.ndarray:
+    """``(K,) bool``: which of the chart's modules ``mods`` (nearest first) to keep, for ``fill``:
+    whole on the surface, passing ``check``, not over ``max_strain`` (may fit in a nearer chart
+    later), not over the skin already there nor a placed module (both for good), not over a module
+    of this chart nearer its origin (past a fold). Counts every reason in ``st.reasons``."""
+    p_, n_, f_, ok_ = mapped
+    counts, gone, reasons = st.counts, st.gone, st.reasons
+    keep = np.ones(len(mods), bool)
+    tmod = np.repeat(np.arange(len(mods)), counts[mods])
+    whole = np.bincount(tmod, weights=ok_, minlength=len(mods)) == counts[mods]
+    rules = np.asarray(check(chart, patch, mods, f_, tmod), bool)
+    gone[mods[~whole | ~rules]] = True
+    reasons["off"] += int((~whole).sum())
+    reasons["rules"] += int((whole & ~rules).sum())
+    keep &= whole & rules
+    if max_strain is not None:
+        tp, tn = st.pos.copy(), st.nrm.copy()
+        tp[ti], tn[ti] = p_, n_
+        strained = keep & (module_strain(patch, tp, tn, mods) > max_strain)  # may fit in a nearer chart
+        reasons["strain"] += int(strained.sum())
+        keep &= ~strained
+    # overlaps with modules already placed (other charts, or the skin there before): for good
+    if len(st.avoid) and keep.any():
+        hit = cKDTree(st.avoid).query_ball_point(p_, st.min_gap, return_length=True) > 0
+        bad = np.bincount(tmod, weights=hit, minlength=len(mods)) > 0
+        gone[mods[bad & keep]] = True
+        reasons["existing"] += int((bad & keep).sum())
+        keep &= ~bad
+    placed = st.pos[np.isfinite(st.pos[:, 0])]
+    if len(placed) and keep.any():
+        hit = cKDTree(placed).query_ball_point(p_, st.min_gap, return_length=True) > 0
+        bad = np.bincount(tmod, weights=hit, minlength=len(mods)) > 0
+        gone[mods[bad & keep]] = True
+        reasons["overlap"] += int((bad & keep).sum())
+        st.seam_at.extend(st.centre[mods[bad & keep]].tolist())
+        keep &= ~bad
+    # overlaps within this chart (past a fold): the module nearer the chart's origin wins
+    if keep.sum() > 1:
+        kt = keep[tmod]
+        pairs = cKDTree(p_[kt]).query_pairs(st.min_gap, output_type="ndarray")
+        if len(pairs):
+            mt = tmod[kt]
+            a, b = mt[pairs[:, 0]], mt[pairs[:, 1]]
+            for x, y in sorted({(min(u, v), max(u, v)) for u, v in zip(a, b) if u != v}):
+                if keep[x] and keep[y]:  # mods are sorted by distance: y is the farther
+                    keep[y] = False
+                    gone[mods[y]] = True
+                    reasons["overlap"] += 1
+    return keep
+
+
+def _place(st: _GrowState, lm: LogMap, o, c: int, km, ti, mapped, pitch: float) -> None:
+    """Write the taxels of the kept modules ``km`` (mapped by chart ``c``, origin ``o`` (2,)) and each
+    module's frame on the surface: origin, lattice x axis, normal."""
+    p_, n_, f_, ok_ = mapped
+    kti = taxel_index(st.counts, st.starts, km)
+    sel = np.isin(ti, kti)
+    st.pos[ti[sel]], st.nrm[ti[sel]], st.face[ti[sel]], st.found[ti[sel]] = p_[sel], n_[sel], f_[sel], ok_[sel]
+    st.kept[km], st.chart_of[km] = True, c
+    eps = 0.5 * pitch
+    centre = st.centre
+    probe = np.concatenate([centre[km], centre[km] + [eps, 0.0], centre[km] - [eps, 0.0]]) - o
+    fp, fn, _, _ = lm.exp(probe)
+    k = len(km)
+    x = fp[k:2 * k] - fp[2 * k:]
+    x -= fn[:k] * np.einsum("ij,ij->i", x, fn[:k])[:, None]
+    x /= np.maximum(np.linalg.norm(x, axis=1, keepdims=True), 1e-300)
+    st.frames[km] = np.stack([fp[:k], x, fn[:k]], axis=1)
+
+
+def _seed_charts(st: _GrowState, lm: LogMap, o, d, R: float, km, charts: list, queue: list, pitch: float,
+                 min_gain: int) -> None:
+    """Queue new charts at the frontier of chart ``lm`` (origin ``o``, radius ``R``, flat distance ``d``
+    (M,) of every module to ``o``): placed modules (of any chart) next to modules still to try that
+    lie on the surface; seeds at least ``spacing`` apart (each chart costs a solve)."""
+    centre, kept, status = st.centre, st.kept, st.status
+    reach = st.reach
+    spacing = max(0.7 * (R - reach), pitch)
+    pending = ~kept & ~st.gone
+    if not pending.any():
+        return
+    hood = 2 * reach + pitch
+    # a pending module counts once this chart's map, even past its trusted radius, finds its
+    # centre on the surface (lattice modules past an open edge would seed charts for nothing)
+    near_km = st.ctree.query_ball_point(centre[km], hood)
+    test = np.unique(np.concatenate([np.asarray(nb, np.int64) for nb in near_km]))
+    test = test[pending[test] & (status[test] < 0)]
+    if len(test):
+        status[test] = lm.exp(centre[test] - o, fallback=False, on_surface=False)[3].astype(np.int8)
+    want = pending & (status == 1)
+    if not want.any():
+        return
+    # seeds: the centres of wanted modules inside this chart's trusted disc (a chart there maps
+    # the module whole), else placed modules next to wanted ones; apart in the lattice (flat)
+    # and on the surface (3-D: round a closed link the lattice goes on, the surface does not)
+    inner = np.flatnonzero(want & (d <= R - 0.5 * pitch))
+    inner = inner[np.argsort(-d[inner], kind="stable")]  # farthest first: fewer charts
+    near_want = cKDTree(centre[want]).query_ball_point(centre[kept], hood, return_length=True) > 0
+    front = np.flatnonzero(kept)[near_want]
+    front = front[np.argsort(np.linalg.norm(centre[front], axis=1), kind="stable")]
+    cand = np.concatenate([inner, front])
+    if not len(cand):
+        return
+    eps = 0.5 * pitch
+    cen = centre[cand]
+    k = len(cand)
+    fp, fn, _, _ = lm.exp(np.concatenate([cen, cen + [eps, 0.0], cen - [eps, 0.0]]) - o, fallback=False)
+    x = fp[k:2 * k] - fp[2 * k:]
+    x -= fn[:k] * np.einsum("ij,ij->i", x, fn[:k])[:, None]
+    src = np.concatenate([np.zeros(len(inner), bool), np.ones(len(front), bool)])
+    origins = [(ch.origin, ch.at) for ch in charts] + [(q[0], q[1]) for q in queue]
+    if min_gain > 1:
+        # a chart costs a solve: seed one only where it can add min_gain wanted modules (the
+        # few strained modules left along a region's rim would each cost a chart for one module)
+        wt = cKDTree(centre[want])
+        gain = wt.query_ball_point(centre[cand], hood, return_length=True)
+        ok = gain >= min(min_gain, int(want.sum()))
+        cand, src, fp, x = cand[ok], src[ok], fp[:k][ok], x[ok]
+    for t, m in enumerate(cand):
+        p3, x3 = (st.frames[m, 0], st.frames[m, 1]) if src[t] else (fp[t], x[t])
+        if all(np.linalg.norm(centre[m] - q2) >= spacing and np.linalg.norm(p3 - q3) >= 0.5 * spacing
+               for q2, q3 in origins):
+            queue.append((centre[m].copy(), p3, x3))
+            origins.append((centre[m], p3))
 
 
 def map_modules(charts: list, patch: Patch, chart_of: np.ndarray):
