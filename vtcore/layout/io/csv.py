@@ -27,6 +27,8 @@ SUFFIXES = (".csv",)
 
 
 _CSV_COLS = ("taxel_id", "module_id", "x", "y", "z", "nx", "ny", "nz", "u", "v", "role", "can_id")
+#: other names a header may give a column (``id`` for ``taxel_id`` ...)
+_ALIASES = {"id": "taxel_id", "uid": "taxel_id", "module": "module_id", "type": "role", "can": "can_id"}
 
 
 def write(layout: Layout, path) -> None:
@@ -59,33 +61,32 @@ def write(layout: Layout, path) -> None:
 
 
 def read(path, units: str | None = None) -> Layout:
+    """Read a CSV layout: ``#`` settings, a header, one taxel a row (see the module docstring).
+
+    units : ``"m"`` or ``"mm"`` for the positions, else the file's ``# units:`` line or ``x_mm``
+    style headers, else a guess from the taxel spacing (warned).
+    """
     report = ImportReport(path)
     text = read_text(path, "layout file").replace("\r\n", "\n").replace("\r", "\n")
-    lines = text.split("\n")
+    settings, header, header_line, rows = _scan(text.split("\n"), path, report)
+    names, declared = _column_names(header, settings["declared"])
+    col = _check_columns(header, names, header_line, rows, path, report)
+    return finish(_layout(rows, header, col, settings, declared, units, path, report), report, path, "csv")
+
+
+def _scan(lines: list[str], path, report: ImportReport) -> tuple[dict, list[str], int, list]:
+    """The ``#`` settings (:func:`_read_setting`), the header (lower case) and its line number, and
+    the taxel rows as ``(line number, tokens cut to the header's width)``, in file order."""
+    settings = {"declared": None, "frame": "end_effector", "transform": np.eye(4), "parent": None}
     header = None
-    declared = None
-    frame, transform, parent = "end_effector", np.eye(4), None
+    header_line = 0
     rows = []
     for ln, line in enumerate(lines, start=1):
         s = line.strip()
         if not s:
             continue
         if s.startswith("#"):
-            m = re.search(r"units?\s*[:=]\s*(mm|m)\b", s)
-            if m:
-                declared = m.group(1)
-            m = re.match(r"#\s*frame\s*:\s*(\S+)", s)
-            if m:
-                frame = m.group(1)
-            m = re.match(r"#\s*parent\s*:\s*(\S+)", s)
-            if m:
-                parent = m.group(1)
-            m = re.match(r"#\s*transform\s*:(.*)", s)
-            if m:
-                toks = m.group(1).split()
-                if len(toks) != 16:
-                    raise FormatError(f"transform needs 16 numbers, got {len(toks)}", file=path, line=ln)
-                transform = np.array([parse_number(t, path, ln, "transform") for t in toks]).reshape(4, 4)
+            _read_setting(s, ln, path, settings)
             continue
         delim = "," if "," in s else (";" if ";" in s else None)
         toks = [t.strip() for t in (s.split(delim) if delim else s.split())]
@@ -100,7 +101,32 @@ def read(path, units: str | None = None) -> Layout:
         rows.append((ln, toks[: len(header)]))
     if header is None:
         raise FormatError("empty file (no header)", file=path)
-    # units written into column names: x_mm, y_mm ...
+    return settings, header, header_line, rows
+
+
+def _read_setting(s: str, ln: int, path, settings: dict) -> None:
+    """One ``#`` line ``s`` (line ``ln``) into ``settings``: the unit (``declared``), ``frame``,
+    ``parent`` or ``transform`` (4, 4); any other comment changes nothing."""
+    m = re.search(r"units?\s*[:=]\s*(mm|m)\b", s)
+    if m:
+        settings["declared"] = m.group(1)
+    m = re.match(r"#\s*frame\s*:\s*(\S+)", s)
+    if m:
+        settings["frame"] = m.group(1)
+    m = re.match(r"#\s*parent\s*:\s*(\S+)", s)
+    if m:
+        settings["parent"] = m.group(1)
+    m = re.match(r"#\s*transform\s*:(.*)", s)
+    if m:
+        toks = m.group(1).split()
+        if len(toks) != 16:
+            raise FormatError(f"transform needs 16 numbers, got {len(toks)}", file=path, line=ln)
+        settings["transform"] = np.array([parse_number(t, path, ln, "transform") for t in toks]).reshape(4, 4)
+
+
+def _column_names(header: list[str], declared: str | None) -> tuple[list[str], str | None]:
+    """Our name of each header column (``x_mm`` -> ``x``, aliases resolved), and the unit: ``declared``
+    (a ``# units:`` line) first, else the one written into the column names."""
     names = []
     for h in header:
         m = re.fullmatch(r"(.+?)[_\s\[(]*(mm|m)[\])]*", h)
@@ -108,8 +134,13 @@ def read(path, units: str | None = None) -> Layout:
             declared = declared or m.group(2)
             names.append(m.group(1))
         else:
-            names.append({"id": "taxel_id", "uid": "taxel_id", "module": "module_id", "type": "role",
-                          "can": "can_id"}.get(h, h))
+            names.append(_ALIASES.get(h, h))
+    return names, declared
+
+
+def _check_columns(header: list[str], names: list[str], header_line: int, rows: list, path,
+                   report: ImportReport) -> dict[str, int]:
+    """``{name: column index}`` once x, y, z are there and there are rows; unknown columns warned."""
     missing = [c for c in ("x", "y", "z") if c not in names]
     if missing:
         raise FormatError(f"header lacks column(s) {', '.join(missing)} (has: {', '.join(header)})",
@@ -119,13 +150,22 @@ def read(path, units: str | None = None) -> Layout:
         report.warn(f"ignored unknown column(s): {', '.join(unknown)}", line=header_line)
     if not rows:
         raise FormatError("no taxel rows after the header", file=path)
-    col = {nm: i for i, nm in enumerate(names)}
+    return {nm: i for i, nm in enumerate(names)}
 
+
+def _numeric(rows: list, header: list[str], i: int, path, integer: bool = False) -> np.ndarray:
+    """(N,) float64 (int64 with ``integer``) of column ``i``; a bad value names its line and column."""
+    parse = parse_integer if integer else parse_number
+    out = [parse(toks[i], path, ln, f"column {header[i]}") for ln, toks in rows]
+    return np.asarray(out, dtype=np.int64 if integer else np.float64)
+
+
+def _layout(rows: list, header: list[str], col: dict[str, int], settings: dict, declared: str | None,
+            units: str | None, path, report: ImportReport) -> Layout:
+    """The Layout of the rows, in metres: positions and flat scaled, normals cleaned (estimated where
+    missing), ids, modules, roles and CAN ids from their columns where present."""
     def numeric(name, integer=False):
-        i = col[name]
-        parse = parse_integer if integer else parse_number
-        out = [parse(toks[i], path, ln, f"column {header[i]}") for ln, toks in rows]
-        return np.asarray(out, dtype=np.int64 if integer else np.float64)
+        return _numeric(rows, header, col[name], path, integer)
 
     n = len(rows)
     pos = np.column_stack([numeric(c) for c in ("x", "y", "z")])
@@ -143,10 +183,9 @@ def read(path, units: str | None = None) -> Layout:
     roles = np.asarray([toks[col["role"]] or "pressure" for _, toks in rows], dtype=object) \
         if "role" in col else None
     can = numeric("can_id", True) if "can_id" in col else None
-    transform = transform.copy()
+    transform = settings["transform"].copy()
     transform[:3, 3] *= scale
-    layout = Layout(pos * scale, nrm, ids, mods, flat, roles, frame, transform, can_ids=can, parent=parent,
-                    normals_estimated=estimated)
-    return finish(layout, report, path, "csv")
+    return Layout(pos * scale, nrm, ids, mods, flat, roles, settings["frame"], transform, can_ids=can,
+                  parent=settings["parent"], normals_estimated=estimated)
 
 

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 import re
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -43,58 +44,13 @@ def read(path, units: str | None = None) -> Layout:
     report = ImportReport(path)
     raw = decode(read_bytes(path, "layout file"), path)  # UTF-8 (BOM ok), else the byte offset
     text = raw.replace("\r\n", "\n").replace("\r", "\n")
-    lines = text.split("\n")
-    header: dict = {}
     t2r = _taxel2repr(text, report)
-    rows, row_lines, row_text, header_lines = [], [], [], []
-    in_cal = False
-    names = []
-    for ln, line in enumerate(lines, start=1):
-        s = _comment_free(line)
-        if not in_cal and not row_text:
-            header_lines.append(line.rstrip())  # trimmed to the lines before the table below
-        if not s:
-            continue
-        if s.startswith("["):
-            in_cal = s.lower().startswith("[calibration")
-            if not in_cal:
-                header.setdefault("groups", []).append(s)
-            continue
-        if not in_cal:
-            key, _, val = s.partition(" ")
-            key = key.split("\t")[0]
-            val = s[len(key):].strip()
-            if key == "name":
-                names.append(val)
-            elif key == "taxel2Repr":
-                pass  # read above by _T2R: its list can span several lines
-            elif key.startswith(("0", "1", "2", "3", "4", "5", "6", "7", "8", "9", "-", "+", ".")):
-                # numbers outside the group: a file without the [calibration] header
-                in_cal = True
-                report.warn("calibration rows without a [calibration] header", line=ln)
-            else:
-                header[key] = val
-            if not in_cal:
-                continue
-        toks = s.split()
-        if len(toks) < 6:
-            raise FormatError(f"calibration row has {len(toks)} values, needs 6 (x y z nx ny nz)",
-                              file=path, line=ln)
-        if len(toks) > 6:
-            report.warn(f"calibration row has {len(toks)} values; used the first 6", line=ln)
-        rows.append([parse_number(tok, path, ln, "calibration value") for tok in toks[:6]])
-        row_lines.append(ln)
-        row_text.append(s)
-    if not rows:
+    table = _scan(text.split("\n"), path, report)
+    if not table.rows:
         raise FormatError("no [calibration] rows found", file=path)
-    data = np.asarray(rows, dtype=np.float64)
-    header.update(_name_and_frame(names, report))
-    nrows = len(data)
-    if nrows % 12:
-        report.warn(f"{nrows} calibration rows is not a multiple of 12 (slots per triangle)")
-    if t2r is not None and len(t2r) != nrows:
-        report.warn(f"taxel2Repr has {len(t2r)} entries for {nrows} calibration rows; "
-                    f"used the first {min(len(t2r), nrows)}")
+    data = np.asarray(table.rows, dtype=np.float64)
+    table.header.update(_name_and_frame(table.names, report))
+    _check_counts(len(data), t2r, report)
     empty = np.all(data == 0.0, axis=1)
     keep = np.flatnonzero(~empty)
     if len(keep) == 0:
@@ -104,20 +60,102 @@ def read(path, units: str | None = None) -> Layout:
     nrm, estimated = clean_normals(data[keep, 3:], pos, report)
     check_repeats(pos, report)
     roles = _roles(t2r, empty, keep, report)
+    layout = Layout(pos * scale, nrm, keep, keep // 12, roles=roles,
+                    frame=table.header.get("frame") or "end_effector", meta=_meta(table, t2r, len(data), scale),
+                    normals_estimated=estimated)
+    layout.meta["icub_digests"] = row_digests(layout)
+    return finish(layout, report, path, "icub")
+
+
+@dataclass
+class _Table:
+    """What :func:`_scan` read from a positions file, in file order."""
+
+    header: dict = field(default_factory=dict)          # key -> value of the header lines, "groups": [...]
+    names: list = field(default_factory=list)           # the value of every 'name' line
+    rows: list = field(default_factory=list)            # (R,) of [x, y, z, nx, ny, nz] floats
+    row_lines: list = field(default_factory=list)       # (R,) line number of each row
+    row_text: list = field(default_factory=list)        # (R,) each row's text, comments cut off
+    header_lines: list = field(default_factory=list)    # the lines up to the first row, right-stripped
+
+
+def _scan(lines: list[str], path, report: ImportReport) -> _Table:
+    """Every line of the file: header keys and 'name' lines up to the calibration table (a
+    ``[calibration]`` line, or the first line of numbers without one), then its rows."""
+    table = _Table()
+    in_cal = False
+    for ln, line in enumerate(lines, start=1):
+        s = _comment_free(line)
+        if not in_cal and not table.row_text:
+            table.header_lines.append(line.rstrip())  # trimmed to the lines before the table by _meta
+        if not s:
+            continue
+        if s.startswith("["):
+            in_cal = s.lower().startswith("[calibration")
+            if not in_cal:
+                table.header.setdefault("groups", []).append(s)
+            continue
+        if not in_cal:
+            in_cal = _read_header_line(s, ln, table, report)
+            if not in_cal:
+                continue
+        table.rows.append(_calibration_row(s, ln, path, report))
+        table.row_lines.append(ln)
+        table.row_text.append(s)
+    return table
+
+
+def _read_header_line(s: str, ln: int, table: _Table, report: ImportReport) -> bool:
+    """Line ``s`` (number ``ln``, comment cut off) before the table into ``table``; True when it is
+    a calibration row already (numbers outside the group: a file without the [calibration] header)."""
+    key = s.partition(" ")[0].split("\t")[0]
+    val = s[len(key):].strip()
+    if key == "name":
+        table.names.append(val)
+    elif key == "taxel2Repr":
+        pass  # read by _taxel2repr: its list can span several lines
+    elif key.startswith(("0", "1", "2", "3", "4", "5", "6", "7", "8", "9", "-", "+", ".")):
+        report.warn("calibration rows without a [calibration] header", line=ln)
+        return True
+    else:
+        table.header[key] = val
+    return False
+
+
+def _calibration_row(s: str, ln: int, path, report: ImportReport) -> list[float]:
+    """``[x, y, z, nx, ny, nz]`` of calibration row ``s`` (line ``ln``); values past six are warned."""
+    toks = s.split()
+    if len(toks) < 6:
+        raise FormatError(f"calibration row has {len(toks)} values, needs 6 (x y z nx ny nz)",
+                          file=path, line=ln)
+    if len(toks) > 6:
+        report.warn(f"calibration row has {len(toks)} values; used the first 6", line=ln)
+    return [parse_number(tok, path, ln, "calibration value") for tok in toks[:6]]
+
+
+def _check_counts(nrows: int, t2r: np.ndarray | None, report: ImportReport) -> None:
+    """Warn where the row count is not whole triangles (12 slots) or taxel2Repr has another length."""
+    if nrows % 12:
+        report.warn(f"{nrows} calibration rows is not a multiple of 12 (slots per triangle)")
+    if t2r is not None and len(t2r) != nrows:
+        report.warn(f"taxel2Repr has {len(t2r)} entries for {nrows} calibration rows; "
+                    f"used the first {min(len(t2r), nrows)}")
+
+
+def _meta(table: _Table, t2r: np.ndarray | None, nrows: int, scale: float) -> dict:
+    """The layout's ``meta``: what the writer needs to give the file back as read (header keys and
+    lines, names, taxel2Repr, each row's text, the length unit: ``scale`` 1e-3 is mm)."""
     # the header: every line before the [calibration] line (or before the first row without one)
-    header_lines = header_lines[: row_lines[0] - 1]
+    header_lines = table.header_lines[: table.row_lines[0] - 1]
     cal = [i for i, h in enumerate(header_lines) if h.strip().lower().startswith("[calibration")]
     header_lines = header_lines[: cal[0]] if cal else header_lines
-    meta = {"name": header.get("name", ""), "spatial_sampling": header.get("spatial_sampling", "taxel"),
+    header = table.header
+    return {"name": header.get("name", ""), "spatial_sampling": header.get("spatial_sampling", "taxel"),
             "icub_rows": int(nrows), "id_scheme": "icub",
             "taxel2Repr": None if t2r is None else t2r.tolist(),
             "icub_header": {k: v for k, v in header.items() if k not in ("name", "spatial_sampling", "frame")},
-            "icub_names": names, "icub_header_lines": header_lines, "icub_row_text": row_text,
+            "icub_names": table.names, "icub_header_lines": header_lines, "icub_row_text": table.row_text,
             "icub_units": "mm" if scale == 1e-3 else "m"}
-    layout = Layout(pos * scale, nrm, keep, keep // 12, roles=roles,
-                    frame=header.get("frame") or "end_effector", meta=meta, normals_estimated=estimated)
-    layout.meta["icub_digests"] = row_digests(layout)
-    return finish(layout, report, path, "icub")
 
 
 def _taxel2repr(text: str, report: ImportReport) -> np.ndarray | None:
