@@ -305,11 +305,36 @@ def surface_triangulation(positions: np.ndarray, normals: np.ndarray, spacing: n
     if n < 3:
         return np.zeros((0, 3), np.int64)
     s = nn_spacing_oriented(p, nrm, cos_limit) if spacing is None else spacing
-    h = float(np.median(s)) * chart_radius
-    tree = cKDTree(p)
-    # chart centres: one taxel per occupied (voxel, normal direction) cell, the one nearest the
-    # cell's mean; binning the normals (6 cube directions) keeps the two faces of a thin part and the
-    # two sides of a thin tube in different charts even when they share a voxel
+    centres = _chart_centres(p, nrm, float(np.median(s)) * chart_radius)
+    owner, reach = _chart_owners(p, nrm, centres, cos_limit)
+    members = cKDTree(p).query_ball_point(p[centres], reach + 3.0 * np.median(s))
+    t1, t2 = _tangent_frames(nrm[centres])
+    out = []
+    # one small Delaunay per chart (about N / 20 charts), not per taxel
+    for c, mem in enumerate(members):
+        tri = _chart_triangles(p, nrm, centres[c], np.asarray(mem, dtype=np.int64), t1[c], t2[c], cos_limit)
+        if not len(tri):
+            continue
+        # keep a triangle here if this chart owns two of its vertices; if all three owners
+        # differ, the owner of its lowest-index vertex decides (each triangle from one chart)
+        ow = owner[tri]
+        count = (ow == c).sum(axis=1)
+        distinct = (ow[:, 0] != ow[:, 1]) & (ow[:, 1] != ow[:, 2]) & (ow[:, 0] != ow[:, 2])
+        first = ow[np.arange(len(tri)), np.argmin(tri, axis=1)]
+        keep = (count >= 2) | (distinct & (first == c))
+        out.append(tri[keep])
+    if not out:
+        return np.zeros((0, 3), np.int64)
+    tri = np.concatenate(out)
+    return _orient_and_unfold(np.unique(np.sort(tri, axis=1), axis=0), p, nrm)
+
+
+def _chart_centres(p: np.ndarray, nrm: np.ndarray, h: float) -> np.ndarray:
+    """(C,) sorted indices into ``p`` (N, 3) of the chart centres, for charts about ``h`` metres wide.
+
+    One taxel per occupied (voxel, normal direction) cell, the one nearest the cell's mean; binning
+    the normals (6 cube directions) keeps the two faces of a thin part and the two sides of a thin
+    tube in different charts even when they share a voxel."""
     vox = np.floor((p - p.min(axis=0)) / h).astype(np.int64)
     nbin = np.argmax(np.concatenate([nrm, -nrm], axis=1), axis=1)
     key = np.column_stack([vox, nbin])
@@ -322,8 +347,15 @@ def surface_triangulation(positions: np.ndarray, normals: np.ndarray, spacing: n
     order = np.lexsort((d_to_mean, inv))
     first = np.ones(len(order), bool)
     first[1:] = inv[order][1:] != inv[order][:-1]
-    centres = np.sort(order[first])
-    # every taxel's nearest centre (among centres whose normal agrees) decides where its triangles come from
+    return np.sort(order[first])
+
+
+def _chart_owners(p: np.ndarray, nrm: np.ndarray, centres: np.ndarray,
+                  cos_limit: float) -> tuple[np.ndarray, np.ndarray]:
+    """Each taxel's chart: (N,) the index into ``centres`` of its nearest centre whose normal agrees
+    (-1 for none), which decides where its triangles come from; and (C,) metres, each chart's reach
+    (the farthest taxel it owns)."""
+    n = len(p)
     ctree = cKDTree(p[centres])
     kk = min(16, len(centres))
     dc, ic = ctree.query(p, kk)
@@ -334,40 +366,32 @@ def surface_triangulation(positions: np.ndarray, normals: np.ndarray, spacing: n
     best = np.argmin(dc, axis=1)
     owner = np.where(np.isfinite(dc[np.arange(n), best]), ic[np.arange(n), best], -1)
     np.maximum.at(reach, owner[owner >= 0], dc[np.arange(n), best][owner >= 0])
-    members = tree.query_ball_point(p[centres], reach + 3.0 * np.median(s))
-    t1, t2 = _tangent_frames(nrm[centres])
-    out = []
-    # one small Delaunay per chart (about N / 20 charts), not per taxel
-    for c, mem in enumerate(members):
-        mem = np.asarray(mem, dtype=np.int64)
-        mem = mem[nrm[mem] @ nrm[centres[c]] > cos_limit]
-        if len(mem) < 3:
-            continue
-        d = p[mem] - p[centres[c]]
-        uv = np.column_stack([d @ t1[c], d @ t2[c]])
-        tri, _ = delaunay_2d(uv)
-        if not len(tri):
-            continue
-        tri = mem[tri]
-        # keep a triangle here if this chart owns two of its vertices; if all three owners
-        # differ, the owner of its lowest-index vertex decides (each triangle from one chart)
-        ow = owner[tri]
-        count = (ow == c).sum(axis=1)
-        distinct = (ow[:, 0] != ow[:, 1]) & (ow[:, 1] != ow[:, 2]) & (ow[:, 0] != ow[:, 2])
-        first = ow[np.arange(len(tri)), np.argmin(tri, axis=1)]
-        keep = (count >= 2) | (distinct & (first == c))
-        out.append(tri[keep])
-    if not out:
+    return owner, reach
+
+
+def _chart_triangles(p: np.ndarray, nrm: np.ndarray, centre: int, mem: np.ndarray, t1: np.ndarray,
+                     t2: np.ndarray, cos_limit: float) -> np.ndarray:
+    """(F, 3) taxel indices: the Delaunay triangulation of one chart, its members ``mem`` whose
+    normal agrees with taxel ``centre``'s projected onto the tangent plane (``t1``, ``t2`` (3,))."""
+    mem = mem[nrm[mem] @ nrm[centre] > cos_limit]
+    if len(mem) < 3:
         return np.zeros((0, 3), np.int64)
-    tri = np.concatenate(out)
-    tri = np.unique(np.sort(tri, axis=1), axis=0)
-    # orient each triangle with the mean normal of its vertices
+    d = p[mem] - p[centre]
+    uv = np.column_stack([d @ t1, d @ t2])
+    tri, _ = delaunay_2d(uv)
+    if not len(tri):
+        return np.zeros((0, 3), np.int64)
+    return mem[tri]
+
+
+def _orient_and_unfold(tri: np.ndarray, p: np.ndarray, nrm: np.ndarray) -> np.ndarray:
+    """``tri`` (F, 3) each wound to face like the mean normal of its vertices, less the few that
+    fold across a crease (a triangle must itself face like its vertices)."""
     a, b, cc = p[tri[:, 0]], p[tri[:, 1]], p[tri[:, 2]]
     fn = np.cross(b - a, cc - a)
     vn = nrm[tri].sum(axis=1)
     flip = np.einsum("ij,ij->i", fn, vn) < 0
     tri[flip] = tri[flip][:, [0, 2, 1]]
-    # a triangle must itself face like its vertices: drops the few that fold across a crease
     fnu = fn / np.maximum(np.linalg.norm(fn, axis=1, keepdims=True), TINY)
     ok = np.all(np.abs(np.einsum("ij,ikj->ik", fnu, nrm[tri])) > 0.3, axis=1)
     return tri[ok]
@@ -403,55 +427,12 @@ def skin_mesh(layout: Layout, *, method: str = "auto", duplicates: str = "merge"
     use_flat = method == "flat" or (method == "auto" and layout.flat is not None)
     if method == "flat" and layout.flat is None:
         raise InputError("method='flat' needs flat coordinates; use method='surface'", key="flat")
-    chain = np.zeros((0, 2), np.int64)
-    n_lonely = 0
-    bridges = 0
-    if use_flat:
-        uv = layout.flat[uniq]
-        # flat duplicates (distinct 3-D positions, same flat point) cannot both be Delaunay vertices
-        frep = find_duplicates(uv, tol)
-        if np.any(frep != np.arange(len(uv))):
-            use_flat = False
-        else:
-            tri, chain = delaunay_2d(uv)
-            spacing = nn_spacing(uv)
-            tri, peeled = peel(tri, uv, spacing, max_edge)
-            tri, chain, bridges = drop_bridges(tri, chain, uv, spacing, max_edge)
+    # the triangulation of the unique taxels: (triangles, chain edges, peeled, bridges removed, lonely linked)
+    built = _triangulate_flat(layout.flat[uniq], tol, max_edge) if use_flat else None
+    use_flat = built is not None
     if not use_flat:
-        p = pos[uniq]
-        nrm = layout.normals[uniq]
-        norms = np.linalg.norm(nrm, axis=1)
-        est = None
-        if np.any(np.abs(norms - 1) > 0.05) or len(np.unique(np.round(nrm, 6), axis=0)) == 1 and not _planar(p):
-            # unknown, placeholder or non-unit normals: estimate them, oriented like the given ones
-            est = estimate_normals(p, reference=np.where(norms[:, None] > 0.5, nrm, 0) if np.any(norms > 0.5)
-                                   else None)
-            nrm = est
-        else:
-            nrm = nrm / norms[:, None]
-        if _planar(p):
-            c = p - p.mean(axis=0)
-            basis = np.linalg.svd(c, full_matrices=False)[2][:2]
-            tri, chain = delaunay_2d(c @ basis.T)
-        else:
-            tri = surface_triangulation(p, nrm)
-            if not len(tri):
-                chain = _chain(p)
-        spacing = nn_spacing_oriented(p, nrm)
-        tri, peeled = peel(tri, p, spacing, max_edge)
-        tri, chain, bridges = drop_bridges(tri, chain, p, spacing, max_edge)
-        # safety net: a taxel that no chart gave a triangle is joined to its close, like-facing
-        # neighbours by plain edges rather than left out of the graph
-        lonely = np.setdiff1d(np.arange(len(p)), np.concatenate([tri.ravel(), chain.ravel()]))
-        if len(lonely) and len(p) > 1:
-            k = int(min(7, len(p)))
-            d, idx = cKDTree(p).query(p[lonely], k)
-            d, idx = d.reshape(len(lonely), k), idx.reshape(len(lonely), k)
-            ok = (d > 0) & (d <= max_edge * spacing[lonely, None]) & \
-                (np.einsum("nkj,nj->nk", nrm[idx], nrm[lonely]) > 0.5)
-            r, c = np.nonzero(ok)
-            chain = np.concatenate([chain, np.column_stack([lonely[r], idx[r, c]])]).astype(np.int64)
-            n_lonely = int(len(lonely))
+        built = _triangulate_surface(pos[uniq], layout.normals[uniq], max_edge)
+    tri, chain, peeled, bridges, n_lonely = built
     tri = uniq[tri] if len(tri) else np.zeros((0, 3), np.int64)
     chain = uniq[chain] if len(chain) else chain
     extra = [chain]
@@ -465,6 +446,70 @@ def skin_mesh(layout: Layout, *, method: str = "auto", duplicates: str = "merge"
             "bridges_removed": bridges,
             "duplicates": [[int(d), int(rep[d])] for d in dup]}
     return mesh_from_triangles(pos, layout.normals, tri, np.concatenate(extra) if extra else None, meta)
+
+
+def _triangulate_flat(uv: np.ndarray, tol: float, max_edge: float) -> tuple | None:
+    """``(triangles (F, 3), chain (K, 2), peeled, bridges, 0)`` over the flat coordinates ``uv``
+    (N, 2) of the unique taxels, peeled and without bridges; None where two taxels share a flat
+    point (distinct 3-D positions cannot both be Delaunay vertices there: use the surface)."""
+    frep = find_duplicates(uv, tol)
+    if np.any(frep != np.arange(len(uv))):
+        return None
+    tri, chain = delaunay_2d(uv)
+    spacing = nn_spacing(uv)
+    tri, peeled = peel(tri, uv, spacing, max_edge)
+    tri, chain, bridges = drop_bridges(tri, chain, uv, spacing, max_edge)
+    return tri, chain, peeled, bridges, 0
+
+
+def _triangulate_surface(p: np.ndarray, nrm: np.ndarray, max_edge: float) -> tuple:
+    """``(triangles (F, 3), chain (K, 2), peeled, bridges, lonely linked)`` over the 3-D positions
+    ``p`` (N, 3) of the unique taxels with their normals ``nrm`` (N, 3) as given: a plane is
+    triangulated in its own 2-D basis, anything else by :func:`surface_triangulation`."""
+    nrm = _usable_normals(p, nrm)
+    chain = np.zeros((0, 2), np.int64)
+    if _planar(p):
+        c = p - p.mean(axis=0)
+        basis = np.linalg.svd(c, full_matrices=False)[2][:2]
+        tri, chain = delaunay_2d(c @ basis.T)
+    else:
+        tri = surface_triangulation(p, nrm)
+        if not len(tri):
+            chain = _chain(p)
+    spacing = nn_spacing_oriented(p, nrm)
+    tri, peeled = peel(tri, p, spacing, max_edge)
+    tri, chain, bridges = drop_bridges(tri, chain, p, spacing, max_edge)
+    chain, n_lonely = _link_lonely(tri, chain, p, nrm, spacing, max_edge)
+    return tri, chain, peeled, bridges, n_lonely
+
+
+def _usable_normals(p: np.ndarray, nrm: np.ndarray) -> np.ndarray:
+    """(N, 3) unit normals: ``nrm`` normalised, or estimated (oriented like the given ones) where they
+    are unknown, placeholders (one normal for a curved set) or not unit length."""
+    norms = np.linalg.norm(nrm, axis=1)
+    if np.any(np.abs(norms - 1) > 0.05) or len(np.unique(np.round(nrm, 6), axis=0)) == 1 and not _planar(p):
+        return estimate_normals(p, reference=np.where(norms[:, None] > 0.5, nrm, 0) if np.any(norms > 0.5)
+                                else None)
+    return nrm / norms[:, None]
+
+
+def _link_lonely(tri: np.ndarray, chain: np.ndarray, p: np.ndarray, nrm: np.ndarray, spacing: np.ndarray,
+                 max_edge: float) -> tuple[np.ndarray, int]:
+    """``chain`` with the taxels that no triangle or edge reaches joined by plain edges to their
+    close (within ``max_edge`` spacings), like-facing neighbours, and how many there were.
+
+    A safety net: such a taxel is joined to the graph rather than left out of it."""
+    lonely = np.setdiff1d(np.arange(len(p)), np.concatenate([tri.ravel(), chain.ravel()]))
+    if not (len(lonely) and len(p) > 1):
+        return chain, 0
+    k = int(min(7, len(p)))
+    d, idx = cKDTree(p).query(p[lonely], k)
+    d, idx = d.reshape(len(lonely), k), idx.reshape(len(lonely), k)
+    ok = (d > 0) & (d <= max_edge * spacing[lonely, None]) & \
+        (np.einsum("nkj,nj->nk", nrm[idx], nrm[lonely]) > 0.5)
+    r, c = np.nonzero(ok)
+    chain = np.concatenate([chain, np.column_stack([lonely[r], idx[r, c]])]).astype(np.int64)
+    return chain, int(len(lonely))
 
 
 def _planar(p: np.ndarray, rtol: float = 1e-3) -> bool:
