@@ -196,3 +196,66 @@ def test_mjcf_robot_with_primitive_geoms_and_a_mesh(tmp_path):
     assert set(exp.neighbours) == {"upper", "hand"}
     assert not exp.mask[n[:, 2] < -0.9].any() and not exp.mask[n[:, 2] > 0.9].any()
     assert exp.mask[np.abs(n[:, 2]) < 0.1].mean() > 0.8
+
+
+def test_robot_info_shows_exposed_area_and_room_for_modules(arm, capsys):
+    from vtcore.cli import main
+
+    assert main(["robot", "info", str(arm)]) == 0
+    out = capsys.readouterr().out
+    wrist = out[out.index("  wrist:"):out.index("  hand:")]
+    assert "exposed (visual): " in wrist and "cyskin10 modules; covered by elbow, hand" in wrist
+    assert main(["robot", "info", str(arm), "--json"]) == 0
+    import json
+
+    info = json.loads(capsys.readouterr().out)
+    assert info["exposure"]["cap"]["exposed_m2"] == 0 and info["exposure"]["wrist"]["modules"] >= 3
+
+
+def test_small_mistakes_get_one_useful_line(arm, tmp_path, capsys):
+    """A --link typo gets the closest name, a joint typo (Import Robot's joint values) the joints, a
+    missing relative mesh says where it was looked for (not --package), a --package folder that does
+    not exist says so, a millimetre mesh without its scale warns in robot info, --scale with --link
+    says why it is refused."""
+    from vtcore.cli import main
+    from vtcore.scene.interactive import import_robot
+
+    assert main(["layout", "place", str(arm), "--link", "wirst", "--out", str(tmp_path / "x.json")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "no link named 'wirst' (did you mean 'wrist'?)" in err[0]
+    with pytest.raises(InputError, match=r"no joint named wrist_rol \(did you mean 'wrist_roll'\?\); the moving "
+                                         r"joints: wrist_roll, wrist_pitch, finger"):
+        import_robot(arm, joints={"wrist_rol": 0.3})
+    bad = tmp_path / "bad.urdf"
+    bad.write_text('<robot name="b"><link name="a"><visual><geometry><mesh filename="meshes/gone.stl"/></geometry>'
+                   '</visual></link></robot>')
+    with pytest.raises(InputError, match="not found .looked for .*meshes/gone.stl: paths are relative") as e:
+        link_mesh(load_robot(bad), "a")
+    assert "--package" not in str(e.value)
+    assert main(["robot", "info", str(arm), "--package", "arm=/nonexistent/folder"]) == 2
+    assert "the folder /nonexistent/folder does not exist" in capsys.readouterr().err
+    mm = tmp_path / "mm.urdf"
+    trimesh.creation.box(extents=(40.0, 30.0, 20.0)).export(tmp_path / "plate.stl")  # millimetres, no scale
+    mm.write_text('<robot name="m"><link name="plate"><visual><geometry><mesh filename="plate.stl"/></geometry>'
+                  '</visual></link></robot>')
+    assert main(["robot", "info", str(mm), "--no-exposure"]) == 0
+    assert "vtcore: warning: " in (err := capsys.readouterr().err) and "40 m across: a mesh in millimetres" in err
+    assert main(["layout", "place", str(arm), "--link", "wrist", "--scale", "0.001",
+                 "--out", str(tmp_path / "x.json")]) == 2
+    assert "scaled by the robot file" in capsys.readouterr().err
+
+
+def test_help_and_docs_say_the_same_default_start():
+    import argparse
+    from pathlib import Path
+
+    from vtcore.cli import build_parser
+
+    parser = build_parser()
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction)).choices["layout"]
+    place = next(a for a in sub._actions if isinstance(a, argparse._SubParsersAction)).choices["place"]
+    at = next(a for a in place._actions if "--at" in a.option_strings).help
+    phrase = "a flat point of the link's exposed surface near its middle"
+    assert phrase in at
+    docs = (Path(__file__).parents[1] / "docs" / "layout.md").read_text()
+    assert phrase in " ".join(docs.split())

@@ -146,8 +146,10 @@ def _place_mesh(args):
     from .robot import packages
 
     if args.scale != 1.0:
-        raise InputError("a robot link is scaled by its model (the mesh's scale attribute); --scale is for "
-                         "mesh files", key="--scale")
+        raise InputError("a robot link is scaled by the robot file (its <mesh scale=\"0.001 0.001 0.001\"> for a "
+                         "mesh in millimetres): a skin laid at another scale would not sit on the link the robot's "
+                         "own file exports; give the scale in the robot file (--scale is for mesh files)",
+                         key="--scale")
     robot = load_robot(args.mesh, packages(args.package))
     return link_mesh(robot, args.link, args.geometry or "visual"), robot
 
@@ -422,7 +424,7 @@ def register(sub) -> None:
     pl.add_argument("--patch", type=_patch_arg, default="hexagon", help="triangle, hexagon, strip:N or fill")
     pl.add_argument("--at", type=float, nargs=3, metavar=("X", "Y", "Z"),
                     help="surface point the patch is centred on (metres; with --link in the link frame, default "
-                         "the surface point nearest the link's centroid)")
+                         "a flat point of the link's exposed surface near its middle)")
     pl.add_argument("--direction", type=float, nargs=3, metavar=("DX", "DY", "DZ"),
                     help="in-plane direction of the patch's x axis")
     pl.add_argument("--module", default="cyskin10", choices=sorted(MODULES), help="module type")
