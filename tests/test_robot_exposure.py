@@ -259,3 +259,28 @@ def test_help_and_docs_say_the_same_default_start():
     assert phrase in at
     docs = (Path(__file__).parents[1] / "docs" / "layout.md").read_text()
     assert phrase in " ".join(docs.split())
+
+
+@pytest.mark.slow
+def test_g1_wrist_fill_clears_the_elbow_in_its_exported_urdf(tmp_path):
+    """Done when (issue 33), on the link the issue found: the G1's left wrist roll link filled on its
+    exposed surface, exported into the G1's URDF and loaded back by yourdfpy: no taxel within 2 mm of,
+    or inside, another link at the zero pose (trimesh's distances, not the exposure's); filled anywhere,
+    the same link puts taxels on the face mating with the elbow."""
+    from vtcore.robot import export_skinned
+    from vtcore.robot.samples import example_robot_data
+    from vtcore.robot.verify import clearance_urdf
+
+    erd = example_robot_data()
+    path = erd / "g1_description/urdf/g1_29dof_with_hand_rev_1_0.urdf"
+    robot = load_robot(path)
+    link = "left_wrist_roll_link"
+    mesh = link_mesh(robot, link)
+    for exposure in (True, False):
+        lay, _ = lay_on_link(robot, link, "fill", mesh=mesh, exposure=exposure)
+        export_skinned(path, [lay], tmp_path / f"g1_{exposure}.urdf")
+        stats = clearance_urdf(tmp_path / f"g1_{exposure}.urdf", packages={"example-robot-data": erd.parent})[link]
+        if exposure:
+            assert stats["taxels"] >= 30 and stats["near"] == 0 and stats["min_mm"] > 2.0, stats
+        else:
+            assert stats["near"] >= 10 and stats["nearest"] == "left_elbow_link", stats
