@@ -86,11 +86,6 @@ def main():
         print(out)
 
 
-#: face colours of the exposure picture (RGBA), by :mod:`vtcore.robot.exposure` reason code
-EXPOSURE_COLOURS = {0: (0.55, 0.80, 0.55, 1.0), 1: (0.95, 0.45, 0.35, 1.0), 2: (0.65, 0.10, 0.10, 1.0),
-                    3: (0.98, 0.75, 0.25, 1.0)}
-
-
 def exposure_picture(out=None):
     """docs/img/robot_exposure_g1.png: the G1's left arm at the zero pose, each link's faces coloured
     by its exposure (left), and the left wrist's fill before (anywhere: taxels on the face mating with
@@ -98,7 +93,8 @@ def exposure_picture(out=None):
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
     from matplotlib.patches import Patch
 
-    from vtcore.robot.exposure import REASONS, RobotSurfaces, configurations, exposed_faces, taxel_reasons
+    from vtcore.robot.exposure import (COLOURS, REASONS, RobotSurfaces, configurations, exposed_faces, face_colours,
+                                       taxel_reasons)
     from vtcore.robot.samples import example_robot_data
 
     robot = load_robot(example_robot_data() / "g1_description/urdf/g1_29dof_with_hand_rev_1_0.urdf")
@@ -116,7 +112,7 @@ def exposure_picture(out=None):
         t = poses[name]
         v = mesh.vertices @ t[:3, :3].T + t[:3, 3]
         lo, hi = np.minimum(lo, v.min(0)), np.maximum(hi, v.max(0))
-        ax.add_collection3d(Poly3DCollection(v[mesh.faces], facecolors=[EXPOSURE_COLOURS[int(r)] for r in e.reason],
+        ax.add_collection3d(Poly3DCollection(v[mesh.faces], facecolors=face_colours(e.reason),
                                              edgecolor="none"))
     c, r = (lo + hi) / 2, (hi - lo).max() / 2
     for set_lim, k in ((ax.set_xlim, 0), (ax.set_ylim, 1), (ax.set_zlim, 2)):
@@ -125,7 +121,7 @@ def exposure_picture(out=None):
     ax.view_init(elev=15, azim=-30)
     ax.set_axis_off()
     ax.set_title("G1 left arm: exposed surface (zero pose, 32 sampled poses, 8 mm probe)", fontsize=9)
-    ax.legend(handles=[Patch(color=EXPOSURE_COLOURS[k], label=REASONS[k]) for k in EXPOSURE_COLOURS],
+    ax.legend(handles=[Patch(color=COLOURS[k][0], label=REASONS[k]) for k in COLOURS],
               fontsize=7, loc="lower left")
     link = "left_wrist_roll_link"
     mesh = link_mesh(robot, link)

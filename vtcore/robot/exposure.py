@@ -49,6 +49,26 @@ INSIDE_RAYS = 3
 EXPOSED, COVERED, ALWAYS_COVERED, UNREACHABLE = 0, 1, 2, 3
 REASONS = {EXPOSED: "exposed", COVERED: "covered by another link at the zero pose",
            ALWAYS_COVERED: "covered by another link at every sampled pose", UNREACHABLE: "unreachable by the probe"}
+#: the colour of each reason (RGBA, 0..1) and its name in a legend: the add-on's Import Robot and the docs' picture
+COLOURS = {EXPOSED: ((0.55, 0.80, 0.55, 1.0), "green"), COVERED: ((0.95, 0.45, 0.35, 1.0), "red"),
+           ALWAYS_COVERED: ((0.65, 0.10, 0.10, 1.0), "dark red"), UNREACHABLE: ((0.98, 0.75, 0.25, 1.0), "orange")}
+
+
+def face_colours(reason) -> np.ndarray:
+    """(F, 4) float RGBA of the reason codes (F,) (:data:`COLOURS`)."""
+    table = np.array([COLOURS[k][0] for k in sorted(COLOURS)], dtype=np.float64)
+    return table[np.asarray(reason, dtype=np.int64)]
+
+
+def legend(exposure: "Exposure") -> list[str]:
+    """The colour legend of one link's exposure, one line per colour present, with its area."""
+    lines = []
+    for code in sorted(COLOURS):
+        sel = exposure.reason == code
+        if sel.any():
+            what = REASONS[code] + (f" ({1e3 * exposure.probe_radius:g} mm)" if code == UNREACHABLE else "")
+            lines.append(f"{COLOURS[code][1]}: {what}, {1e4 * exposure.area[sel].sum():.1f} cm2")
+    return lines
 
 
 @dataclass
