@@ -2,7 +2,7 @@
 every link of the Allegro hand) on its exposed surface, export the merged URDF, load it with
 yourdfpy and measure each taxel's distance to every other link (trimesh), at the zero pose.
 
-    PYTHONPATH=. python scripts/robot_exposure_check.py OUT_FOLDER [--anywhere]
+    PYTHONPATH=. python scripts/robot_exposure_check.py OUT_FOLDER [g1] [allegro] [--anywhere] [--collision]
 
 Writes OUT_FOLDER/<robot>_skinned.urdf and prints one row per link; exit 1 when a taxel lies within
 2 mm of, or inside, another link.
@@ -20,7 +20,7 @@ def links_of(robot, name):
     if name == "g1":
         arm = ["shoulder_pitch", "shoulder_roll", "shoulder_yaw", "elbow", "wrist_roll", "wrist_pitch", "wrist_yaw"]
         return ["torso_link"] + [f"{s}_{p}_link" for s in ("left", "right") for p in arm]
-    return [n for n, ln in robot.links.items() if ln.visuals]
+    return [n for n, ln in robot.links.items() if ln.visuals or ln.collisions]
 
 
 def main(argv) -> int:
@@ -32,6 +32,7 @@ def main(argv) -> int:
     out = Path(argv[0])
     out.mkdir(parents=True, exist_ok=True)
     anywhere = "--anywhere" in argv
+    geometry = "collision" if "--collision" in argv else "visual"
     erd = example_robot_data()
     robots = {"g1": erd / "g1_description/urdf/g1_29dof_with_hand_rev_1_0.urdf",
               "allegro": erd / "allegro_hand_description/urdf/allegro_right_hand.urdf"}
@@ -47,15 +48,15 @@ def main(argv) -> int:
             try:
                 with warnings.catch_warnings():
                     warnings.simplefilter("ignore")
-                    lay, rep = lay_on_link(robot, link, "fill", exposure=not anywhere)
+                    lay, rep = lay_on_link(robot, link, "fill", geometry=geometry, exposure=not anywhere)
                 layouts.append(lay)
                 print(f"{name} {link}: {len(lay)} taxels, {lay.n_modules} modules, {time.perf_counter() - t0:.1f} s",
                       flush=True)
             except InputError as exc:
                 print(f"{name} {link}: none ({exc.reason[:160]})", flush=True)
-        urdf = out / f"{name}_skinned.urdf"
+        urdf = out / f"{name}_{geometry}_skinned.urdf"
         export_skinned(path, layouts, urdf)
-        stats = clearance_urdf(urdf, packages={"example-robot-data": erd.parent})
+        stats = clearance_urdf(urdf, packages={"example-robot-data": erd.parent}, geometry=geometry)
         for link, s in stats.items():
             print(f"  {name} {link}: {s['taxels']} taxels, nearest other link {s['nearest']} at {s['min_mm']:.2f} mm; "
                   f"{s['near']} within 2 mm or inside ({s['inside']} inside)", flush=True)

@@ -156,8 +156,8 @@ def check_mjcf(path, link_meshes: dict, configs) -> dict:
     return stats
 
 
-def clearance_urdf(path, packages: dict | None = None, q: dict | None = None) -> dict:
-    """Per skinned link of the merged URDF at ``path``, as yourdfpy loads it (its visual meshes) at
+def clearance_urdf(path, packages: dict | None = None, q: dict | None = None, geometry: str = "visual") -> dict:
+    """Per skinned link of the merged URDF at ``path``, as yourdfpy loads it (its ``geometry`` meshes) at
     joint values ``q`` (default the zero pose): ``{"taxels", "min_mm", "near", "inside", "nearest"}``:
     each taxel frame's distance to every *other* link's visual surface (trimesh's closest point,
     inside by trimesh's ``contains`` on a closed mesh), the smallest in mm, how many taxels lie within
@@ -172,21 +172,25 @@ def clearance_urdf(path, packages: dict | None = None, q: dict | None = None) ->
                 return str(Path(folder) / fname[len(f"package://{name}/"):])
         return yourdfpy.filename_handler_magic(fname, dir=str(Path(path).parent))
 
-    u = yourdfpy.URDF.load(str(path), build_scene_graph=True, load_meshes=True, filename_handler=handler)
+    collision = geometry == "collision"
+    u = yourdfpy.URDF.load(str(path), build_scene_graph=True, load_meshes=not collision,
+                           build_collision_scene_graph=collision, load_collision_meshes=collision,
+                           filename_handler=handler)
     u.update_cfg({k: v for k, v in (q or {}).items() if k in u.actuated_joint_names})
     parent_of = {j.child: j.parent for j in u.joint_map.values()}
     taxels: dict = {}
     for name in u.link_map:
         if SKIN_MARK in name:
             taxels.setdefault(parent_of[name], []).append(name)
-    g = u.scene.graph
+    scene = u.collision_scene if collision else u.scene
+    g = scene.graph
     parts: dict = {}
     for node in g.nodes_geometry:
         link = g.transforms.parents.get(node)
         if link is None or SKIN_MARK in link:
             continue
         t, geom = g[node]
-        m = fine(u.scene.geometry[geom])
+        m = fine(scene.geometry[geom])
         m.apply_transform(t)
         parts.setdefault(link, []).append(m)
     others = {k: trimesh.util.concatenate(v) for k, v in parts.items()}
