@@ -317,6 +317,24 @@ def covered_over_poses(surfaces: RobotSurfaces, link: str, points: np.ndarray, c
     return always, some
 
 
+#: id(robot) -> {geometry: RobotSurfaces}: the scenes of a robot read once per process (a whole-robot
+#: skin, or Blender's lays on several links, would read every link's meshes again for each link)
+_SHARED: dict = {}
+
+
+def shared_surfaces(robot: Robot, geometry: str = "visual") -> RobotSurfaces:
+    """The :class:`RobotSurfaces` of ``robot`` kept for as long as ``robot`` lives (the meshes of
+    its links are read once; a caller that sets a link's own mesh changes only that link's scene,
+    whose surface is the same)."""
+    import weakref
+
+    key = id(robot)
+    if key not in _SHARED:
+        _SHARED[key] = {}
+        weakref.finalize(robot, _SHARED.pop, key, None)
+    return _SHARED[key].setdefault(geometry, RobotSurfaces(robot, geometry))
+
+
 def face_samples(mesh) -> np.ndarray:
     """(F, S, 3) metres: the sample points of each face (:data:`SAMPLES`)."""
     tri = np.asarray(mesh.triangles, dtype=np.float64)
@@ -367,7 +385,11 @@ def exposed_faces(robot: Robot, link: str, geometry: str = "visual", *, mesh=Non
     surfaces = surfaces or RobotSurfaces(robot, geometry)
     if not surfaces.holds(link, mesh):
         surfaces.set_mesh(link, mesh)
-    configs = configs if configs is not None else configurations(robot, poses, seed)
+    if configs is None:  # drawn once per shared robot and seed (forward kinematics of 33 poses: ~0.1 s, a humanoid)
+        shared, key = _SHARED.get(id(robot), {}), ("configs", int(poses), int(seed))
+        configs = shared.get(key) or configurations(robot, poses, seed)
+        if shared.get(geometry) is surfaces:
+            shared[key] = configs
     pts = face_samples(mesh)
     f, s = pts.shape[:2]
     flat = pts.reshape(-1, 3)

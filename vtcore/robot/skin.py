@@ -108,10 +108,13 @@ def outer_region(mesh) -> np.ndarray:
     return labels == int(np.argmax(area))
 
 
-#: metres: with the exposure check on, a link mesh with edges longer than this is split first (on its
-#: own faces: the surface does not move), so that the exposed-face mask can follow a neighbour's edge
-#: on a coarse collision box instead of keeping or dropping a whole 50 mm face
+#: metres: with the exposure check on, a coarse link mesh (more than :data:`COARSE_AREA` of its area in
+#: faces with an edge longer than this) is split first (on its own faces: the surface does not move), so
+#: that the exposed-face mask can follow a neighbour's edge on a collision box instead of keeping or
+#: dropping a whole 50 mm face; a CAD mesh's few long slivers are left as they are (the taxel check
+#: after the fill catches what they hide)
 EXPOSURE_EDGE = 0.01
+COARSE_AREA = 0.2
 
 
 def exposure_mesh(mesh, region=None):
@@ -121,7 +124,11 @@ def exposure_mesh(mesh, region=None):
     from ..layout.repair import longest_edges, refine
     from ..layout.surface import closest_points
 
-    if not len(mesh.faces) or longest_edges(np.asarray(mesh.vertices), np.asarray(mesh.faces)).max() <= EXPOSURE_EDGE:
+    if not len(mesh.faces):
+        return mesh, region
+    long = longest_edges(np.asarray(mesh.vertices), np.asarray(mesh.faces)) > EXPOSURE_EDGE
+    area = np.asarray(mesh.area_faces)
+    if area[long].sum() <= COARSE_AREA * area.sum():
         return mesh, region
     fine = refine(mesh, EXPOSURE_EDGE)
     if region is not None:
@@ -130,16 +137,19 @@ def exposure_mesh(mesh, region=None):
 
 
 def exposure_of(robot: Robot, link: str, geometry: str, mesh, exposure, probe_radius=None):
-    """The :class:`.exposure.Exposure` of ``link`` on ``mesh``: ``exposure`` itself when it is one
-    (computed by the caller for this mesh), else computed (``probe_radius`` metres, default 8 mm)."""
-    from .exposure import PROBE_RADIUS, Exposure, exposed_faces
+    """``(exposure, surfaces)``: the :class:`.exposure.Exposure` of ``link`` on ``mesh`` (``exposure``
+    itself when it is one, computed by the caller for this mesh; else computed, ``probe_radius``
+    metres, default 8 mm) and the :class:`.exposure.RobotSurfaces` the taxel check reuses."""
+    from .exposure import PROBE_RADIUS, Exposure, exposed_faces, shared_surfaces
 
+    surfaces = shared_surfaces(robot, geometry)
     if isinstance(exposure, Exposure):
         if len(exposure.reason) != len(mesh.faces):
             raise InputError(f"the exposure has {len(exposure.reason)} faces, the mesh {len(mesh.faces)}",
                              key="exposure")
-        return exposure
-    return exposed_faces(robot, link, geometry, mesh=mesh, probe_radius=probe_radius or PROBE_RADIUS)
+        return exposure, surfaces
+    return exposed_faces(robot, link, geometry, mesh=mesh, probe_radius=probe_radius or PROBE_RADIUS,
+                         surfaces=surfaces), surfaces
 
 
 def no_exposed_surface(robot: Robot, link: str, geometry: str, exp, where: str = "") -> InputError:
@@ -149,7 +159,8 @@ def no_exposed_surface(robot: Robot, link: str, geometry: str, exp, where: str =
                       file=robot.path, key="--link")
 
 
-def check_taxels(robot: Robot, link: str, geometry: str, mesh, layout, exp, *, what: str, force: bool):
+def check_taxels(robot: Robot, link: str, geometry: str, mesh, layout, exp, *, what: str, force: bool,
+                 surfaces=None):
     """Judge the placed taxels against the links round them at the zero pose
     (:func:`.exposure.taxel_reasons`). A fill leaves out the modules with a taxel covered or
     unreachable (its notes say how many); a placed patch is refused
@@ -164,7 +175,7 @@ def check_taxels(robot: Robot, link: str, geometry: str, mesh, layout, exp, *, w
     if not len(layout):
         return layout, None
     why = taxel_reasons(robot, link, layout.positions, layout.normals, geometry, mesh=mesh,
-                        probe_radius=exp.probe_radius, clearance=exp.clearance)
+                        probe_radius=exp.probe_radius, clearance=exp.clearance, surfaces=surfaces)
     bad = why != 0
     if not bad.any():
         return layout, None
@@ -206,18 +217,19 @@ def lay_on_link(robot: Robot, link: str, patch: str = "fill", at=None, direction
 
     if mesh is None:
         mesh = link_mesh(robot, link, geometry)
-    exp = None
+    exp = surfaces = None
     if exposure is not False:
         if not (exposure is not True and len(getattr(exposure, "reason", ())) == len(mesh.faces)):
             mesh, options["region"] = exposure_mesh(mesh, options.get("region"))
-        exp = exposure_of(robot, link, geometry, mesh, exposure, probe_radius)
+        exp, surfaces = exposure_of(robot, link, geometry, mesh, exposure, probe_radius)
         if not exp.mask.any():
             raise no_exposed_surface(robot, link, geometry, exp)
     layout, report = lay_patch(robot, link, patch, at, direction, mesh, exp, geometry=geometry, module=module,
-                               offset=offset, method=method, radius=radius, **options)
+                               offset=offset, method=method, radius=radius, surfaces=surfaces, **options)
     note = None
     if exp is not None:
-        layout, note = check_taxels(robot, link, geometry, mesh, layout, exp, what=patch, force=force)
+        layout, note = check_taxels(robot, link, geometry, mesh, layout, exp, what=patch, force=force,
+                                    surfaces=surfaces)
         report.notes.append(exp.excluded_text())
         if note:
             report.notes.append(note)
@@ -250,7 +262,7 @@ def interior_point(mesh, region, excluded) -> np.ndarray:
 
 
 def lay_patch(robot: Robot, link: str, patch, at, direction, mesh, exp, *, geometry, module, offset, method, radius,
-              **options):
+              surfaces=None, **options):
     """The fill or the placed patch of :func:`lay_on_link` (``exp``: the exposure, or None: anywhere)."""
     from ..layout import fill, place
     from ..layout.islands import NoModuleFits
@@ -292,7 +304,7 @@ def lay_patch(robot: Robot, link: str, patch, at, direction, mesh, exp, *, geome
 
             bad = int(np.count_nonzero(taxel_reasons(robot, link, layout.positions, layout.normals, geometry,
                                                      mesh=mesh, probe_radius=exp.probe_radius,
-                                                     clearance=exp.clearance)))
+                                                     clearance=exp.clearance, surfaces=surfaces)))
         # fewest taxels on covered or unreachable faces, then the least strained
         score = (not len(layout), bad, report.strain_max)
         if best is None or score < best_score:
