@@ -246,25 +246,28 @@ class RobotSurfaces:
         e = self.entry(name)
         return np.linalg.norm(np.maximum(np.maximum(e["lo"] - points, points - e["hi"]), 0.0), axis=1)
 
-    def nearest_others(self, link: str, points: np.ndarray, poses: dict, reach: float, within: float):
+    def nearest_others(self, link: str, points: np.ndarray, poses: dict, reach: float, within: float,
+                       distance: bool = False):
         """Points (P, 3) of ``link`` (its frame) against every other link placed by ``poses``
         (name -> (4, 4) in one world frame): (P,) bool whether a point lies inside another link
         or within ``within`` metres of it, and (P,) int the first such link's index in
-        ``self.robot.links`` (-1). Links farther than ``reach`` (bounding spheres, then boxes)
-        are not queried."""
+        ``self.robot.links`` (-1); with ``distance`` also (P,) metres, the smallest signed distance
+        to the links queried (inf where none was: every other link is farther than ``reach``).
+        Links farther than ``reach`` (bounding spheres, then boxes) are not queried."""
         hit = np.zeros(len(points), bool)
         who = np.full(len(points), -1, np.int64)
-        if not len(points):
-            return hit, who
-        for k, other, rel in self.placed(link, poses, reach):
+        dist = np.full(len(points), np.inf)
+        for k, other, rel in (self.placed(link, poses, reach) if len(points) else []):
             p = points @ rel[:3, :3].T + rel[:3, 3]
             idx = np.flatnonzero(self.box_distance(other, p) <= reach)
             if not len(idx):
                 continue
-            close = idx[self.signed(other, p[idx]) < within]
+            d = self.signed(other, p[idx])
+            dist[idx] = np.minimum(dist[idx], d)
+            close = idx[d < within]
             who[close[who[close] < 0]] = k
             hit[close] = True
-        return hit, who
+        return (hit, who, dist) if distance else (hit, who)
 
 
 def rigid_inverse(t: np.ndarray) -> np.ndarray:
@@ -361,6 +364,23 @@ def probe_blocked(surfaces: RobotSurfaces, link: str, points, normals, poses: di
     return blocked | hit
 
 
+def covered_at_zero(surfaces: RobotSurfaces, link: str, pts: np.ndarray, pose: dict, clearance: float) -> tuple:
+    """(F,) bool: a sample of each face (``pts`` (F, S, 3), centroid first) within ``clearance`` of
+    or inside another link at ``pose``; (F,) int the index of such a link in ``robot.links`` (-1).
+    The centroids are queried first; a face's other samples only where the centroid's distance, less
+    how far they lie from it, does not already clear ``clearance`` (signed distance is 1-Lipschitz)."""
+    spread = np.linalg.norm(pts[:, 1:] - pts[:, :1], axis=2).max(axis=1)  # (F,) metres
+    hit, who, dist = surfaces.nearest_others(link, pts[:, 0], pose, reach=clearance + float(spread.max()),
+                                             within=clearance, distance=True)
+    need = np.flatnonzero(~hit & (dist - spread < clearance))
+    if len(need):
+        h, w = surfaces.nearest_others(link, pts[need, 1:].reshape(-1, 3), pose, reach=clearance, within=clearance)
+        h, w = h.reshape(len(need), -1), w.reshape(len(need), -1)
+        hit[need] = h.any(axis=1)
+        who[need] = np.where(h.any(axis=1), w.max(axis=1), -1)
+    return hit, who
+
+
 def exposed_faces(robot: Robot, link: str, geometry: str = "visual", *, mesh=None, poses: int = POSES,
                   probe_radius: float = PROBE_RADIUS, clearance: float = CLEARANCE,
                   tolerance: float = PROBE_TOLERANCE, seed: int = 0, surfaces: RobotSurfaces | None = None,
@@ -391,17 +411,12 @@ def exposed_faces(robot: Robot, link: str, geometry: str = "visual", *, mesh=Non
         if shared.get(geometry) is surfaces:
             shared[key] = configs
     pts = face_samples(mesh)
-    f, s = pts.shape[:2]
-    flat = pts.reshape(-1, 3)
-    hit, who = surfaces.nearest_others(link, flat, configs[0], reach=clearance, within=clearance)
-    covered0 = hit.reshape(f, s).any(axis=1)
-    who = who.reshape(f, s)
-    who0 = np.where((who >= 0).any(axis=1), who.max(axis=1), -1)
+    covered0, who0 = covered_at_zero(surfaces, link, pts, configs[0], clearance)
     # the sampled poses judge each face by its centroid (the zero pose, which the skin must clear, by all samples)
     always, sometimes = covered_over_poses(surfaces, link, pts[:, 0], configs, clearance, covered0)
     normals = np.asarray(mesh.face_normals, dtype=np.float64)
     blocked = probe_blocked(surfaces, link, pts[:, 0], normals, configs[0], probe_radius, tolerance)
-    reason = np.full(f, EXPOSED, np.int8)
+    reason = np.full(len(pts), EXPOSED, np.int8)
     reason[blocked] = UNREACHABLE
     reason[covered0] = COVERED
     if len(configs) > 1:  # without sampled poses nothing is known to be covered at every one
