@@ -151,6 +151,7 @@ class RobotSurfaces:
     def __init__(self, robot: Robot, geometry: str = "visual"):
         self.robot, self.geometry = robot, geometry
         self._cache: dict = {}
+        self._spheres = None  # the links' bounding spheres as arrays, once all are loaded
         self.notes: list = []
 
     def mesh(self, name: str):
@@ -171,6 +172,7 @@ class RobotSurfaces:
     def set_mesh(self, name: str, mesh) -> None:
         """Use ``mesh`` (as the caller loaded or refined it) for link ``name``."""
         self._cache[name] = self._build(mesh)
+        self._spheres = None
 
     def _load(self, name: str):
         import trimesh
@@ -228,23 +230,31 @@ class RobotSurfaces:
         own = self.entry(link)
         if own is None:
             return []
+        ks, names, centres, radii = self.spheres()
+        t = np.stack([poses[n] for n in names])  # (K, 4, 4)
+        world = np.einsum("kij,kj->ki", t[:, :3, :3], centres) + t[:, :3, 3]
         t_l = poses[link]
-        c_l = t_l[:3, :3] @ own["centre"] + t_l[:3, 3]
-        out = []
-        for k, other in enumerate(self.robot.links):
-            e = None if other == link else self.entry(other)
-            if e is None:
-                continue
-            t_m = poses[other]
-            if np.linalg.norm(t_m[:3, :3] @ e["centre"] + t_m[:3, 3] - c_l) <= own["radius"] + e["radius"] + reach:
-                out.append((k, other, rigid_inverse(t_m) @ t_l))
-        return out
+        gap = world - (t_l[:3, :3] @ own["centre"] + t_l[:3, 3])
+        near = np.einsum("ki,ki->k", gap, gap) <= (own["radius"] + radii + reach) ** 2
+        near &= np.array([n != link for n in names])
+        return [(ks[i], names[i], rigid_inverse(t[i]) @ t_l) for i in np.flatnonzero(near)]
+
+    def spheres(self):
+        """``(indices in robot.links, names, (K, 3) box centres, (K,) radii)`` of the links with a surface."""
+        if self._spheres is None:
+            rows = [(k, n, self.entry(n)) for k, n in enumerate(self.robot.links)]
+            rows = [(k, n, e) for k, n, e in rows if e is not None]
+            self._spheres = ([k for k, _, _ in rows], [n for _, n, _ in rows],
+                             np.array([e["centre"] for _, _, e in rows]).reshape(-1, 3),
+                             np.array([e["radius"] for _, _, e in rows]))
+        return self._spheres
 
     def box_distance(self, name: str, points: np.ndarray) -> np.ndarray:
         """(P,) metres from ``points`` (link ``name``'s frame) to its bounding box (0 inside it):
         a lower bound of the distance to its surface."""
         e = self.entry(name)
-        return np.linalg.norm(np.maximum(np.maximum(e["lo"] - points, points - e["hi"]), 0.0), axis=1)
+        out = np.maximum(np.maximum(e["lo"] - points, points - e["hi"]), 0.0)
+        return np.sqrt(np.einsum("ij,ij->i", out, out))
 
     def nearest_others(self, link: str, points: np.ndarray, poses: dict, reach: float, within: float,
                        distance: bool = False):
@@ -310,7 +320,7 @@ def covered_over_poses(surfaces: RobotSurfaces, link: str, points: np.ndarray, c
                 zero[other] = (p0, lb0)
             p0, lb0 = zero[other]
             p = points @ rel[:3, :3].T + rel[:3, 3]
-            moved = np.linalg.norm(p - p0, axis=1)
+            moved = np.sqrt(np.einsum("ij,ij->i", p - p0, p - p0))
             lb = np.maximum(surfaces.box_distance(other, p), lb0 - moved)
             idx = np.flatnonzero(undecided & ~hit & (lb < clearance))
             if len(idx):
