@@ -125,7 +125,8 @@ def exposure_picture(out=None):
               fontsize=7, loc="lower left")
     link = "left_wrist_roll_link"
     mesh = link_mesh(robot, link)
-    for k, (exposure, title) in enumerate(((False, "before: fill anywhere"), (True, "after: fill the exposed surface"))):
+    cases = ((False, "before: fill anywhere"), (True, "after: fill the exposed surface"))
+    for k, (exposure, title) in enumerate(cases):
         lay, _ = lay_on_link(robot, link, "fill", mesh=mesh, exposure=exposure)
         bad = taxel_reasons(robot, link, lay.positions, lay.normals) == 1
         print(f"{link} {title}: {len(lay)} taxels, {int(bad.sum())} within 2 mm of or inside another link")
