@@ -239,6 +239,34 @@ def material():
     return mat
 
 
+#: the face colour attribute of an imported link's exposure, and the material that shows it
+EXPOSURE_ATTR = "vtskin_exposure"
+EXPOSURE_MATERIAL = "VTSkin exposure"
+
+
+def exposure_material():
+    """The material of imported links: the face colours of ``vtskin_exposure`` (the exposed surface)."""
+    mat = bpy.data.materials.get(EXPOSURE_MATERIAL)
+    if mat is not None:
+        return mat
+    mat = bpy.data.materials.new(EXPOSURE_MATERIAL)
+    nt = shader_nodes(mat)
+    attr = nt.nodes.new("ShaderNodeAttribute")
+    attr.attribute_name = EXPOSURE_ATTR
+    attr.location = (-400, 0)
+    nt.links.new(attr.outputs["Color"], nt.nodes.get("Principled BSDF").inputs["Base Color"])
+    return mat
+
+
+def show_exposure(mesh, colours) -> None:
+    """Colour ``mesh``'s faces by ``colours`` ((F, 4) RGBA) through :func:`exposure_material`."""
+    from . import bridge
+
+    bridge.set_attribute(mesh, EXPOSURE_ATTR, colours, "FLOAT_COLOR", "FACE")
+    if EXPOSURE_MATERIAL not in mesh.materials:
+        mesh.materials.append(exposure_material())
+
+
 def edge_material():
     """Dark material of the skin-mesh edge tubes."""
     mat = bpy.data.materials.get(EDGE_MATERIAL)

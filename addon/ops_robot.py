@@ -29,6 +29,7 @@ class VTSKIN_OT_import_robot(Op, bpy.types.Operator):
                                        description="URDF or MJCF file (empty: the panel's)")
 
     def run(self, context):
+        from vtcore.robot import exposure
         from vtcore.scene import interactive
 
         s = context.scene.vtskin
@@ -43,9 +44,12 @@ class VTSKIN_OT_import_robot(Op, bpy.types.Operator):
             me = bpy.data.meshes.new(part.name)
             if len(part.faces):
                 bridge.write_mesh(me, part.vertices, part.faces)
+                if part.exposure is not None:  # the exposed surface, coloured; its legend in the Robot panel
+                    display.show_exposure(me, exposure.face_colours(part.exposure))
             ob = bpy.data.objects.new(part.name, me)
             coll.objects.link(ob)
             ob.vtskin.link, ob.vtskin.robot_file, ob.vtskin.geometry = part.name, str(robot.path), robot.geometry
+            ob.vtskin.exposure_legend = "\n".join(part.legend)
             objects[part.name] = ob
         parent = {p.name: p.parent for p in robot.links}
 

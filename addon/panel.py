@@ -63,6 +63,10 @@ class VTSKIN_PT_robot(_Panel, bpy.types.Panel):
         ob = context.active_object
         if ob is not None and ob.vtskin.link:
             col.label(text=f"Link {ob.vtskin.link} ({ob.vtskin.geometry})")
+            if ob.vtskin.exposure_legend:  # the face colours Import Robot gave the link
+                box = col.box()
+                for line in ob.vtskin.exposure_legend.splitlines():
+                    box.label(text=line)
         col.separator()
         col.prop(s, "layout_file")
         _row(col, s, "layout_format", "layout_units")

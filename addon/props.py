@@ -79,6 +79,9 @@ class VTSKIN_PG_object(bpy.types.PropertyGroup):
     lost_samples: IntProperty(name="Lost samples", default=0)
     lost_frames: IntProperty(name="Lost frames", default=0,
                              description="Frames that show a held (last good) value for a lost sample")
+    exposure_legend: StringProperty(name="Exposure legend", default="",
+                                    description="What the link's face colours mean (Import Robot): its exposed "
+                                                "surface, faces another link covers, faces no fingertip reaches")
     map_legend: StringProperty(name="Map legend", default="",
                                description="The design map's legend and summary, one line each (Evaluate Skin)")
     replay_report: StringProperty(name="Replay report", default="",

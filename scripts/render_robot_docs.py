@@ -5,6 +5,8 @@ robot's URDF without and with the frame's pose, as yourdfpy reads the file back 
 robot (``vtcore layout place ROBOT --link``), which needs no pose at all.
 
 Run: ``.venv/bin/python scripts/render_robot_docs.py`` (needs yourdfpy). Prints the distances.
+``--exposure``: only docs/img/robot_exposure_g1.png (issue 33: the G1 arm's exposed surface and the
+left wrist's fill before and after).
 The skinned UR10 picture is the benchmark's (``vtcore bench robot``, ``skinned_robot_collision.png``).
 """
 
@@ -84,5 +86,72 @@ def main():
         print(out)
 
 
+def exposure_picture(out=None):
+    """docs/img/robot_exposure_g1.png: the G1's left arm at the zero pose, each link's faces coloured
+    by its exposure (left), and the left wrist's fill before (anywhere: taxels on the face mating with
+    the elbow, red where within 2 mm of or inside another link) and after (right). Prints the numbers."""
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+    from matplotlib.patches import Patch
+
+    from vtcore.robot.exposure import (COLOURS, REASONS, RobotSurfaces, configurations, exposed_faces, face_colours,
+                                       taxel_reasons)
+    from vtcore.robot.samples import example_robot_data
+
+    robot = load_robot(example_robot_data() / "g1_description/urdf/g1_29dof_with_hand_rev_1_0.urdf")
+    arm = ["left_shoulder_yaw_link", "left_elbow_link", "left_wrist_roll_link", "left_wrist_pitch_link",
+           "left_wrist_yaw_link"]
+    surfaces, configs = RobotSurfaces(robot), configurations(robot)
+    poses = configs[0]
+    fig = plt.figure(figsize=(12, 6))
+    ax = fig.add_subplot(1, 2, 1, projection="3d")
+    lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
+    for name in arm:
+        mesh = surfaces.mesh(name)
+        e = exposed_faces(robot, name, mesh=mesh, surfaces=surfaces, configs=configs)
+        print(e.excluded_text())
+        t = poses[name]
+        v = mesh.vertices @ t[:3, :3].T + t[:3, 3]
+        lo, hi = np.minimum(lo, v.min(0)), np.maximum(hi, v.max(0))
+        ax.add_collection3d(Poly3DCollection(v[mesh.faces], facecolors=face_colours(e.reason),
+                                             edgecolor="none"))
+    c, r = (lo + hi) / 2, (hi - lo).max() / 2
+    for set_lim, k in ((ax.set_xlim, 0), (ax.set_ylim, 1), (ax.set_zlim, 2)):
+        set_lim(c[k] - r, c[k] + r)
+    ax.set_box_aspect((1, 1, 1))
+    ax.view_init(elev=15, azim=-30)
+    ax.set_axis_off()
+    ax.set_title("G1 left arm: exposed surface (zero pose, 32 sampled poses, 8 mm probe)", fontsize=9)
+    ax.legend(handles=[Patch(color=COLOURS[k][0], label=REASONS[k]) for k in COLOURS],
+              fontsize=7, loc="lower left")
+    link = "left_wrist_roll_link"
+    mesh = link_mesh(robot, link)
+    cases = ((False, "before: fill anywhere"), (True, "after: fill the exposed surface"))
+    for k, (exposure, title) in enumerate(cases):
+        lay, _ = lay_on_link(robot, link, "fill", mesh=mesh, exposure=exposure)
+        bad = taxel_reasons(robot, link, lay.positions, lay.normals) == 1
+        print(f"{link} {title}: {len(lay)} taxels, {int(bad.sum())} within 2 mm of or inside another link")
+        axk = fig.add_subplot(2, 2, 2 + 2 * k, projection="3d")
+        axk.add_collection3d(Poly3DCollection(mesh.vertices[mesh.faces], facecolor=(0.8, 0.8, 0.82, 0.3),
+                                              edgecolor="none"))
+        axk.scatter(*lay.positions[~bad].T, s=6, color="tab:green", depthshade=False)
+        axk.scatter(*lay.positions[bad].T, s=6, color="tab:red", depthshade=False)
+        lo, hi = mesh.bounds
+        c, r = (lo + hi) / 2, (hi - lo).max() / 2
+        for set_lim, j in ((axk.set_xlim, 0), (axk.set_ylim, 1), (axk.set_zlim, 2)):
+            set_lim(c[j] - r, c[j] + r)
+        axk.set_box_aspect((1, 1, 1))
+        axk.set_axis_off()
+        axk.set_title(f"{link}, {title}: {len(lay)} taxels, {int(bad.sum())} (red) within 2 mm of or inside "
+                      "another link", fontsize=8)
+    out = Path(out or ROOT / "docs" / "img" / "robot_exposure_g1.png")
+    fig.tight_layout()
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
+    print(f"wrote {out}")
+
+
 if __name__ == "__main__":
-    main()
+    if "--exposure" in sys.argv:  # the G1 exposure picture only (slow: the G1's meshes)
+        exposure_picture()
+    else:
+        main()

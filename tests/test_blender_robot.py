@@ -62,6 +62,17 @@ def test_import_robot_builds_the_kinematic_tree(arm):
     assert links["l_forearm"].parent == links["l_upper_arm"] and links["l_upper_arm"].parent == links["torso"]
     assert links["l_forearm_skin_3"].parent == links["l_forearm"]
     np.testing.assert_allclose(co(links["l_forearm"]), link_mesh(robot, "l_forearm").vertices, atol=1e-6)
+    # issue 33: each link's faces coloured by its exposed surface, the legend on the link object
+    from vtcore.robot.exposure import exposed_faces, face_colours
+
+    me = links["l_forearm"].data
+    attr = me.attributes["vtskin_exposure"]
+    assert attr.domain == "FACE" and attr.data_type == "FLOAT_COLOR" and "VTSkin exposure" in me.materials
+    got = np.empty(4 * len(me.polygons), np.float32)
+    attr.data.foreach_get("color", got)
+    want = face_colours(exposed_faces(robot, "l_forearm", poses=0).reason)
+    np.testing.assert_allclose(got.reshape(-1, 4), want, atol=1e-6)
+    assert links["l_forearm"].vtskin.exposure_legend.startswith("green: exposed, ")
 
 
 def test_import_robot_bad_input_changes_nothing(arm, tmp_path):

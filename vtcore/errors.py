@@ -115,3 +115,12 @@ def meant_for_users(category: type[Warning]) -> bool:
 def for_users(caught) -> list:
     """The records of ``warnings.catch_warnings(record=True)`` that are :func:`meant_for_users`, in order."""
     return [w for w in caught if meant_for_users(w.category)]
+
+
+def did_you_mean(name: str, known) -> str:
+    """`` (did you mean 'x'?)`` for the entry of ``known`` closest to a mistyped ``name``
+    (difflib, cutoff 0.6), or ``""`` when none is close: one hint instead of a list of every name."""
+    import difflib
+
+    m = difflib.get_close_matches(str(name), [str(k) for k in known], n=1, cutoff=0.6)
+    return f" (did you mean {m[0]!r}?)" if m else ""

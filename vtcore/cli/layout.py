@@ -68,6 +68,8 @@ def _check_place_numbers(args) -> None:
     to_float(args.offset, key="--offset")
     if args.radius is not None:
         to_float(args.radius, gt=0.0, key="--radius")
+    if args.probe_radius is not None:
+        to_float(args.probe_radius, gt=0.0, hi=1.0, key="--probe-radius")
     if args.max_strain is not None:
         to_float(args.max_strain, gt=0.0, key="--max-strain")
     to_float(args.crease_angle, gt=0.0, hi=180.0, key="--crease-angle")
@@ -134,8 +136,9 @@ def _place_mesh(args):
     from ..layout.meshinput import load_mesh
 
     if args.link is None:
-        if args.geometry is not None or args.package:
-            raise InputError("--geometry and --package go with --link (MESH a robot file)", key="--link")
+        if args.geometry is not None or args.package or args.anywhere or args.probe_radius is not None:
+            raise InputError("--geometry, --package, --anywhere and --probe-radius go with --link (MESH a robot "
+                             "file)", key="--link")
         if args.at is None:
             raise InputError("--at is required (the surface point the patch is centred on)", key="--at")
         return load_mesh(args.mesh, args.scale, key=None, scale_key="--scale"), None
@@ -143,8 +146,10 @@ def _place_mesh(args):
     from .robot import packages
 
     if args.scale != 1.0:
-        raise InputError("a robot link is scaled by its model (the mesh's scale attribute); --scale is for "
-                         "mesh files", key="--scale")
+        raise InputError("a robot link is scaled by the robot file (its <mesh scale=\"0.001 0.001 0.001\"> for a "
+                         "mesh in millimetres): a skin laid at another scale would not sit on the link the robot's "
+                         "own file exports; give the scale in the robot file (--scale is for mesh files)",
+                         key="--scale")
     robot = load_robot(args.mesh, packages(args.package))
     return link_mesh(robot, args.link, args.geometry or "visual"), robot
 
@@ -173,7 +178,8 @@ def cmd_place(args) -> int:
             if robot is not None:  # born in the link's frame: exported back into the robot with no transform
                 layout, report = lay_on_link(robot, args.link, args.patch, args.at, args.direction, mesh=mesh,
                                              geometry=args.geometry or "visual", module=module, offset=args.offset,
-                                             method=args.method, radius=args.radius, **opts)
+                                             method=args.method, radius=args.radius, exposure=not args.anywhere,
+                                             probe_radius=args.probe_radius, force=args.force, **opts)
             elif args.patch == "fill":
                 layout, report = fill(mesh, args.at, args.direction, module=module, radius=args.radius,
                                       offset=args.offset, **opts)
@@ -200,6 +206,14 @@ def cmd_place(args) -> int:
           f"({report.method})")
     for line in report_lines(layout.meta.get("placement")):
         print(f"  {line}")
+    if robot is not None:
+        exp = layout.meta.get("exposure")
+        if exp is None:
+            print("  laid anywhere on the link (--anywhere): covered and unreachable faces were not left out")
+        else:
+            print(f"  {exp['excluded']}")
+            if exp.get("taxel_check"):
+                print(f"  {exp['taxel_check']}")
     return 0
 
 
@@ -400,10 +414,17 @@ def register(sub) -> None:
     pl.add_argument("--geometry", choices=("visual", "collision"), help="with --link: which geometry (default visual)")
     pl.add_argument("--package", action="append", metavar="NAME=FOLDER",
                     help="with --link: where a package:// package of the URDF is")
+    pl.add_argument("--anywhere", action="store_true",
+                    help="with --link: lay modules on the whole link, also where another link covers it (within "
+                         "2 mm of or inside it at the zero pose) or no fingertip reaches (default: only on the "
+                         "exposed surface)")
+    pl.add_argument("--probe-radius", type=float, metavar="METRES",
+                    help="with --link: the fingertip sphere that must reach a face for it to count as exposed "
+                         "(default 0.008)")
     pl.add_argument("--patch", type=_patch_arg, default="hexagon", help="triangle, hexagon, strip:N or fill")
     pl.add_argument("--at", type=float, nargs=3, metavar=("X", "Y", "Z"),
                     help="surface point the patch is centred on (metres; with --link in the link frame, default "
-                         "the surface point nearest the link's centroid)")
+                         "a flat point of the link's exposed surface near its middle)")
     pl.add_argument("--direction", type=float, nargs=3, metavar=("DX", "DY", "DZ"),
                     help="in-plane direction of the patch's x axis")
     pl.add_argument("--module", default="cyskin10", choices=sorted(MODULES), help="module type")

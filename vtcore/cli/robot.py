@@ -12,6 +12,7 @@ from __future__ import annotations
 import json
 import sys
 import warnings
+from pathlib import Path
 
 from ..errors import InputError, for_users
 
@@ -23,6 +24,8 @@ def packages(values) -> dict:
         name, sep, folder = v.partition("=")
         if not sep or not name or not folder:
             raise InputError(f"give NAME=FOLDER, got {v!r}", key="--package")
+        if not Path(folder).is_dir():
+            raise InputError(f"{name}={folder}: the folder {folder} does not exist", key="--package")
         out[name] = folder
     return out
 
@@ -32,6 +35,23 @@ def _warnings(caught):
         print(f"vtcore: warning: {w.message}", file=sys.stderr)
 
 
+def exposure_rows(robot, geometry: str, probe_radius: float | None) -> dict:
+    """link -> ``{"exposed_m2", "area_m2", "modules", "covered_by", "unreachable_m2", "covered_m2"}`` at
+    the zero pose (the exposed surface does not depend on the sampled poses: they only say which
+    covered faces stay covered), for every link with ``geometry``."""
+    from ..layout.modules import get_module
+    from ..robot.exposure import PROBE_RADIUS, modules_room, robot_exposure
+
+    module = get_module("cyskin10")
+    out = {}
+    for name, e in robot_exposure(robot, geometry, poses=0, probe_radius=probe_radius or PROBE_RADIUS).items():
+        s = e.summary()
+        out[name] = {"exposed_m2": s["exposed_m2"], "area_m2": s["area_m2"], "covered_m2": s["covered_m2"],
+                     "unreachable_m2": s["unreachable_m2"], "covered_by": s["covered_by"],
+                     "modules": modules_room(e, module), "module": module.name}
+    return out
+
+
 def cmd_info(args) -> int:
     from ..robot import describe, load_robot
 
@@ -39,22 +59,29 @@ def cmd_info(args) -> int:
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         rows = describe(robot)
+        exposure = {} if args.no_exposure else exposure_rows(robot, args.geometry, args.probe_radius)
     joints = [{"name": j.name, "type": j.type, "parent": j.parent, "child": j.child, "lower": j.lower,
                "upper": j.upper} for j in robot.joints]
     if args.json:
         print(json.dumps({"robot": robot.name, "format": robot.format, "root": robot.root, "links": rows,
-                          "joints": joints, "warnings": [str(w.message) for w in for_users(caught)]}, indent=1))
+                          "joints": joints, "exposure": exposure, "exposure_geometry": args.geometry,
+                          "warnings": [str(w.message) for w in for_users(caught)]}, indent=1))
         return 0
     _warnings(caught)
     print(f"{args.robot}: robot {robot.name!r} ({robot.format}), {len(robot.links)} links, "
           f"{len(robot.moving_joints)} moving joints, root {robot.root!r}")
-    for r in rows:
+    for k, r in enumerate(rows):
         if r["kind"] is None:
             print(f"  {r['link']}: no geometry")
             continue
         scale = "" if r["scale"] == [1.0, 1.0, 1.0] else f" scale {' '.join(f'{v:g}' for v in r['scale'])}"
         what = r["error"] or f"{r['faces']} faces, {1e3 * r['size_m']:.0f} mm across"
         print(f"  {r['link']}: {r['kind']} {r['source']}{scale}: {what}")
+        e = exposure.get(r["link"])
+        if e is not None and (k + 1 == len(rows) or rows[k + 1]["link"] != r["link"]):
+            by = f"; covered by {', '.join(e['covered_by'])}" if e["covered_by"] else ""
+            print(f"    exposed ({args.geometry}): {1e4 * e['exposed_m2']:.1f} of {1e4 * e['area_m2']:.1f} cm2, room "
+                  f"for about {e['modules']} {e['module']} modules{by}")
     return 0
 
 
@@ -86,6 +113,12 @@ def register(sub) -> None:
     inf.add_argument("robot", metavar="ROBOT", help="URDF or MJCF file")
     inf.add_argument("--package", action="append", metavar="NAME=FOLDER", help="where a package:// package is")
     inf.add_argument("--json", action="store_true", help="print a JSON object")
+    inf.add_argument("--geometry", choices=("visual", "collision"), default="visual",
+                     help="whose exposed surface to measure (default visual)")
+    inf.add_argument("--probe-radius", type=float, metavar="METRES",
+                     help="the fingertip sphere that must reach a face for it to count as exposed (default 0.008)")
+    inf.add_argument("--no-exposure", action="store_true",
+                     help="skip the exposed surface (each link's meshes against the others': seconds on a humanoid)")
     inf.set_defaults(func=cmd_info)
 
     ex = rsub.add_parser("export", help="the robot's file with the skins' taxel frames (URDF) or touch sensors "

@@ -18,7 +18,9 @@ import numpy as np
 
 from .._bench import best_time, in_child, save_png, write_table
 
-GOALS = "Goals (issue 25): every UR10 link skinned from its URDF in < 60 s in all; merged URDF and MJCF export < 5 s."
+GOALS = ("Goals (issue 25): every UR10 link skinned from its URDF in < 60 s in all; merged URDF and MJCF export < 5 s. "
+         "(issue 33): exposure of every G1 link (visual) at the zero pose and 32 sampled configurations < 20 s; "
+         "adds < 20 % to a link's fill.")
 
 
 def _robot():
@@ -74,6 +76,37 @@ def _export_rows(robot, layouts, geometry, out, rows, quick):
             r["max_mm"] = max(u["max_mm"], m.get("max_mm", 0.0))
             r["max_deg"] = max(u["max_deg"], m.get("max_deg", 0.0))
             r["footprint_deg"] = max(u["footprint_deg"], m.get("footprint_deg", 0.0))
+
+
+def exposure_rows(rows, quick: bool = False) -> None:
+    """Issue 33's rows: the exposure of every link of a robot (the G1's visual meshes; the quick run:
+    the UR10's collision hulls) at the zero pose and 32 sampled configurations, in a forked child
+    (wall, CPU, peak MB); and one link's fill without and with the exposure (what it adds)."""
+    from .export import load_robot
+    from .exposure import robot_exposure
+    from .samples import example_robot_data
+
+    if quick:
+        robot, geometry, link = _robot(), "collision", "forearm_link"
+    else:
+        robot = load_robot(example_robot_data() / "g1_description" / "urdf" / "g1_29dof_with_hand_rev_1_0.urdf")
+        geometry, link = "visual", "left_wrist_roll_link"
+    sec, cpu, mb, res, err = in_child(lambda: {k: e.summary() for k, e in robot_exposure(robot, geometry).items()})
+    rows.append({"case": "exposure_all_links", "geometry": geometry, "link": f"{robot.name}: {len(res or {})} links",
+                 "faces": sum(s["faces"] for s in (res or {}).values()), "seconds": sec, "cpu_seconds": cpu,
+                 "peak_mb": mb, "coverage": None if not res else sum(s["exposed_m2"] for s in res.values())
+                 / max(sum(s["area_m2"] for s in res.values()), 1e-30),
+                 "extra": err or "zero pose + 32 configurations; coverage column: exposed fraction of the area"})
+    from .skin import lay_on_link
+
+    for exposure in (False, True):
+        sec, cpu, mb, res, err = in_child(lambda e=exposure: lay_on_link(robot, link, "fill", geometry=geometry,
+                                                                         exposure=e))
+        lay = None if res is None else res[0]
+        rows.append({"case": "fill_exposed" if exposure else "fill_anywhere", "geometry": geometry,
+                     "link": f"{robot.name}: {link}", "modules": None if lay is None else lay.n_modules,
+                     "taxels": None if lay is None else len(lay), "seconds": sec, "cpu_seconds": cpu,
+                     "peak_mb": mb, "extra": err or ""})
 
 
 def picture(robot, layouts, geometry, path, q=None) -> None:
@@ -143,6 +176,7 @@ def run(out: Path, quick: bool = False, geometries=None) -> list[dict]:
                                      and r["geometry"] == geometry), default=None)})
         if skins[geometry]:
             _export_rows(robot, skins[geometry], geometry, out, rows, quick)
+    exposure_rows(rows, quick)
     import os
 
     write_table(out, rows, title="Robot benchmark: the UR10 skinned from its URDF" + (" (quick)" if quick else ""),

@@ -35,6 +35,21 @@ def _primitive(g: Geometry):
     return trimesh.creation.icosphere(subdivisions=4, radius=g.size[0])
 
 
+def missing_mesh_hint(filename: str | None, robot: Robot) -> str:
+    """Where a mesh the robot names was looked for, and what would find it: ``--package`` only
+    for a ``package://`` path (a relative path is the robot file's folder's business)."""
+    from pathlib import Path
+
+    name = filename or ""
+    if name.startswith("package://"):
+        pkg = name[len("package://"):].partition("/")[0]
+        return f" (map the package to its folder with --package {pkg}=FOLDER)"
+    if name.startswith("file://"):
+        return " (an absolute file:// path: no such file)"
+    where = Path(name) if Path(name).is_absolute() else Path(robot.path).parent / name
+    return f" (looked for {where}: paths are relative to the robot file's folder)"
+
+
 def geometry_mesh(g: Geometry, robot: Robot):
     """One geometry as a ``trimesh.Trimesh`` in its link's frame, metres (origin and scale applied)."""
     import trimesh
@@ -45,8 +60,8 @@ def geometry_mesh(g: Geometry, robot: Robot):
         m = trimesh.Trimesh(g.vertices, g.faces, process=False, validate=False)
     else:
         if g.mesh is None:
-            raise InputError(f"mesh {g.filename!r} not found (package:// paths: map the package to its folder "
-                             "with --package NAME=FOLDER)", file=robot.path, key="mesh")
+            raise InputError(f"mesh {g.filename!r} not found{missing_mesh_hint(g.filename, robot)}", file=robot.path,
+                             key="mesh")
         try:
             loaded = read_trimesh(g.mesh)
         except Exception as exc:  # trimesh raises many types for bad files  # noqa: BLE001
@@ -94,6 +109,10 @@ def describe(robot: Robot) -> list[dict]:
                 row["faces"], row["size_m"] = len(m.faces), float(np.ptp(m.vertices, axis=0).max())
             except InputError as exc:
                 row["error"] = exc.reason
+            if row["size_m"] is not None and row["size_m"] > LINK_SIZE_WARN_M:
+                warnings.warn(f"{robot.path}: link {name!r} {g.kind} mesh {row['source']} is {row['size_m']:.3g} m "
+                              "across: a mesh in millimetres without the model's scale=\"0.001 0.001 0.001\"?",
+                              LayoutWarning, stacklevel=2)
             rows.append(row)
         if not ln.visuals and not ln.collisions:
             rows.append({"link": name, "kind": None, "source": None, "scale": None, "faces": None,

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import InputError, did_you_mean
 
 GEOMETRY_KINDS = ("visual", "collision")
 #: joint types that move (URDF names; MJCF hinge -> revolute, slide -> prismatic)
@@ -86,12 +86,12 @@ class Robot:
     root: str
 
     def link(self, name: str) -> Link:
-        """The link ``name``, or an InputError listing the links."""
+        """The link ``name``, or an InputError with the closest name (``vtcore robot info`` lists them all)."""
         if name not in self.links:
             names = list(self.links)
-            raise InputError(f"no link named {name!r}; links: {', '.join(names[:60])}"
-                             + (f" ... ({len(names)} in all)" if len(names) > 60 else ""),
-                             file=self.path, key="--link")
+            hint = did_you_mean(name, names) or (f"; links: {', '.join(names[:12])}" + (
+                f" ... ({len(names)} in all: vtcore robot info lists them)" if len(names) > 12 else ""))
+            raise InputError(f"no link named {name!r}{hint}", file=self.path, key="--link")
         return self.links[name]
 
     @property
@@ -113,7 +113,10 @@ class Robot:
         q = q or {}
         unknown = set(q) - {j.name for j in self.joints}  # a mimic joint's value is its rule's, whatever given
         if unknown:
-            raise InputError(f"no joint named {', '.join(sorted(unknown))}", file=self.path, key="joints")
+            first = sorted(unknown)[0]
+            moving = [j.name for j in self.moving_joints]
+            raise InputError(f"no joint named {', '.join(sorted(unknown))}{did_you_mean(first, moving)}; the moving "
+                             f"joints: {', '.join(moving) or 'none'}", file=self.path, key="joints")
         poses = {self.root: np.eye(4)}
         children: dict = {}
         for j in self.joints:

@@ -108,46 +108,131 @@ def outer_region(mesh) -> np.ndarray:
     return labels == int(np.argmax(area))
 
 
+#: metres: with the exposure check on, a coarse link mesh (more than :data:`COARSE_AREA` of its area in
+#: faces with an edge longer than this) is split first (on its own faces: the surface does not move), so
+#: that the exposed-face mask can follow a neighbour's edge on a collision box instead of keeping or
+#: dropping a whole 50 mm face; a CAD mesh's few long slivers are left as they are (the taxel check
+#: after the fill catches what they hide)
+EXPOSURE_EDGE = 0.01
+COARSE_AREA = 0.2
+
+
+def exposure_mesh(mesh, region=None):
+    """``(mesh, region)`` with ``mesh``'s edges longer than :data:`EXPOSURE_EDGE` split (the same
+    object when none is) and ``region`` (an (F,) bool mask of the given mesh, or None) carried to
+    the new faces (each lies on one old face: the one nearest its centre)."""
+    from ..layout.repair import longest_edges, refine
+    from ..layout.surface import closest_points
+
+    if not len(mesh.faces):
+        return mesh, region
+    long = longest_edges(np.asarray(mesh.vertices), np.asarray(mesh.faces)) > EXPOSURE_EDGE
+    area = np.asarray(mesh.area_faces)
+    if area[long].sum() <= COARSE_AREA * area.sum():
+        return mesh, region
+    fine = refine(mesh, EXPOSURE_EDGE)
+    if region is not None:
+        region = np.asarray(region, dtype=bool)[closest_points(mesh, np.asarray(fine.triangles_center))[1]]
+    return fine, region
+
+
+def exposure_of(robot: Robot, link: str, geometry: str, mesh, exposure, probe_radius=None):
+    """``(exposure, surfaces)``: the :class:`.exposure.Exposure` of ``link`` on ``mesh`` (``exposure``
+    itself when it is one, computed by the caller for this mesh; else computed, ``probe_radius``
+    metres, default 8 mm) and the :class:`.exposure.RobotSurfaces` the taxel check reuses."""
+    from .exposure import PROBE_RADIUS, Exposure, exposed_faces, shared_surfaces
+
+    surfaces = shared_surfaces(robot, geometry)
+    if isinstance(exposure, Exposure):
+        if len(exposure.reason) != len(mesh.faces):
+            raise InputError(f"the exposure has {len(exposure.reason)} faces, the mesh {len(mesh.faces)}",
+                             key="exposure")
+        return exposure, surfaces
+    return exposed_faces(robot, link, geometry, mesh=mesh, probe_radius=probe_radius or PROBE_RADIUS,
+                         surfaces=surfaces), surfaces
+
+
+def no_exposed_surface(robot: Robot, link: str, geometry: str, exp, where: str = "") -> InputError:
+    """The one-line refusal of a link (or a region of it) with no exposed face."""
+    return InputError(f"link {link!r} ({geometry} geometry) has no exposed surface{where} to lay skin on: "
+                      f"{exp.excluded_text().split(': ', 1)[1]}; --anywhere lays it there anyway",
+                      file=robot.path, key="--link")
+
+
+def check_taxels(robot: Robot, link: str, geometry: str, mesh, layout, exp, *, what: str, force: bool,
+                 surfaces=None):
+    """Judge the placed taxels against the links round them at the zero pose
+    (:func:`.exposure.taxel_reasons`). A fill leaves out the modules with a taxel covered or
+    unreachable (its notes say how many); a placed patch is refused
+    (:class:`vtcore.layout.report.PlacementRefused`) unless ``force`` (then a warning).
+    Returns the layout kept and the note (or None)."""
+    import warnings
+
+    from ..layout.mesh import LayoutWarning
+    from ..layout.report import PlacementRefused
+    from .exposure import COVERED, UNREACHABLE, taxel_reasons
+
+    if not len(layout):
+        return layout, None
+    why = taxel_reasons(robot, link, layout.positions, layout.normals, geometry, mesh=mesh,
+                        probe_radius=exp.probe_radius, clearance=exp.clearance, surfaces=surfaces)
+    bad = why != 0
+    if not bad.any():
+        return layout, None
+    n_cov, n_unr = int((why == COVERED).sum()), int((why == UNREACHABLE).sum())
+    parts = ([f"{n_cov} within {1e3 * exp.clearance:g} mm of or inside another link"] if n_cov else []) + (
+        [f"{n_unr} where no {1e3 * exp.probe_radius:g} mm probe reaches"] if n_unr else [])
+    text = f"{int(bad.sum())} of {len(layout)} taxels would lie on covered or unreachable surface ({', '.join(parts)})"
+    if what != "fill":
+        if not force:
+            raise PlacementRefused([f"{text}: move --at to the exposed surface, or lay it --anywhere"], what)
+        warnings.warn(f"kept with --force: {text}", LayoutWarning, stacklevel=3)
+        return layout, text
+    drop = np.unique(layout.module_ids[bad])
+    kept = layout.subset(~np.isin(layout.module_ids, drop))
+    return kept, f"left out {len(drop)} modules after the fill: {text}"
+
+
 def lay_on_link(robot: Robot, link: str, patch: str = "fill", at=None, direction=None, *, geometry: str = "visual",
                 module="cyskin10", offset: float = 0.0, method: str = "logmap", radius: float | None = None,
-                mesh=None, **options):
+                mesh=None, exposure=True, probe_radius: float | None = None, force: bool = False, **options):
     """Place ``patch`` ("hexagon", "triangle", "strip:N") or ``"fill"`` on ``link`` of ``robot``.
 
-    at : (3,) metres in the link frame (default :func:`default_anchor`). geometry : "visual" or
-    "collision". mesh : the link's surface if already loaded (:func:`.meshes.link_mesh`).
+    at : (3,) metres in the link frame (default :func:`default_anchor` on the exposed surface).
+    geometry : "visual" or "collision". mesh : the link's surface if already loaded
+    (:func:`.meshes.link_mesh`).
+    exposure : True (default): only the link's exposed surface (:mod:`.exposure`: not within 2 mm
+        of or inside another link at the zero pose, reachable by a ``probe_radius`` sphere, default
+        8 mm) takes modules: a fill's region is cut to it, the default start lies on it, a fill
+        leaves out modules with a taxel off it and a placed patch there is refused unless
+        ``force``; an :class:`.exposure.Exposure` of ``mesh`` computed by the caller works the same;
+        False: anywhere on the surface (the behaviour before issue 33).
     options : passed to :func:`vtcore.layout.fill` (``region``, ``max_faces``, ``progress``, ...); a
     fill's region defaults to the link's outer shell (:func:`outer_region`).
-    Returns ``(layout, report)``; the layout is in the link's frame. A link no module fits on is an
-    InputError naming the link and what the placement report says.
+    Returns ``(layout, report)``; the layout is in the link's frame, ``meta["exposure"]`` the
+    exposure's summary. A link no module fits on, or with no exposed surface, is an InputError
+    naming the link.
     """
-    from ..layout import fill, place
-    from ..layout.islands import NoModuleFits
     from .meshes import link_mesh
 
     if mesh is None:
         mesh = link_mesh(robot, link, geometry)
-    if patch == "fill" and options.get("region") is None:
-        options["region"] = outer_region(mesh)
-    if patch == "fill":
-        at = anchors(mesh, options.get("region"))[0] if at is None else np.asarray(at, dtype=np.float64).reshape(3)
-        try:
-            layout, report = fill(mesh, at, direction, module=module, radius=radius, offset=offset, **options)
-        except NoModuleFits as exc:  # the fill's reason, said of this link (a robot has many)
-            raise NoModuleFits(f"no module fits on link {link!r} ({geometry} geometry): {exc.reason}", exc.details,
-                               key="--link") from None
-    else:
-        tries = anchors(mesh)[:ANCHOR_TRIES] if at is None else [np.asarray(at, dtype=np.float64).reshape(3)]
-        best = None
-        for point in tries:  # without a given point: the first place the patch lies well, else the least strained
-            layout, report = place(mesh, patch, point, direction, module=module, offset=offset, method=method,
-                                   **options)
-            fine = len(layout) and not len(report.off_boundary) and report.strain_max <= GOOD_STRAIN
-            if best is None or (len(layout) and (not len(best[0]) or report.strain_max < best[1].strain_max)):
-                best = (layout, report)
-            if fine:
-                best = (layout, report)
-                break
-        layout, report = best
+    exp = surfaces = None
+    if exposure is not False:
+        if not (exposure is not True and len(getattr(exposure, "reason", ())) == len(mesh.faces)):
+            mesh, options["region"] = exposure_mesh(mesh, options.get("region"))
+        exp, surfaces = exposure_of(robot, link, geometry, mesh, exposure, probe_radius)
+        if not exp.mask.any():
+            raise no_exposed_surface(robot, link, geometry, exp)
+    layout, report = lay_patch(robot, link, patch, at, direction, mesh, exp, geometry=geometry, module=module,
+                               offset=offset, method=method, radius=radius, surfaces=surfaces, **options)
+    note = None
+    if exp is not None:
+        layout, note = check_taxels(robot, link, geometry, mesh, layout, exp, what=patch, force=force,
+                                    surfaces=surfaces)
+        report.notes.append(exp.excluded_text())
+        if note:
+            report.notes.append(note)
     if len(layout) == 0:
         why = "; ".join(report.notes[-3:]) if getattr(report, "notes", None) else "no module fits"
         raise InputError(f"no module fits on link {link!r} ({geometry} geometry): {why}", file=robot.path,
@@ -155,4 +240,75 @@ def lay_on_link(robot: Robot, link: str, patch: str = "fill", at=None, direction
     layout.frame, layout.parent, layout.transform = link, None, np.eye(4)
     layout.meta.update({"robot": str(robot.path), "robot_format": robot.format, "link": link,
                         "geometry": geometry})
+    if isinstance(layout.meta.get("placement"), dict):
+        layout.meta["placement"]["notes"] = list(report.notes)
+    if exp is not None:
+        layout.meta["exposure"] = dict(exp.summary(), excluded=exp.excluded_text(), taxel_check=note)
+    else:
+        layout.meta["exposure"] = None
     return layout, report
+
+
+def interior_point(mesh, region, excluded) -> np.ndarray:
+    """(3,) metres: the centre of the face of ``region`` farthest from the faces ``excluded``
+    ((F,) bool masks each): where a patch is most at home on the exposed surface (a fingertip's
+    free half: its pole)."""
+    from scipy.spatial import cKDTree
+
+    centres = np.asarray(mesh.triangles_center)
+    idx = np.flatnonzero(region)
+    far = cKDTree(centres[excluded]).query(centres[idx])[0]
+    return centres[idx[int(np.argmax(far))]]
+
+
+def lay_patch(robot: Robot, link: str, patch, at, direction, mesh, exp, *, geometry, module, offset, method, radius,
+              surfaces=None, **options):
+    """The fill or the placed patch of :func:`lay_on_link` (``exp``: the exposure, or None: anywhere)."""
+    from ..layout import fill, place
+    from ..layout.islands import NoModuleFits
+
+    exposed = None if exp is None else exp.mask
+    if patch == "fill":
+        region = options.get("region")
+        region = outer_region(mesh) if region is None else np.asarray(region, dtype=bool)
+        if exposed is not None:
+            cut = region & exposed
+            if not cut.any() and options.get("region") is None:
+                cut = exposed  # the outer shell all covered: what is exposed elsewhere
+            if not cut.any():
+                raise no_exposed_surface(robot, link, geometry, exp, " in the region asked for")
+            region = cut
+        options["region"] = region
+        at = anchors(mesh, region)[0] if at is None else np.asarray(at, dtype=np.float64).reshape(3)
+        try:
+            return fill(mesh, at, direction, module=module, radius=radius, offset=offset, **options)
+        except NoModuleFits as exc:  # the fill's reason, said of this link (a robot has many)
+            raise NoModuleFits(f"no module fits on link {link!r} ({geometry} geometry): {exc.reason}", exc.details,
+                               key="--link") from None
+    if at is None:
+        region = outer_region(mesh)
+        if exposed is not None:
+            region = region & exposed if (region & exposed).any() else exposed
+        tries = anchors(mesh, region)[:ANCHOR_TRIES]
+        if exposed is not None and not exposed.all():
+            tries = np.vstack([interior_point(mesh, region, ~exposed)[None], tries])
+    else:
+        tries = [np.asarray(at, dtype=np.float64).reshape(3)]
+    best, best_score = None, None
+    for point in tries:  # without a given point: the first place the patch lies well, else the best of them
+        layout, report = place(mesh, patch, point, direction, module=module, offset=offset, method=method,
+                               **options)
+        bad = 0
+        if exp is not None and len(tries) > 1 and len(layout):
+            from .exposure import taxel_reasons
+
+            bad = int(np.count_nonzero(taxel_reasons(robot, link, layout.positions, layout.normals, geometry,
+                                                     mesh=mesh, probe_radius=exp.probe_radius,
+                                                     clearance=exp.clearance, surfaces=surfaces)))
+        # fewest taxels on covered or unreachable faces, then the least strained
+        score = (not len(layout), bad, report.strain_max)
+        if best is None or score < best_score:
+            best, best_score = (layout, report), score
+        if len(layout) and not bad and not len(report.off_boundary) and report.strain_max <= GOOD_STRAIN:
+            return layout, report
+    return best

@@ -154,3 +154,65 @@ def check_mjcf(path, link_meshes: dict, configs) -> dict:
             _merge(stats, body, surface_errors(mesh, d.site_xpos[ids], d.site_xmat[ids].reshape(-1, 3, 3)[:, :, 2],
                                                frame=r))
     return stats
+
+
+def clearance_urdf(path, packages: dict | None = None, q: dict | None = None, geometry: str = "visual") -> dict:
+    """Per skinned link of the merged URDF at ``path``, as yourdfpy loads it (its ``geometry`` meshes) at
+    joint values ``q`` (default the zero pose): ``{"taxels", "min_mm", "near", "inside", "nearest"}``:
+    each taxel frame's distance to every *other* link's visual surface (trimesh's closest point,
+    inside by trimesh's ``contains`` on a closed mesh), the smallest in mm, how many taxels lie within
+    2 mm of or inside another link, and which link came nearest. Independent of
+    :mod:`vtcore.robot.exposure` (which decided where the skin may go)."""
+    import trimesh
+    import yourdfpy
+
+    def handler(fname):
+        for name, folder in (packages or {}).items():
+            if fname.startswith(f"package://{name}/"):
+                return str(Path(folder) / fname[len(f"package://{name}/"):])
+        return yourdfpy.filename_handler_magic(fname, dir=str(Path(path).parent))
+
+    collision = geometry == "collision"
+    u = yourdfpy.URDF.load(str(path), build_scene_graph=True, load_meshes=not collision,
+                           build_collision_scene_graph=collision, load_collision_meshes=collision,
+                           filename_handler=handler)
+    u.update_cfg({k: v for k, v in (q or {}).items() if k in u.actuated_joint_names})
+    parent_of = {j.child: j.parent for j in u.joint_map.values()}
+    taxels: dict = {}
+    for name in u.link_map:
+        if SKIN_MARK in name:
+            taxels.setdefault(parent_of[name], []).append(name)
+    scene = u.collision_scene if collision else u.scene
+    g = scene.graph
+    parts: dict = {}
+    for node in g.nodes_geometry:
+        link = g.transforms.parents.get(node)
+        if link is None or SKIN_MARK in link:
+            continue
+        t, geom = g[node]
+        m = fine(scene.geometry[geom])
+        m.apply_transform(t)
+        parts.setdefault(link, []).append(m)
+    others = {k: trimesh.util.concatenate(v) for k, v in parts.items()}
+    out = {}
+    for link, names in taxels.items():
+        p = np.array([u.get_transform(n, u.base_link)[:3, 3] for n in names])
+        best, who = np.full(len(p), np.inf), np.full(len(p), "", dtype=object)
+        inside = np.zeros(len(p), bool)
+        for other, m in others.items():
+            if other == link:
+                continue
+            lo, hi = m.bounds[0] - 0.01, m.bounds[1] + 0.01
+            near = np.flatnonzero(np.all((p >= lo) & (p <= hi), axis=1))
+            if not len(near):
+                continue
+            d = trimesh.proximity.closest_point(m, p[near])[1]
+            ins = m.contains(p[near]) if m.is_watertight else np.zeros(len(near), bool)
+            inside[near] |= ins
+            d = np.where(ins, 0.0, d)
+            closer = d < best[near]
+            best[near[closer]], who[near[closer]] = d[closer], other
+        k = int(np.argmin(best))
+        out[link] = {"taxels": len(p), "min_mm": float(1e3 * best[k]), "near": int(((best < 0.002) | inside).sum()),
+                     "inside": int(inside.sum()), "nearest": who[k] or None}
+    return out

@@ -207,7 +207,6 @@ def _tname(v):
 
 
 def _close_match(key, known):
-    import difflib
+    from ..errors import did_you_mean
 
-    m = difflib.get_close_matches(key, list(known), n=1, cutoff=0.6)
-    return f" (did you mean {m[0]!r}?)" if m else ""
+    return did_you_mean(key, known)

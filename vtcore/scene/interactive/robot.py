@@ -24,6 +24,8 @@ class LinkPart:
     matrix : (4, 4) the link's pose in the robot's root frame at the imported configuration.
     vertices : (V, 3) metres, faces (F, 3): the link's geometry in the link's own frame (its
     model's origins and scale applied), empty when it has none. note : why a link has no mesh.
+    exposure : (F,) int8 reason codes of :mod:`vtcore.robot.exposure` per face (0 exposed) at the
+    zero pose, or None; legend : what its colours mean (:func:`vtcore.robot.exposure.legend`).
     """
 
     name: str
@@ -32,6 +34,8 @@ class LinkPart:
     vertices: np.ndarray
     faces: np.ndarray
     note: str = ""
+    exposure: np.ndarray | None = None
+    legend: list = field(default_factory=list)
 
 
 @dataclass
@@ -71,12 +75,15 @@ def parse_packages(text: str) -> dict:
 
 
 def import_robot(path, *, geometry: str = "visual", joints: dict | None = None,
-                 packages: dict | None = None) -> RobotImport:
+                 packages: dict | None = None, exposure: bool = True) -> RobotImport:
     """Read the robot at ``path`` (URDF or MJCF) for a scene: every link with its ``geometry``
     ("visual" or "collision"; a link without it falls back to the other kind) in its own frame,
     and its pose at ``joints`` (name -> value; default the zero pose). A link whose mesh cannot be
-    read is imported without it and says why in ``note``; a missing robot file is an InputError."""
+    read is imported without it and says why in ``note``; a missing robot file is an InputError.
+    exposure : give each link its exposed surface at the zero pose (``LinkPart.exposure``, ``legend``:
+    faces covered by another link or out of an 8 mm probe's reach, issue 33)."""
     from ...robot import link_mesh, load_robot
+    from ...robot.exposure import RobotSurfaces, exposed_faces, legend
     from ...robot.model import GEOMETRY_KINDS
 
     if geometry not in GEOMETRY_KINDS:
@@ -85,23 +92,29 @@ def import_robot(path, *, geometry: str = "visual", joints: dict | None = None,
     poses = robot.link_poses(joints or {})
     parent_of = {j.child: j.parent for j in robot.joints}
     out = RobotImport(robot.name, robot.path, robot.format, geometry, joints=dict(joints or {}))
+    surfaces = {k: RobotSurfaces(robot, k) for k in GEOMETRY_KINDS}
+    zero = [robot.link_poses({})]
     for name, link in robot.links.items():
         if "::" in name:  # the inner frame of an MJCF body with several joints: not a link
             continue
         kinds = [geometry] + [k for k in GEOMETRY_KINDS if k != geometry]
         kind = next((k for k in kinds if link.geometry(k)), None)
         v, f, note = np.zeros((0, 3)), np.zeros((0, 3), np.int64), "" if kind else "no geometry"
+        exp = None
         if kind is not None:
             try:
                 mesh = link_mesh(robot, name, kind)
                 v, f = np.asarray(mesh.vertices, np.float64), np.asarray(mesh.faces, np.int64)
                 note = "" if kind == geometry else f"{kind} geometry (it has no {geometry})"
+                if exposure:
+                    exp = exposed_faces(robot, name, kind, mesh=mesh, surfaces=surfaces[kind], configs=zero)
             except InputError as exc:
                 note = exc.reason
         parent = parent_of.get(name)
         while parent is not None and "::" in parent:
             parent = parent_of.get(parent)
-        out.links.append(LinkPart(name, parent, poses[name], v, f, note))
+        out.links.append(LinkPart(name, parent, poses[name], v, f, note, None if exp is None else exp.reason,
+                                  [] if exp is None else legend(exp)))
     return out
 
 

@@ -1,0 +1,286 @@
+"""The exposed surface of a link within its robot (issue 33): faces another link covers, faces no
+fingertip reaches, and placement that keeps to the rest. Small synthetic robots written the way
+makers publish them (meshes in millimetres with scale="0.001 ...", a continuous joint, a collision
+box round a visual mesh, an MJCF robot with primitive geoms); the placements are checked with
+trimesh's own proximity queries on meshes built here, not with the code that computed the exposure."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import trimesh
+
+from vtcore.errors import InputError
+from vtcore.robot import lay_on_link, link_mesh, load_robot
+from vtcore.robot.exposure import ALWAYS_COVERED, COVERED, EXPOSED, UNREACHABLE, exposed_faces, modules_room
+
+pytestmark = pytest.mark.filterwarnings("ignore::UserWarning")
+
+MM = 1e-3
+POSES = 6  # a few sampled poses keep the tests quick; the benchmark samples 32
+
+
+def world_meshes():
+    """name -> the synthetic arm's link surfaces (visual) in the world at the zero pose, metres,
+    built from the same numbers as the URDF (not through vtcore's kinematics)."""
+    elbow = trimesh.creation.cylinder(radius=0.030, height=0.080, sections=64)
+    elbow.apply_translation([0, 0, -0.040])  # top face at z = 0: the wrist sits on it
+    wrist = trimesh.creation.cylinder(radius=0.025, height=0.060, sections=64)
+    wrist.apply_translation([0, 0, 0.030])  # z 0 .. 60 mm: its end faces mate with the elbow and the hand
+    hand = trimesh.creation.box(extents=(0.080, 0.060, 0.030))
+    hand.apply_translation([0, 0, 0.075])  # z 60 .. 90 mm
+    slot = trimesh.creation.box(extents=(0.040, 0.040, 0.010))  # a pocket 10 mm wide, 20 mm deep into +y
+    slot.apply_translation([0, 0.030 - 0.010, 0.075])
+    hand = hand.difference(slot, engine="manifold")
+    phalanx = trimesh.creation.cylinder(radius=0.010, height=0.040, sections=64)
+    phalanx.apply_translation([0.025, 0, 0.110])  # on the hand's top, z 90 .. 130 mm
+    tip = trimesh.creation.icosphere(subdivisions=4, radius=0.012)
+    tip.apply_translation([0.025, 0, 0.130])  # centred on the phalanx's end: half inside it
+    cap = trimesh.creation.box(extents=(0.010, 0.010, 0.010))
+    cap.apply_translation([-0.020, -0.015, 0.075])  # wholly inside the hand (away from its pocket)
+    return {"elbow": elbow, "wrist": wrist, "hand": hand, "phalanx": phalanx, "tip": tip, "cap": cap}
+
+
+@pytest.fixture(scope="module")
+def arm(tmp_path_factory):
+    """A URDF arm: elbow - wrist (continuous, no limits) - hand (with a pocket) - phalanx - tip, and a
+    cap inside the hand; meshes as STL in millimetres placed by scale 0.001 and their link frames;
+    the wrist's collision a box round its visual cylinder."""
+    folder = tmp_path_factory.mktemp("arm")
+    world = world_meshes()
+    frames = {"elbow": (0, 0, 0), "wrist": (0, 0, 0), "hand": (0, 0, 0.060), "phalanx": (0.025, 0, 0.090),
+              "tip": (0.025, 0, 0.130), "cap": (0, 0, 0.060)}  # link frames in the world
+    for name, m in world.items():
+        local = m.copy()
+        local.apply_translation(-np.asarray(frames[name]))
+        local.apply_scale(1e3)  # millimetres in the file
+        local.export(folder / f"{name}.stl")
+    box = trimesh.creation.box(extents=(0.052, 0.052, 0.060))
+    box.apply_translation([0, 0, 0.030])
+    box.export(folder / "wrist_box.stl")
+
+    def link(name, collision=None):
+        vis = f'<geometry><mesh filename="{name}.stl" scale="0.001 0.001 0.001"/></geometry>'
+        col = collision or vis
+        return f'<link name="{name}"><visual>{vis}</visual><collision>{col}</collision></link>'
+
+    def joint(name, parent, child, xyz, kind="fixed", extra=""):
+        return (f'<joint name="{name}" type="{kind}"><parent link="{parent}"/><child link="{child}"/>'
+                f'<origin xyz="{xyz}"/>{extra}</joint>')
+
+    urdf = folder / "arm.urdf"
+    urdf.write_text(f"""<?xml version="1.0"?>
+<robot name="arm">
+  {link("elbow")}
+  {link("wrist", '<geometry><mesh filename="wrist_box.stl"/></geometry>')}
+  {link("hand")}{link("phalanx")}{link("tip")}{link("cap")}
+  {joint("wrist_roll", "elbow", "wrist", "0 0 0", "continuous", '<axis xyz="0 0 1"/>')}
+  {joint("wrist_pitch", "wrist", "hand", "0 0 0.06", "revolute",
+         '<axis xyz="1 0 0"/><limit lower="-0.3" upper="0.3" effort="1" velocity="1"/>')}
+  {joint("finger", "hand", "phalanx", "0.025 0 0.03", "revolute",
+         '<axis xyz="0 1 0"/><limit lower="-0.5" upper="0.5" effort="1" velocity="1"/>')}
+  {joint("tip_joint", "phalanx", "tip", "0 0 0.04")}
+  {joint("cap_joint", "hand", "cap", "0 0 0")}
+</robot>
+""")
+    return urdf
+
+
+def clearance_to_others(link, layout, world):
+    """(N,) metres: each taxel's signed distance to the nearest other link (trimesh: positive outside)."""
+    p = layout.positions + {"wrist": 0, "hand": [0, 0, 0.060], "tip": [0.025, 0, 0.130]}.get(link, 0)
+    d = np.full(len(p), np.inf)
+    for name, m in world.items():
+        if name != link:
+            d = np.minimum(d, -trimesh.proximity.signed_distance(m, p))  # trimesh: positive inside
+    return d
+
+
+def test_wrist_end_faces_mating_with_two_neighbours_are_covered_at_every_pose(arm):
+    """The wrist's end faces touch the elbow and the hand (two neighbours at once, through a
+    continuous joint without limits): covered, the elbow side at every sampled pose; the tube exposed."""
+    robot = load_robot(arm)
+    assert next(j for j in robot.joints if j.name == "wrist_roll").lower is None
+    exp = exposed_faces(robot, "wrist", poses=POSES)
+    n = link_mesh(robot, "wrist").face_normals
+    bottom, top, side = n[:, 2] < -0.9, n[:, 2] > 0.9, np.abs(n[:, 2]) < 0.1
+    assert (exp.reason[bottom] == ALWAYS_COVERED).all()  # rolls on the elbow: covered whatever the angle
+    assert np.isin(exp.reason[top], (COVERED, ALWAYS_COVERED)).all()
+    assert (exp.reason[side] == EXPOSED).mean() > 0.9
+    assert set(exp.neighbours) == {"elbow", "hand"}
+    assert modules_room(exp) >= 3 and "within 2 mm of or inside" in exp.excluded_text()
+
+
+def test_fill_keeps_taxels_off_the_neighbours_and_anywhere_does_not(arm):
+    world = world_meshes()
+    robot = load_robot(arm)
+    lay, rep = lay_on_link(robot, "wrist", "fill")
+    assert len(lay) >= 30 and clearance_to_others("wrist", lay, world).min() > 2 * MM
+    assert any("exposure of 'wrist'" in n for n in rep.notes) and lay.meta["exposure"]["covered_by"]
+    old, _ = lay_on_link(robot, "wrist", "fill", exposure=False)  # the behaviour before: the end faces too
+    assert clearance_to_others("wrist", old, world).min() < 2 * MM and old.meta["exposure"] is None
+
+
+def test_collision_box_round_the_visual_mesh_is_split_to_follow_its_neighbours(arm):
+    """The wrist's collision box (4 long faces a side) touches the elbow and the hand: its faces are
+    split before the exposure, so the side keeps modules and none comes near the neighbours."""
+    world = world_meshes()
+    box = trimesh.creation.box(extents=(0.052, 0.052, 0.060))
+    box.apply_translation([0, 0, 0.030])
+    world["wrist"] = box
+    lay, _ = lay_on_link(load_robot(arm), "wrist", "fill", geometry="collision")
+    assert lay.n_modules >= 4 and clearance_to_others("wrist", lay, world).min() > 2 * MM
+
+
+def test_fingertip_half_inside_the_phalanx_takes_its_patch_on_the_free_half(arm):
+    world = world_meshes()
+    lay, _ = lay_on_link(load_robot(arm), "tip", "triangle")  # no --at: the default start is on the free half
+    assert clearance_to_others("tip", lay, world).min() > 2 * MM
+    with pytest.raises(InputError, match="would lie on covered or unreachable surface"):
+        lay_on_link(load_robot(arm), "tip", "triangle", at=(0.0, 0.0, -0.012))  # the half inside the phalanx
+    lay, _ = lay_on_link(load_robot(arm), "tip", "triangle", at=(0.0, 0.0, -0.012), force=True)
+    assert clearance_to_others("tip", lay, world).min() < 0  # forced: kept where it was asked
+
+
+def test_pocket_deeper_than_the_probe_is_unreachable(arm):
+    robot = load_robot(arm)
+    exp = exposed_faces(robot, "hand", poses=0)
+    m = link_mesh(robot, "hand")
+    c, n = m.triangles_center, m.face_normals
+    floor = (n[:, 1] > 0.9) & (c[:, 1] < 0.015)  # the pocket's floor, 20 mm down a 10 mm slot
+    outer = (n[:, 1] > 0.9) & (c[:, 1] > 0.029) & (np.abs(c[:, 0]) > 0.03)
+    assert floor.any() and (exp.reason[floor] == UNREACHABLE).all()
+    assert (exp.reason[outer] == EXPOSED).all()
+    wide = exposed_faces(robot, "hand", poses=0, probe_radius=0.003, tolerance=0.0005)  # a probe that fits
+    assert (wide.reason[floor] == EXPOSED).all()
+
+
+def test_a_link_covered_all_over_is_one_line_not_an_empty_layout(arm, tmp_path, capsys):
+    from vtcore.cli import main
+
+    with pytest.raises(InputError, match="link 'cap' .* has no exposed surface"):
+        lay_on_link(load_robot(arm), "cap", "fill")
+    out = tmp_path / "cap.json"
+    assert main(["layout", "place", str(arm), "--link", "cap", "--patch", "fill", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "inside hand" in err[0] and "--anywhere" in err[0] and not out.exists()
+
+
+def test_mjcf_robot_with_primitive_geoms_and_a_mesh(tmp_path):
+    """An MJCF arm: a capsule upper arm, a forearm mesh (STL, millimetres scaled by its asset) and a
+    box hand: the forearm's ends, against the capsule and the box, are covered."""
+    fore = trimesh.creation.cylinder(radius=25.0, height=100.0, sections=48)  # millimetres
+    fore.apply_translation([0, 0, 50.0])
+    fore.export(tmp_path / "fore.stl")
+    (tmp_path / "arm.xml").write_text("""<mujoco model="arm">
+  <asset><mesh name="fore" file="fore.stl" scale="0.001 0.001 0.001"/></asset>
+  <worldbody>
+    <body name="upper">
+      <geom type="capsule" fromto="0 0 -0.12 0 0 -0.03" size="0.03"/>
+      <body name="fore">
+        <joint name="elbow" type="hinge" axis="0 1 0" range="-1 1"/>
+        <geom type="mesh" mesh="fore"/>
+        <body name="hand" pos="0 0 0.1">
+          <joint name="wrist" type="hinge" axis="0 0 1"/>
+          <geom type="box" size="0.04 0.03 0.015" pos="0 0 0.015"/>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+""")
+    robot = load_robot(tmp_path / "arm.xml")
+    exp = exposed_faces(robot, "fore", "collision", poses=POSES)
+    m = link_mesh(robot, "fore", "collision")
+    n = m.face_normals
+    assert set(exp.neighbours) == {"upper", "hand"}
+    assert not exp.mask[n[:, 2] < -0.9].any() and not exp.mask[n[:, 2] > 0.9].any()
+    assert exp.mask[np.abs(n[:, 2]) < 0.1].mean() > 0.8
+
+
+def test_robot_info_shows_exposed_area_and_room_for_modules(arm, capsys):
+    from vtcore.cli import main
+
+    assert main(["robot", "info", str(arm)]) == 0
+    out = capsys.readouterr().out
+    wrist = out[out.index("  wrist:"):out.index("  hand:")]
+    assert "exposed (visual): " in wrist and "cyskin10 modules; covered by elbow, hand" in wrist
+    assert main(["robot", "info", str(arm), "--json"]) == 0
+    import json
+
+    info = json.loads(capsys.readouterr().out)
+    assert info["exposure"]["cap"]["exposed_m2"] == 0 and info["exposure"]["wrist"]["modules"] >= 3
+
+
+def test_small_mistakes_get_one_useful_line(arm, tmp_path, capsys):
+    """A --link typo gets the closest name, a joint typo (Import Robot's joint values) the joints, a
+    missing relative mesh says where it was looked for (not --package), a --package folder that does
+    not exist says so, a millimetre mesh without its scale warns in robot info, --scale with --link
+    says why it is refused."""
+    from vtcore.cli import main
+    from vtcore.scene.interactive import import_robot
+
+    assert main(["layout", "place", str(arm), "--link", "wirst", "--out", str(tmp_path / "x.json")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "no link named 'wirst' (did you mean 'wrist'?)" in err[0]
+    with pytest.raises(InputError, match=r"no joint named wrist_rol \(did you mean 'wrist_roll'\?\); the moving "
+                                         r"joints: wrist_roll, wrist_pitch, finger"):
+        import_robot(arm, joints={"wrist_rol": 0.3})
+    bad = tmp_path / "bad.urdf"
+    bad.write_text('<robot name="b"><link name="a"><visual><geometry><mesh filename="meshes/gone.stl"/></geometry>'
+                   '</visual></link></robot>')
+    with pytest.raises(InputError, match="not found .looked for .*meshes/gone.stl: paths are relative") as e:
+        link_mesh(load_robot(bad), "a")
+    assert "--package" not in str(e.value)
+    assert main(["robot", "info", str(arm), "--package", "arm=/nonexistent/folder"]) == 2
+    assert "the folder /nonexistent/folder does not exist" in capsys.readouterr().err
+    mm = tmp_path / "mm.urdf"
+    trimesh.creation.box(extents=(40.0, 30.0, 20.0)).export(tmp_path / "plate.stl")  # millimetres, no scale
+    mm.write_text('<robot name="m"><link name="plate"><visual><geometry><mesh filename="plate.stl"/></geometry>'
+                  '</visual></link></robot>')
+    assert main(["robot", "info", str(mm), "--no-exposure"]) == 0
+    assert "vtcore: warning: " in (err := capsys.readouterr().err) and "40 m across: a mesh in millimetres" in err
+    assert main(["layout", "place", str(arm), "--link", "wrist", "--scale", "0.001",
+                 "--out", str(tmp_path / "x.json")]) == 2
+    assert "scaled by the robot file" in capsys.readouterr().err
+
+
+def test_help_and_docs_say_the_same_default_start():
+    import argparse
+    from pathlib import Path
+
+    from vtcore.cli import build_parser
+
+    parser = build_parser()
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction)).choices["layout"]
+    place = next(a for a in sub._actions if isinstance(a, argparse._SubParsersAction)).choices["place"]
+    at = next(a for a in place._actions if "--at" in a.option_strings).help
+    phrase = "a flat point of the link's exposed surface near its middle"
+    assert phrase in at
+    docs = (Path(__file__).parents[1] / "docs" / "layout.md").read_text()
+    assert phrase in " ".join(docs.split())
+
+
+@pytest.mark.slow
+def test_g1_wrist_fill_clears_the_elbow_in_its_exported_urdf(tmp_path):
+    """Done when (issue 33), on the link the issue found: the G1's left wrist roll link filled on its
+    exposed surface, exported into the G1's URDF and loaded back by yourdfpy: no taxel within 2 mm of,
+    or inside, another link at the zero pose (trimesh's distances, not the exposure's); filled anywhere,
+    the same link puts taxels on the face mating with the elbow."""
+    from vtcore.robot import export_skinned
+    from vtcore.robot.samples import example_robot_data
+    from vtcore.robot.verify import clearance_urdf
+
+    erd = example_robot_data()
+    path = erd / "g1_description/urdf/g1_29dof_with_hand_rev_1_0.urdf"
+    robot = load_robot(path)
+    link = "left_wrist_roll_link"
+    mesh = link_mesh(robot, link)
+    for exposure in (True, False):
+        lay, _ = lay_on_link(robot, link, "fill", mesh=mesh, exposure=exposure)
+        export_skinned(path, [lay], tmp_path / f"g1_{exposure}.urdf")
+        stats = clearance_urdf(tmp_path / f"g1_{exposure}.urdf", packages={"example-robot-data": erd.parent})[link]
+        if exposure:
+            assert stats["taxels"] >= 30 and stats["near"] == 0 and stats["min_mm"] > 2.0, stats
+        else:
+            assert stats["near"] >= 10 and stats["nearest"] == "left_elbow_link", stats
