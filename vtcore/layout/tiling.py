@@ -147,9 +147,11 @@ def fill(mesh, at, direction=None, *, module: str = "cyskin10", region=None, rad
                 mask = mask & (r.dist0[np.asarray(prepared.mesh.faces)] <= radius).all(axis=1)
             if islands == "one" and any(q.n_modules for q, h in zip(reports, group_of) if h == k):
                 break  # one lattice per group: a further seed would start another
-            if j and r.n_modules < 2:
-                break  # rooms left are smaller than the seeds' cost is worth (each costs a tiling search)
             got = any(q.n_modules for q, h in zip(reports, group_of) if h == k)
+            if j and r.n_modules < 2 and got:
+                break  # rooms left are smaller than the seeds' cost is worth (each costs a tiling search)
+            # while the island has no module, every seed is tried: a start on a ledge between creases
+            # (the G1 elbow's 40 mm patch) keeps nothing, another start in the same region does
             nxt = next_seed(prepared, mask, fdist, avoid, tried, mod, modules=2 if got else 1)
             if nxt is None:
                 break
@@ -492,7 +494,11 @@ def _fill_island(prepared, preg, samples, start, direction, mod, radius, max_str
     poses, chart_of = latt.poses[kept], g.chart[kept]
     n_seam = 0
     if seam and len(kept):
-        sp, sc = close_seam(g, lambda s2, c, r: lattice_patch(mod, ang, (sh[0] + s2[0], sh[1] + s2[1]), c, r, radius),
+        # a chart whose map no face of the region contradicts has an infinite trusted radius (the
+        # UR10 forearm from three anchors): its seam candidates still lie in the island's lattice,
+        # within ``extent`` of the lattice origin
+        sp, sc = close_seam(g, lambda s2, c, r: lattice_patch(mod, ang, (sh[0] + s2[0], sh[1] + s2[1]), c,
+                                                              min(r, float(np.linalg.norm(c)) + extent), radius),
                             check, max_strain, SEAM_SHIFTS, avoid=avoid)
         n_seam = len(sp)
         poses, chart_of = np.concatenate([poses, sp]), np.concatenate([chart_of, sc])
