@@ -128,3 +128,22 @@ def test_ur10_forearm_fills_from_its_vertex_of_largest_x():
     at = np.asarray(fa.vertices)[np.argmax(np.asarray(fa.vertices)[:, 0])]
     lay, rep = quiet(fill, fa, at)
     assert lay.n_modules >= 300 and rep.strain_max <= 0.05 and np.isfinite(lay.positions).all()
+
+
+def test_g1_elbow_patch_on_its_outer_side_takes_modules():
+    """The G1's left elbow (example-robot-data): a 40 mm patch round (60, 0, 24.5) mm, a
+    ledge between ribs, was refused ('1 candidate off the surface, 1 on an edge'): the start keeps
+    nothing, and the seeds after it were a module's width apart with one tiling each; now an empty
+    island tries every seed a pitch apart with the full tiling search."""
+    from vtcore.layout import fill
+    from vtcore.robot.samples import example_robot_data
+
+    try:
+        robots = example_robot_data()
+    except Exception:
+        pytest.skip("example-robot-data not installed")
+    elbow = trimesh.load(robots / "g1_description/meshes/left_elbow_link.STL")
+    at, radius = np.array([0.06, 0.0, 0.0245]), 0.04
+    lay, rep = quiet(fill, elbow, at, radius=radius)
+    assert lay.n_modules >= 1 and rep.strain_max <= 0.05
+    assert np.linalg.norm(lay.positions - at, axis=1).max() <= 1.15 * radius + 0.02
