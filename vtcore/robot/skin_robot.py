@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import Cancelled, InputError
 
 #: statuses a link ends with
 STATUSES = ("ok", "refused", "failed", "interrupted", "skipped")
@@ -85,7 +85,7 @@ def fill_link(robot_path: str, packages: dict, link: str, geometry: str, out_fil
     import resource
     import warnings
 
-    from ..errors import Cancelled, VtError
+    from ..errors import VtError
     from ..layout import save
     from ..layout.islands import NoModuleFits
     from .export import load_robot
@@ -142,7 +142,7 @@ def one_line(text: str, limit: int = 300) -> str:
 
 def skin_robot(robot_path, out, *, links: str | None = None, geometry: str = "visual", workers: int | None = None,
                scheduler: str | None = None, packages: dict | None = None, module: str = "cyskin10",
-               regions: dict | None = None, formats=("urdf", "mjcf"), bars: bool = True,
+               regions: dict | None = None, formats=("urdf", "mjcf"), bars: bool = True, progress=None,
                **options) -> dict:
     """Fill every selected link of the robot at ``robot_path`` and write layouts, merged robot and report to ``out``.
 
@@ -151,6 +151,8 @@ def skin_robot(robot_path, out, *, links: str | None = None, geometry: str = "vi
         (a dask scheduler address). regions : ``{link: (F,) bool}`` face masks (see the module doc).
     formats : merged robot files to write ("urdf" only for a URDF robot). options : passed to the fill.
     bars : a progress bar per link (tqdm on stderr, shown on a terminal; :mod:`vtcore._progress`).
+    progress : None or ``progress(fraction) -> bool`` (0..1, the links' mean) for a user interface;
+        False stops the run as Ctrl-C does, then raises :class:`vtcore.errors.Cancelled`.
     Returns the report: ``robot``, ``geometry``, ``workers``, ``seconds``, ``links`` (one record per
     link in the robot's order: ``link``, ``status``, ``modules``, ``taxels``, ``coverage``,
     ``seconds``, ``cpu_seconds``, ``peak_mb``, ``reason``, ``file``), ``robot_files``.
@@ -182,8 +184,8 @@ def skin_robot(robot_path, out, *, links: str | None = None, geometry: str = "vi
                 n_workers = _run_dask(scheduler, jobs, records, bars)
             else:
                 n_workers = min(int(workers or os.cpu_count() or 1), len(todo))
-                _run_local(n_workers, jobs, records, bars)
-    except KeyboardInterrupt:
+                _run_local(n_workers, jobs, records, bars, progress)
+    except (KeyboardInterrupt, Cancelled):
         for n in todo:
             records.setdefault(n, {"link": n, "status": "interrupted", "reason": "stopped before it finished"})
         write_report(robot, geometry, records, out, n_workers, time.perf_counter() - t0, [])
@@ -192,8 +194,9 @@ def skin_robot(robot_path, out, *, links: str | None = None, geometry: str = "vi
     return write_report(robot, geometry, records, out, n_workers, time.perf_counter() - t0, files)
 
 
-def _run_local(n: int, jobs: list, records: dict, bars: bool) -> None:
-    """Run ``jobs`` (argument tuples of :func:`fill_link`) on ``n`` local processes into ``records``."""
+def _run_local(n: int, jobs: list, records: dict, bars: bool, progress=None) -> None:
+    """Run ``jobs`` (argument tuples of :func:`fill_link`) on ``n`` local processes into ``records``;
+    ``progress`` as for :func:`skin_robot` (False raises Cancelled after stopping the workers)."""
     import multiprocessing as mp
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 
@@ -215,7 +218,9 @@ def _run_local(n: int, jobs: list, records: dict, bars: bool) -> None:
             for f in done:
                 records[futures[f]] = _result(f, futures[f])
                 shown.finish(futures[f], records[futures[f]])
-    except KeyboardInterrupt:
+            if progress is not None and progress(shown.fraction()) is False:
+                raise Cancelled("skinning the robot was cancelled")
+    except (KeyboardInterrupt, Cancelled):
         stop.set()  # running fills stop at their next progress step; queued ones never start
         for f in futures:
             f.cancel()
@@ -282,14 +287,19 @@ class LinkBars:
     def __init__(self, links, enabled: bool = True):
         from .._progress import progress
 
-        self.bars = {}
+        self.bars, self.done = {}, {n: 0.0 for n in links}
         if enabled:
             for i, n in enumerate(links):
                 b = progress(total=100, desc=n, unit="%")
                 b.position = i
                 self.bars[n] = b
 
+    def fraction(self) -> float:
+        """The links' mean fraction done (0..1)."""
+        return float(np.mean(list(self.done.values()))) if self.done else 1.0
+
     def update(self, link: str, fraction: float) -> None:
+        self.done[link] = max(self.done.get(link, 0.0), float(fraction))
         b = self.bars.get(link)
         if b is not None:
             b.n = int(round(100 * fraction))
