@@ -122,3 +122,21 @@ def test_an_interrupt_keeps_finished_links_and_writes_nothing_half(tmp_path, sig
     assert not list(out.glob("*.urdf")) and not list(out.glob("*.xml"))
     assert not [f for f in out.rglob("*") if f.name.endswith(".tmp")]
     assert len(list((out / "layouts").glob("*.json"))) == status.count("ok")
+
+
+def test_a_user_interface_stops_it_through_progress(tmp_path):
+    """``progress`` returning False (the add-on's Esc) stops the run as Ctrl-C does: Cancelled, the
+    report written with the links stopped, no merged robot."""
+    from vtcore.errors import Cancelled
+    from vtcore.robot.skin_robot import skin_robot
+
+    bot = robot(tmp_path, [(f"l{i}", BOX) for i in range(3)])
+    seen = []
+    with pytest.raises(Cancelled):
+        skin_robot(bot, tmp_path / "out", geometry="collision", workers=1, bars=False,
+                   progress=lambda f: (seen.append(f), False)[1])
+    rep = json.loads((tmp_path / "out" / "skin_report.json").read_text())
+    assert {r["status"] for r in rep["links"]} <= {"ok", "interrupted"} and "interrupted" in \
+        [r["status"] for r in rep["links"]]
+    assert seen and all(0.0 <= f <= 1.0 for f in seen)
+    assert not list((tmp_path / "out").glob("*.urdf"))
