@@ -147,3 +147,18 @@ def test_g1_elbow_patch_on_its_outer_side_takes_modules():
     lay, rep = quiet(fill, elbow, at, radius=radius)
     assert lay.n_modules >= 1 and rep.strain_max <= 0.05
     assert np.linalg.norm(lay.positions - at, axis=1).max() <= 1.15 * radius + 0.02
+
+
+@pytest.mark.parametrize("over", [10, 1000])
+def test_fill_over_its_solve_budget_keeps_taxels_on_the_users_mesh(tube, over):
+    """The fill's face budget (``max_faces``) 10x and 1,000x under the mesh's faces: the log maps are
+    solved on a simplified copy (or, when no faithful copy that small exists, on the full mesh), and
+    every taxel still lies on the user's own mesh."""
+    from vtcore.layout import fill
+    from vtcore.layout.surface import closest_points
+
+    side = side_region(tube)
+    lay, rep = quiet(fill, tube, (0.04, 0, 0), region=side, radius=0.03, max_faces=max(len(tube.faces) // over, 1))
+    assert lay.n_modules >= 3 and rep.strain_max <= 0.05
+    _, face, d = closest_points(tube, lay.positions)
+    assert d.max() < 1e-6 and side[face].all()
