@@ -363,6 +363,9 @@ def lattice_patch(mod, angle: float, shift, centre, rad: float, limit: float | N
     shifted by ``shift`` (2,) fractions of a tiling cell; ``limit``: only modules whose taxels are
     all within this distance of the lattice origin. Raises InputError, naming the size, before building
     more than MAX_CANDIDATES modules."""
+    if not np.isfinite(rad):  # every size the fill asks for is bounded by its region: this is a bug, said once
+        raise InputError(f"the fill's lattice was asked for a region of unbounded size ({rad}); give a radius "
+                         "or a smaller region, and report the mesh and the start point", key="region")
     cell = abs(float(np.linalg.det(np.column_stack([mod.strip_period, mod.fill_row]))))
     est = (2 * rad + 4 * mod.radius) ** 2 / max(cell, 1e-300) * len(mod.strip)
     if est > MAX_CANDIDATES:
