@@ -26,7 +26,8 @@ Cases (each row: what, method, setting, size, seconds, accuracy):
 7. ``fill_islands``: a selection of 31 islands (one side of the CAD link in millimetres read with
    scale 0.001, and 40 stray faces) against its largest island alone.
 8. ``fill_scale`` (issue 36): the 180 mm x 700 mm link at 100k and 1M faces, read from STL and
-   filled within a 395 mm radius (the 1M-face fill's CPU against the 100k-face one's); the UR10
+   filled within a 395 mm radius (the 1M-face fill's CPU against the 100k-face one's); about 10,000
+   modules on the side of a 1M-face body (r = 500 mm, 1.6 m); the UR10
    forearm's collision mesh from the three anchors that were refused with 'inf module positions';
    the G1 elbow's 40 mm patch (example-robot-data, when installed). The whole-robot command's rows
    are in ``vtcore bench robot`` (``skin_command``).
@@ -314,6 +315,11 @@ def _scale_rows(quick, on_row=None):
             mesh.export(path)
             row("fill_scale", f"180x700 mm link, {len(mesh.faces)} faces, STL read + fill in 395 mm",
                 len(mesh.faces), lambda path=path: _fill_summary(*fill(load_mesh(path), (0.18, 0, 0), radius=0.395)))
+    if not quick:  # about 10,000 modules: the whole side of a 1 m x 1.6 m body of 1M faces (5 m2)
+        body = cadmeshes.full_cylinder(0.5, 1.6, float(np.sqrt(4 * np.pi * 0.5 * 1.6 / 1_000_000)))
+        bside = np.abs(body.face_normals[:, 2]) < 0.5
+        row("fill_scale", f"r=500 mm x 1.6 m body, {len(body.faces)} faces, whole side", len(body.faces),
+            lambda: _fill_summary(*fill(body, (0.5, 0, 0), (0, 0, 1), region=bside)))
     for name, fn in ([] if quick else _refused_cases()):
         row("fill_scale", name, 0, lambda fn=fn: _fill_summary(*fn()))
     return rows
