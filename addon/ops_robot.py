@@ -1,6 +1,7 @@
 """Robot operators: Import Robot (one object per link, parented as the kinematic tree), Import
 Layout (a calibrated layout onto the active link object, ids intact), Export Skinned Robot (the
-robot's own URDF or MJCF with the skins of its links in it)."""
+robot's own URDF or MJCF with the skins of its links in it), Skin Whole Robot (every link filled by
+``vtcore.robot.skin_robot``, files written to a folder)."""
 
 from __future__ import annotations
 
@@ -9,7 +10,7 @@ from pathlib import Path
 import bpy
 
 from . import bridge, display, skin
-from .opbase import Cancel, Op, failing, file_path, skin_frame
+from .opbase import Cancel, Op, fail, failing, file_path, skin_frame
 
 
 def _robot_collection(context, name):
@@ -157,4 +158,88 @@ class VTSKIN_OT_export_robot(Op, bpy.types.Operator):
         return {"FINISHED"}
 
 
-CLASSES = (VTSKIN_OT_import_robot, VTSKIN_OT_import_layout, VTSKIN_OT_export_robot)
+class VTSKIN_OT_skin_robot(Op, bpy.types.Operator):
+    """Fill every link of the panel's robot that can carry a module (in parallel over links) and write
+    the layouts, the skinned robot (URDF, MJCF) and report.md to the panel's folder"""
+
+    bl_idname = "vtskin.skin_robot"
+    bl_label = "Skin Whole Robot"
+    bl_options = {"REGISTER"}
+
+    # From the UI it runs as a modal operator: vtcore skins the robot in a worker thread (vtcore's Job,
+    # which starts the worker processes) while a timer shows its progress in the status bar, and Esc
+    # stops it (finished links stay written). In background mode and from execute() it runs to the end.
+
+    def _gather(self, context) -> dict:
+        from vtcore.scene import interactive
+
+        s = context.scene.vtskin
+        robot_file = bpy.path.abspath(s.robot_file)
+        if not robot_file:
+            raise Cancel("No robot: choose a URDF or MJCF file (Robot)")
+        out = bpy.path.abspath(s.skin_robot_dir)
+        if not out:
+            raise Cancel("Choose the folder to write the skins to (Folder)")
+        with failing("Cannot skin the robot"):
+            packages = interactive.parse_packages(s.robot_packages)
+        return {"robot_path": robot_file, "out": out, "geometry": s.robot_geometry, "packages": packages,
+                "bars": False}
+
+    def _done(self, rep) -> set:
+        c = rep["counts"]
+        bad = [f"{r['link']}: {r['reason']}" for r in rep["links"] if r["status"] in ("refused", "failed")]
+        self.report({"WARNING"} if c["failed"] else {"INFO"},
+                    f"{rep['modules']} modules on {c['ok']} links ({c['refused']} refused, {c['failed']} failed) "
+                    f"in {rep['seconds']:.0f} s: {Path(rep['robot']).name} skinned, report.md written")
+        for line in bad:
+            self.report({"INFO"}, line)
+        return {"FINISHED"}
+
+    def run(self, context):
+        from vtcore.robot.skin_robot import skin_robot
+
+        kw = self._gather(context)
+        with failing("Cannot skin the robot"):
+            rep = skin_robot(**kw)
+        return self._done(rep)
+
+    def invoke(self, context, event):
+        from vtcore.robot.skin_robot import skin_robot
+        from vtcore.scene import interactive
+
+        if bpy.app.background or context.window is None:
+            return self.execute(context)
+        try:
+            self._job = interactive.Job(skin_robot, **self._gather(context))
+        except Cancel as exc:
+            return fail(self, str(exc), exc.details)
+        wm = context.window_manager
+        self._timer = wm.event_timer_add(0.2, window=context.window)
+        wm.progress_begin(0, 100)
+        wm.modal_handler_add(self)
+        return {"RUNNING_MODAL"}
+
+    def _status(self, context, text):
+        context.window_manager.progress_update(int(100 * self._job.fraction))
+        if context.workspace is not None:
+            context.workspace.status_text_set(text)
+
+    def modal(self, context, event):
+        if event.type == "ESC":
+            self._job.cancel()  # the links written so far stay; the report says which were stopped
+        if event.type != "TIMER" or not self._job.done:
+            if event.type == "TIMER":
+                self._status(context, f"Skinning the robot: {100 * self._job.fraction:.0f} % (Esc to stop)")
+            return {"RUNNING_MODAL"}
+        context.window_manager.event_timer_remove(self._timer)
+        context.window_manager.progress_end()
+        self._status(context, None)
+        try:
+            with failing("Cannot skin the robot"):
+                rep = self._job.result()
+        except Cancel as exc:
+            return fail(self, str(exc), exc.details)
+        return self._done(rep)
+
+
+CLASSES = (VTSKIN_OT_import_robot, VTSKIN_OT_import_layout, VTSKIN_OT_export_robot, VTSKIN_OT_skin_robot)

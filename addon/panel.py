@@ -76,6 +76,9 @@ class VTSKIN_PT_robot(_Panel, bpy.types.Panel):
         _row(col, s, "skinned_format", "skinned_prefix")
         _row(col, s, "skinned_footprint", "skinned_pad", enabled=s.skinned_format == "mjcf")
         _button(col, "vtskin.export_robot", "EXPORT")
+        col.separator()
+        col.prop(s, "skin_robot_dir")
+        _button(col, "vtskin.skin_robot", "MOD_SKIN")
 
 
 class VTSKIN_PT_layout(_Panel, bpy.types.Panel):

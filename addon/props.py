@@ -248,6 +248,9 @@ class VTSKIN_PG_scene(bpy.types.PropertyGroup):
                                                      ("m", "m", "Metres"), ("mm", "mm", "Millimetres")],
                                default="AUTO")
     skinned_path: StringProperty(name="File", subtype="FILE_PATH", description="The skinned robot to write")
+    skin_robot_dir: StringProperty(name="Folder", subtype="DIR_PATH",
+                                   description="Skin Whole Robot writes the links' layouts, the skinned robot "
+                                               "(URDF, MJCF) and report.md here")
     skinned_format: EnumProperty(name="Format", items=[("urdf", "URDF", "One fixed frame per taxel"),
                                                         ("mjcf", "MJCF", "Sites and touch sensors")], default="urdf")
     skinned_prefix: StringProperty(name="Prefix", default="",

@@ -4,7 +4,10 @@
 - ``vtcore robot export ROBOT LAYOUT [LAYOUT ...] --out FILE [--format urdf|mjcf] [--prefix NAME_ ...]
   [--footprint taxel|tile] [--pad|--no-pad] [--site-radius M] [--pad-thickness M] [--package NAME=FOLDER]``
 
-Laying skin on a link: ``vtcore layout place ROBOT --link NAME [--geometry visual|collision]``.
+- ``vtcore robot skin ROBOT --out DIR [--links PATTERN] [--geometry visual|collision] [--workers N]
+  [--scheduler ADDRESS] [--module NAME] [--package NAME=FOLDER]``: every link filled, in parallel
+
+Laying skin on one link: ``vtcore layout place ROBOT --link NAME [--geometry visual|collision]``.
 """
 
 from __future__ import annotations
@@ -105,6 +108,24 @@ def cmd_export(args) -> int:
     return 0
 
 
+def cmd_skin(args) -> int:
+    from ..robot.skin_robot import skin_robot
+
+    opts = {k: getattr(args, k) for k in ("max_strain", "crease_angle") if getattr(args, k) is not None}
+    rep = skin_robot(args.robot, args.out, links=args.links, geometry=args.geometry, workers=args.workers,
+                     scheduler=args.scheduler, packages=packages(args.package), module=args.module, **opts)
+    for r in rep["links"]:
+        what = f"{r['modules']} modules" if r["status"] == "ok" else f"{r['status']}: {r.get('reason')}"
+        secs = f" ({r['seconds']:.1f} s)" if r.get("seconds") is not None else ""
+        print(f"  {r['link']}: {what}{secs}")
+    for f in rep["robot_files"]:
+        print(f"{f.get('file') or f['format'] + ' not written: ' + f['error']}")
+    c = rep["counts"]
+    print(f"{args.out}: {rep['modules']} modules on {c['ok']} links, {c['refused']} refused, {c['failed']} failed, "
+          f"{c['skipped']} skipped, in {rep['seconds']:.1f} s (report.md)")
+    return 0
+
+
 def register(sub) -> None:
     p = sub.add_parser("robot", help="a robot's links and geometry; export a robot with its skins")
     rsub = p.add_subparsers(dest="robot_command", metavar="ACTION")
@@ -136,6 +157,22 @@ def register(sub) -> None:
     ex.add_argument("--site-radius", type=float, metavar="METRES", help="mjcf: taxel site radius")
     ex.add_argument("--pad-thickness", type=float, metavar="METRES", help="mjcf: pad thickness (default 1 mm)")
     ex.set_defaults(func=cmd_export)
+
+    sk = rsub.add_parser("skin", help="fill every link that can carry a module, in parallel over links; write "
+                                      "the layouts, the skinned robot (URDF, MJCF) and a report")
+    sk.add_argument("robot", metavar="ROBOT", help="URDF or MJCF file")
+    sk.add_argument("--out", required=True, metavar="DIR")
+    sk.add_argument("--links", metavar="PATTERN", help="links to fill: fnmatch patterns, comma-separated "
+                                                       "(default every link with geometry)")
+    sk.add_argument("--geometry", choices=("visual", "collision"), default="visual")
+    sk.add_argument("--workers", type=int, metavar="N", help="worker processes (default: cores)")
+    sk.add_argument("--scheduler", metavar="ADDRESS", help="run on the workers of this dask scheduler "
+                                                           "(tcp://host:port) instead")
+    sk.add_argument("--module", default="cyskin10", help="module type (default cyskin10)")
+    sk.add_argument("--max-strain", type=float, metavar="FRACTION", help="largest stretch of a module edge")
+    sk.add_argument("--crease-angle", type=float, metavar="DEG", help="no module crosses a sharper edge")
+    sk.add_argument("--package", action="append", metavar="NAME=FOLDER", help="where a package:// package is")
+    sk.set_defaults(func=cmd_skin)
 
     def _help(args, parser=p):
         parser.print_help(sys.stderr)

@@ -25,6 +25,12 @@ Cases (each row: what, method, setting, size, seconds, accuracy):
    collision hull (example-robot-data, 200 triangles) when installed.
 7. ``fill_islands``: a selection of 31 islands (one side of the CAD link in millimetres read with
    scale 0.001, and 40 stray faces) against its largest island alone.
+8. ``fill_scale`` (issue 36): the 180 mm x 700 mm link at 100k and 1M faces, read from STL and
+   filled within a 395 mm radius (the 1M-face fill's CPU against the 100k-face one's); about 10,000
+   modules on the side of a 1M-face body (r = 500 mm, 1.6 m); the UR10
+   forearm's collision mesh from the three anchors that were refused with 'inf module positions';
+   the G1 elbow's 40 mm patch (example-robot-data, when installed). The whole-robot command's rows
+   are in ``vtcore bench robot`` (``skin_command``).
 """
 
 from __future__ import annotations
@@ -282,6 +288,65 @@ def _fill_rows(quick, on_row=None):
     return rows
 
 
+def _scale_rows(quick, on_row=None):
+    """``fill_scale`` rows: a mesh read from STL and filled, 100k against 1M faces; real meshes the fill refused."""
+    import tempfile
+
+    from . import cadmeshes
+    from .meshinput import load_mesh
+    from .tiling import fill
+
+    rows = []
+
+    def row(case, setting, n, fn):
+        sec, cpu, mb, res, err = in_child(fn)
+        r = {"case": case, "method": "grow", "setting": setting, "n": n, "seconds": sec, "cpu_seconds": cpu,
+             "peak_mb": mb, "accuracy_name": "coverage", "accuracy": (res or {}).get("coverage", float("nan")),
+             "extra": err or ", ".join(f"{k}={v:.3g}" if isinstance(v, float) else f"{k}={v}"
+                                       for k, v in (res or {}).items() if k != "coverage")}
+        rows.append(r)
+        if on_row is not None:
+            on_row(r)
+
+    with tempfile.TemporaryDirectory() as tmp:
+        for faces in ((20_000,) if quick else (100_000, 1_000_000)):
+            mesh = cadmeshes.full_cylinder(0.18, 0.7, float(np.sqrt(4 * np.pi * 0.18 * 0.7 / faces)))
+            path = Path(tmp) / f"link_{faces}.stl"
+            mesh.export(path)
+            row("fill_scale", f"180x700 mm link, {len(mesh.faces)} faces, STL read + fill in 395 mm",
+                len(mesh.faces), lambda path=path: _fill_summary(*fill(load_mesh(path), (0.18, 0, 0), radius=0.395)))
+    if not quick:  # about 10,000 modules: the whole side of a 1 m x 1.6 m body of 1M faces (5 m2)
+        body = cadmeshes.full_cylinder(0.5, 1.6, float(np.sqrt(4 * np.pi * 0.5 * 1.6 / 1_000_000)))
+        bside = np.abs(body.face_normals[:, 2]) < 0.5
+        row("fill_scale", f"r=500 mm x 1.6 m body, {len(body.faces)} faces, whole side", len(body.faces),
+            lambda: _fill_summary(*fill(body, (0.5, 0, 0), (0, 0, 1), region=bside)))
+    for name, fn in ([] if quick else _refused_cases()):
+        row("fill_scale", name, 0, lambda fn=fn: _fill_summary(*fn()))
+    return rows
+
+
+def _refused_cases():
+    """Fills the issue 36 saw refused, on example-robot-data's meshes (when installed)."""
+    import sysconfig
+
+    import trimesh
+
+    from .tiling import fill
+
+    base = Path(sysconfig.get_paths()["purelib"]) / "cmeel.prefix/share/example-robot-data/robots"
+    fa, elbow = (base / "ur_description/meshes/ur10/collision/forearm.stl",
+                 base / "g1_description/meshes/left_elbow_link.STL")
+    cases = []
+    if fa.is_file():
+        for at in ((0.0600, -0.0408, 0.0071), (-0.0484, -0.0305, -0.0122), (-0.0087, -0.0171, -0.0358)):
+            cases.append((f"UR10 forearm collision, from ({', '.join(f'{1e3 * v:.1f}' for v in at)}) mm",
+                          lambda at=at: fill(trimesh.load(fa), at)))
+    if elbow.is_file():
+        cases.append(("G1 left elbow, 40 mm round (60, 0, 24.5) mm",
+                      lambda: fill(trimesh.load(elbow), (0.06, 0.0, 0.0245), radius=0.04)))
+    return cases
+
+
 def _real_hull_cases():
     """Fill cases on example-robot-data's Panda link 7 collision hull (200 triangles), when installed."""
     import sysconfig
@@ -330,7 +395,8 @@ def run(out: Path, quick: bool = False) -> list[dict]:
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     fills = _fill_rows(quick)
-    rows = _place_rows(quick) + _sphere_rows(quick) + _skin_rows(quick) + _maker_rows(quick) + fills
+    rows = (_place_rows(quick) + _sphere_rows(quick) + _skin_rows(quick) + _maker_rows(quick) + fills
+            + _scale_rows(quick))
     write_table(out, rows, title="Layout benchmark" + (" (quick)" if quick else ""), notes=[
         "Targets: 1,000 modules on a 100k-face mesh <= 5 s; skin mesh of 4,000 taxels <= 0.5 s; fill of the "
         "side of a 72 x 200 mm link (~100 modules) < 3 s and within 5x one hexagon; peak memory < 2 GB."],

@@ -80,13 +80,13 @@ def island_groups(prepared, plabel, parts, clean, samples, mod, at, islands):
     return groups, skipped, widths, fdist
 
 
-def next_seed(prepared, mask, fdist, placed, tried, mod, modules: int = 1):
+def next_seed(prepared, mask, fdist, placed, tried, mod, modules: int = 1, spacing: float | None = None):
     """``(start (3,), room)`` where the next growth of an island starts and how much room (metres to
     the nearest crease, border or placed taxel) there is, or None: the vertex of ``mask``'s faces
     (of ``prepared.mesh``) farthest from the edges no module may straddle (``fdist`` (V,)), among
     those with room for ``modules`` modules side by side (1: half a module's width from those edges,
     half a width and half a pitch from every ``placed`` taxel (P, 3); 2: a whole width), a module's
-    width from every start ``tried``. A growth costs a log map and a tiling search over the island:
+    width (or ``spacing`` metres) from every start ``tried``. A growth costs a log map and a tiling search over the island:
     once an island has modules, a seed must have room for two (on a 1,000-module fill the rims'
     gaps for one module each doubled the time for 9 more modules)."""
     F = np.asarray(prepared.mesh.faces)
@@ -102,7 +102,7 @@ def next_seed(prepared, mask, fdist, placed, tried, mod, modules: int = 1):
         ok &= d >= half + 0.5 * mod.pitch
         score = np.minimum(score, d)
     if len(tried):
-        ok &= cKDTree(np.asarray(tried)).query(V[verts])[0] >= module_width(mod)
+        ok &= cKDTree(np.asarray(tried)).query(V[verts])[0] >= (module_width(mod) if spacing is None else spacing)
     if not ok.any():
         return None
     i = np.flatnonzero(ok)

@@ -314,9 +314,7 @@ def refine(mesh, resolution: float, max_faces: int = 300_000):
         return mesh
     # a budget check before any allocation: the result has about area / (res^2 / 4) faces, plus
     # a row of faces along each long edge
-    area = np.asarray(mesh.area_faces)
-    while (area / (0.25 * res ** 2) + 2 * longest / res + 1).sum() > max_faces:
-        res *= 1.25
+    res = refine_resolution(np.asarray(mesh.area_faces), longest, res, max_faces)
     if longest.max() <= res:
         return mesh
     # only faces with an edge longer than res take part (splits and flips): an edge they share
@@ -372,6 +370,32 @@ def refine(mesh, resolution: float, max_faces: int = 300_000):
                 np.column_stack([m20, m12, c]), np.column_stack([m01, m12, m20])]
         f = np.concatenate(out)
     return trimesh.Trimesh(v, np.concatenate([done, f]), process=False, validate=False)
+
+
+def refine_faces(area: np.ndarray, longest: np.ndarray, res: float) -> float:
+    """About how many faces :func:`refine` makes of faces with ``area`` (F,) square metres and
+    longest edges ``longest`` (F,) metres at ``res`` metres: a face with an edge longer than
+    ``res`` becomes at most about area / (res^2 / 8) faces (longest-edge bisection leaves halves
+    of res^2 / 4 triangles: res^2 / 4 undercounted a 1 m face split to 2 mm by 40 %) plus a row
+    along its long edge; the others stay one face each."""
+    split = longest > res
+    return float((area[split] / (0.125 * res ** 2) + 2 * longest[split] / res).sum() + len(area))
+
+
+def refine_resolution(area: np.ndarray, longest: np.ndarray, resolution: float, max_faces: int) -> float:
+    """The finest resolution (metres, ``resolution`` coarsened by factors of 1.25) at which
+    :func:`refine` makes at most ``max_faces`` faces of faces with ``area`` (F,) and ``longest``
+    (F,), or the longest edge itself (nothing split) when even that is over: a mesh that already
+    has more faces than the budget is not refined (it was an unbounded loop that overflowed to
+    inf on a 600k-face scan with the 300k budget). At most log(longest / resolution) / log(1.25)
+    steps."""
+    res, top = float(resolution), float(longest.max()) if len(longest) else 0.0
+    if not (res > 0 and np.isfinite(res)):
+        raise InputError(f"the refinement resolution must be a positive finite length, got {resolution!r}",
+                         key="resolution")
+    while res < top and refine_faces(area, longest, res) > max_faces:
+        res = min(res * 1.25, top)
+    return res
 
 
 def longest_edges(v: np.ndarray, f: np.ndarray) -> np.ndarray:

@@ -130,11 +130,12 @@ def fill(mesh, at, direction=None, *, module: str = "cyskin10", region=None, rad
     group_of = []
     for k, (members, start, own) in enumerate(groups):
         mask = np.isin(plabel, members)
-        tried, room = [], None
+        tried, room, got = [], None, False
         for j in range(max(int(seeds), 1)):
             # a further seed fills a room between modules: one shift per angle, then finer shifts
             r = _fill_island(prepared, mask, samples, start, direction if own and not j else None, mod,
-                             radius if own and not j else None, max_strain, avoid, angles, offsets if not j else 1,
+                             radius if own and not j else None, max_strain, avoid, angles,
+                             offsets if not j or not got else 1,
                              refine_offsets, crease_angle, seam, progress, island=k,
                              n_faces=int(sum(len(parts[i]) for i in members)), seed=j, room=room)
             reports.append(r)
@@ -147,10 +148,14 @@ def fill(mesh, at, direction=None, *, module: str = "cyskin10", region=None, rad
                 mask = mask & (r.dist0[np.asarray(prepared.mesh.faces)] <= radius).all(axis=1)
             if islands == "one" and any(q.n_modules for q, h in zip(reports, group_of) if h == k):
                 break  # one lattice per group: a further seed would start another
-            if j and r.n_modules < 2:
+            had, got = got, got or bool(r.n_modules)
+            if j and r.n_modules < 2 and had:
                 break  # rooms left are smaller than the seeds' cost is worth (each costs a tiling search)
-            got = any(q.n_modules for q, h in zip(reports, group_of) if h == k)
-            nxt = next_seed(prepared, mask, fdist, avoid, tried, mod, modules=2 if got else 1)
+            # while the island has no module, every seed is tried, with the full tiling search, a pitch
+            # (not a module's width) from the failed ones: on the G1 elbow's 40 mm patch (a ribbed CAD
+            # part) the start keeps nothing, and the one spot a module fits is 6 mm from a failed seed
+            nxt = next_seed(prepared, mask, fdist, avoid, tried, mod, modules=2 if got else 1,
+                            spacing=None if got else mod.pitch)
             if nxt is None:
                 break
             start, room = nxt
@@ -175,21 +180,36 @@ def fill(mesh, at, direction=None, *, module: str = "cyskin10", region=None, rad
         sel &= np.linalg.norm(sc - reports[0].start, axis=1) <= radius
     frames = np.concatenate([r.frames for r in chosen])
     cov_den = float(np.asarray(surf.area_faces)[sel].sum())
-    cov = coverage_by_frames(sc[sel], np.asarray(surf.area_faces)[sel], frames, p.poses[:, 0], mod) / cov_den \
-        if cov_den > 0 else float("nan")
+
+    def cover(frames, angles):
+        return coverage_by_frames(sc[sel], np.asarray(surf.area_faces)[sel], frames, angles, mod) / cov_den \
+            if cov_den > 0 else float("nan")
+
     notes = notes + [n for r in reports for n in r.notes]
     if len(parts) > 1:
         notes.append(islands_note(parts, groups, reports, group_of, skipped))
-    layout, report = finish(p, pos, nrm, found, surf, method="logmap", notes=notes,
-                            info=[n for r in reports for n in r.info], offset=offset, at=at,
-                            direction=direction, existing=existing, coverage=cov, t0=t0,
-                            charts=sum(r.charts for r in reports), seam_modules=sum(r.seam for r in reports),
-                            kind="fill")
-    layout.meta["fill_tilings"] = [t for r in reports for t in r.tilings]
+    kw = dict(method="logmap", info=[n for r in reports for n in r.info], offset=offset, at=at, direction=direction,
+              existing=existing, t0=t0, charts=sum(r.charts for r in reports),
+              seam_modules=sum(r.seam for r in reports), kind="fill")
+    layout, report = finish(p, pos, nrm, found, surf, notes=notes, coverage=cover(frames, p.poses[:, 0]), **kw)
     # which chart placed each module (numbered across islands) and which the seam pass added
-    layout.meta["module_charts"] = np.concatenate(
-        [r.chart_of + sum(q.charts for q in chosen[:i]) for i, r in enumerate(chosen)]).tolist()
-    layout.meta["seam_module_ids"] = np.flatnonzero(np.concatenate([r.is_seam for r in chosen])).tolist()
+    chart_of = np.concatenate([r.chart_of + sum(q.charts for q in chosen[:i]) for i, r in enumerate(chosen)])
+    is_seam = np.concatenate([r.is_seam for r in chosen])
+    over = np.asarray(report.module_strain) > max_strain if max_strain is not None else np.zeros(p.n_modules, bool)
+    if over.any() and not over.all():
+        # the growth measured a module's strain in the chart that mapped it; with the taxels' final
+        # normals a module can come out a hair over the limit (5.1 % on the UR10 wrist-3 hull): the
+        # fill keeps its promise and leaves it out
+        keep, t = ~over, ~over[p.module_ids]
+        p, pos, nrm, found, frames = p.select_modules(keep), pos[t], nrm[t], found[t], frames[keep]
+        chart_of, is_seam = chart_of[keep], is_seam[keep]
+        kw["seam_modules"] = int(is_seam.sum())
+        notes = notes + [f"{int(over.sum())} modules left out: strained more than {100 * max_strain:.0f} % "
+                         "on the final surface"]
+        layout, report = finish(p, pos, nrm, found, surf, notes=notes, coverage=cover(frames, p.poses[:, 0]), **kw)
+    layout.meta["fill_tilings"] = [t for r in reports for t in r.tilings]
+    layout.meta["module_charts"] = chart_of.tolist()
+    layout.meta["seam_module_ids"] = np.flatnonzero(is_seam).tolist()
     layout.meta["placement"] = report.as_dict()
     return layout, report
 
@@ -343,6 +363,9 @@ def lattice_patch(mod, angle: float, shift, centre, rad: float, limit: float | N
     shifted by ``shift`` (2,) fractions of a tiling cell; ``limit``: only modules whose taxels are
     all within this distance of the lattice origin. Raises InputError, naming the size, before building
     more than MAX_CANDIDATES modules."""
+    if not np.isfinite(rad):  # every size the fill asks for is bounded by its region: this is a bug, said once
+        raise InputError(f"the fill's lattice was asked for a region of unbounded size ({rad}); give a radius "
+                         "or a smaller region, and report the mesh and the start point", key="region")
     cell = abs(float(np.linalg.det(np.column_stack([mod.strip_period, mod.fill_row]))))
     est = (2 * rad + 4 * mod.radius) ** 2 / max(cell, 1e-300) * len(mod.strip)
     if est > MAX_CANDIDATES:
@@ -492,7 +515,11 @@ def _fill_island(prepared, preg, samples, start, direction, mod, radius, max_str
     poses, chart_of = latt.poses[kept], g.chart[kept]
     n_seam = 0
     if seam and len(kept):
-        sp, sc = close_seam(g, lambda s2, c, r: lattice_patch(mod, ang, (sh[0] + s2[0], sh[1] + s2[1]), c, r, radius),
+        # a chart whose map no face of the region contradicts has an infinite trusted radius (the
+        # UR10 forearm from three anchors): its seam candidates still lie in the island's lattice,
+        # within ``extent`` of the lattice origin
+        sp, sc = close_seam(g, lambda s2, c, r: lattice_patch(mod, ang, (sh[0] + s2[0], sh[1] + s2[1]), c,
+                                                              min(r, float(np.linalg.norm(c)) + extent), radius),
                             check, max_strain, SEAM_SHIFTS, avoid=avoid)
         n_seam = len(sp)
         poses, chart_of = np.concatenate([poses, sp]), np.concatenate([chart_of, sc])

@@ -146,6 +146,34 @@ def picture(robot, layouts, geometry, path, q=None) -> None:
     plt.close(fig)
 
 
+def _command_rows(out: Path, geometries, rows: list) -> None:
+    """``skin_command`` rows: ``vtcore robot skin`` (:func:`.skin_robot.skin_robot`) of every UR10 link with 1
+    and 2 workers: one row per link (its own wall and CPU seconds, peak memory) and one for the command."""
+    import os
+
+    from .skin_robot import skin_robot
+
+    urdf = _robot().path
+    for geometry in geometries:
+        for workers in (1, 2):
+            load0 = os.getloadavg()[0]
+            t0 = time.perf_counter()
+            rep = skin_robot(urdf, out / f"skin_{geometry}_{workers}", geometry=geometry, workers=workers, bars=False)
+            wall = time.perf_counter() - t0
+            done = [r for r in rep["links"] if r["status"] != "skipped"]
+            for r in done:
+                rows.append({"case": "skin_command", "geometry": geometry, "link": f"{r['link']} ({workers} workers)",
+                             "faces": r.get("faces"), "modules": r.get("modules"), "taxels": r.get("taxels"),
+                             "coverage": r.get("coverage"), "seconds": r.get("seconds"),
+                             "cpu_seconds": r.get("cpu_seconds"), "peak_mb": r.get("peak_mb"),
+                             "extra": r["status"] + (f": {r['reason']}" if r.get("reason") else "")})
+            rows.append({"case": "skin_command", "geometry": geometry, "link": f"whole command, {workers} workers",
+                         "modules": rep["modules"], "taxels": sum(r.get("taxels") or 0 for r in done),
+                         "seconds": wall, "cpu_seconds": sum(r.get("cpu_seconds") or 0 for r in done),
+                         "peak_mb": max([r.get("peak_mb") or 0 for r in done] + [0]),
+                         "extra": f"load {load0:.1f} at start, {os.getloadavg()[0]:.1f} at the end"})
+
+
 def run(out: Path, quick: bool = False, geometries=None) -> list[dict]:
     """Run the robot benchmark into ``out``; ``geometries``: which of the links' "collision" and
     "visual" meshes to skin (default: both; the quick run: collision)."""
@@ -177,6 +205,8 @@ def run(out: Path, quick: bool = False, geometries=None) -> list[dict]:
         if skins[geometry]:
             _export_rows(robot, skins[geometry], geometry, out, rows, quick)
     exposure_rows(rows, quick)
+    if not quick:  # the whole-robot command, the same links filled in parallel
+        _command_rows(out, kinds, rows)
     import os
 
     write_table(out, rows, title="Robot benchmark: the UR10 skinned from its URDF" + (" (quick)" if quick else ""),
