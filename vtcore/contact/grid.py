@@ -10,6 +10,9 @@ caches that keep what stays fixed along a trajectory.
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -258,13 +261,41 @@ def taxel_readings(layout, fld: ContactField, surface_pressure, layer, spread: b
     return surf, taxel_means(layout, fld, fld.stress, samples_per_taxel, radius)
 
 
+#: The clock of the open :func:`spread_timer` (None: spreading is not timed).
+_SPREAD_CLOCK: contextvars.ContextVar = contextvars.ContextVar("vtcore_spread_clock", default=None)
+
+
+@contextlib.contextmanager
+def spread_timer():
+    """Time every :func:`spread_field` call made inside the block, wherever it runs (a press, a probe,
+    a solver): yields ``{"seconds": float, "calls": int}``, filled as the calls return. A nested
+    timer takes the calls of its own block (a scene's soft_layer effect times its own)."""
+    clock = {"seconds": 0.0, "calls": 0}
+    token = _SPREAD_CLOCK.set(clock)
+    try:
+        yield clock
+    finally:
+        _SPREAD_CLOCK.reset(token)
+
+
 def spread_field(fld: ContactField, layer, spreading: str = "layer") -> np.ndarray:
     """Stress (Pa) at the layer's base under the surface pressure of ``fld``.
 
     layer : SoftLayer (or a thickness in metres, then Boussinesq is used).
     spreading : "layer" (exact base stress of the layer on its rigid base) or
-    "boussinesq" (half-space stress at depth h).
+    "boussinesq" (half-space stress at depth h). Timed by an open :func:`spread_timer`.
     """
+    t0 = time.perf_counter()
+    try:
+        return _spread(fld, layer, spreading)
+    finally:
+        clock = _SPREAD_CLOCK.get()
+        if clock is not None:
+            clock["seconds"] += time.perf_counter() - t0
+            clock["calls"] += 1
+
+
+def _spread(fld: ContactField, layer, spreading: str) -> np.ndarray:
     if not isinstance(layer, SoftLayer):
         h, nu, base, spreading = float(layer), 0.49, "bonded", "boussinesq"
     else:

@@ -30,7 +30,7 @@ from ...contact.finish import ResolutionWarning, resolution_warnings
 from ...contact.materials import LargeDeformationWarning, compression_note
 from ...plots import pyplot, skin_3d, taxel_map
 from ...tolerances import EPS
-from ..registry import TaskSpec, register_task
+from ..registry import CONTACT_EFFECTS, SENSOR_EFFECTS, TaskSpec, register_task
 from ..runner import TaskResult
 from ..budget import MAX_FORCE_N, check_frames
 from ..schema import Field, Section
@@ -340,4 +340,5 @@ def run(scene, ctx) -> TaskResult:
 
 
 register_task(TaskSpec("press", run, PARAMS, sections=("layout", "objects"),
+                       effects=CONTACT_EFFECTS + SENSOR_EFFECTS + ("can",),
                        doc="press an object at a target force (or mean response), or along keyframes"))
