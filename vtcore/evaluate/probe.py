@@ -220,7 +220,7 @@ def response_table(probe: Probe, layer, *, forces, spacing: float | None = None,
             bottomed = float(f)
             break
         fld = res.field
-        rows.append(disc_means(fld.stress, offs, spacing))
+        rows.append(disc_means(fld.stress if fld.stress is not None else fld.pressure, offs, spacing))
         kept.append(f)
         radius.append(float(np.sqrt(res.contact_area / np.pi)))
         xs, ys, prev = fld.x, fld.y, res

@@ -19,6 +19,8 @@ import time
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
+import numpy as np
+
 from ..contact.grid import spread_timer
 from ..errors import InputError
 from .notices import scene_key
@@ -108,6 +110,26 @@ def discover() -> None:
     _DISCOVERED = True
 
 
+def _readings(state):
+    """What an effect's ``apply`` works on, copied: ``(readings, keys)``, the array (or a state dict's
+    ``frames`` or ``pressure``) and the dict's keys (an effect may add an output: a displacement);
+    None when there is nothing to compare."""
+    x = state.get("frames", state.get("pressure")) if isinstance(state, dict) else state
+    keys = frozenset(state) if isinstance(state, dict) else frozenset()
+    try:
+        return (np.array(x, dtype=float, copy=True) if x is not None else np.zeros(0)), keys
+    except (TypeError, ValueError):
+        return None
+
+
+def _changed(before, after) -> bool:
+    """Whether ``apply`` changed its readings (or added an output), from two :func:`_readings`."""
+    if before is None or after is None or before[1] != after[1]:
+        return True
+    a, b = before[0], after[0]
+    return a.shape != b.shape or a.tobytes() != b.tobytes()
+
+
 class _Timed:
     """Proxy that adds the time spent in every method call to its effect's total."""
 
@@ -121,11 +143,15 @@ class _Timed:
 
         def timed(*args, **kwargs):
             t0 = time.perf_counter()
-            self._used.add(self._name)
+            before = _readings(args[0]) if attr == "apply" and args else None
             try:
                 # its warnings name the effect; a spreading inside it is its own time, not a solver's
                 with scene_key(f"effects.{self._name}"), spread_timer():
-                    return val(*args, **kwargs)
+                    out = val(*args, **kwargs)
+                # applied = changed what it was given (a floor of 0 on readings already >= 0 changes nothing)
+                if attr != "apply" or _changed(before, _readings(out)):
+                    self._used.add(self._name)
+                return out
             except InputError as exc:
                 if exc.file is not None or exc.key not in EFFECTS[self._name].params.fields:
                     raise

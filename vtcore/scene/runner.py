@@ -222,7 +222,8 @@ def _run(scene: Scene, out: Path, notes: Notices | None = None) -> dict:
                     plt.close(fig)
             figures.append(name)
     for name in ctx.pipeline.not_applied():
-        notes.add("listed but not applied in this run: it changed no output", key=f"effects.{name}")
+        notes.add("listed, but changed no output in this run (not applied, or applied with no effect on "
+                  "these readings)", key=f"effects.{name}")
     for name, bad in nonfinite_arrays(res.arrays, res.nan_meaning).items():
         notes.add(f"{bad} of its values are NaN or infinity (not a documented meaning of this array)",
                   key=f"arrays.{name}")
