@@ -48,7 +48,7 @@ def run(out: Path, quick: bool = False) -> list[dict]:
         return rows
     size = dict(per_object=12, epochs=4, cloud_points=128, points=3000) if quick else \
         dict(per_object=60, epochs=10, cloud_points=512, points=12000)
-    touches = (3,) if quick else (3, 7, 13)
+    touches = (3, 7, 13)  # >= 3 points per curve, quick or not
     scans = scans_series(size["points"])
     subs = object_subsamples(scans, 0, size=size["cloud_points"])
     scale = c_scale(scans)

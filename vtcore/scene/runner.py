@@ -1,9 +1,9 @@
 """Running a scene and writing its results (the results contract of DESIGN.md).
 
 ``DIR/result.json``: ``scene``, ``task``, ``seed``, ``effects`` (``[{"name",
-"seconds"}]`` in run order: the listed effects that changed an output, docs/inputs.md "The effect
-contract"), ``effects_not_applied`` (the listed ones that changed none), ``metrics`` (flat name -> number), ``versions``,
-``seconds``, ``arrays`` (name -> shape), ``figures``.
+"seconds"}]`` in run order: the listed effects that changed an output, docs/inputs.md "The
+effect contract"), ``effects_not_applied`` (the listed ones that changed none), ``metrics``
+(flat name -> number), ``versions``, ``seconds``, ``arrays`` (name -> shape), ``figures``.
 ``DIR/arrays.npz``: standard names (``positions``, ``normals``, ``timestamps``,
 ``frames``, ``pressure``, ``force``, ``edge``) where the task produces them.
 ``DIR/*.png`` and ``DIR/report.md``.
