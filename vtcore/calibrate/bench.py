@@ -18,6 +18,10 @@ import numpy as np
 from .._bench import save_png, write_table
 from ..errors import InputError
 
+#: What this benchmark measures its error against (the closing note of ``vtcore bench`` lists it).
+REFERENCE = ("the real CySkin recordings: each validate row's simulated footprint statistics against the "
+             "recorded ones (their IQR)")
+
 DONE = ("ring1", "ring2", "active", "minor_mm")
 
 

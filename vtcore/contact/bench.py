@@ -24,6 +24,10 @@ from .materials import SoftLayer
 from .objects import make_object
 from .press import ContactGrid, press_sequence
 
+#: What this benchmark measures its error against (the closing note of ``vtcore bench`` lists it).
+REFERENCE = ("a converged finite-layer run on a sphere of 16x the faces and a finer grid (none of the rows); "
+             "in peers.md the half-space against Hertz and the solver against tamaas and ContactMechanics")
+
 
 def _trajectory(layout, mesh, layer, frames):
     """Poses of the sphere sliding 10 mm along x across the patch's top, 1 mm into the layer."""

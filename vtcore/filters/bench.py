@@ -28,6 +28,9 @@ import numpy as np
 from .._bench import save_png, write_table
 from ..contact.analytic import footprint_pressure
 
+#: What this benchmark measures its error against (the closing note of ``vtcore bench`` lists it).
+REFERENCE = "the known edge (position and orientation) of synthetic line contacts"
+
 
 def _best(fn, repeat=5, number=None):
     """Best mean seconds per call over ``repeat`` rounds (auto-sized rounds of >= 20 ms)."""
