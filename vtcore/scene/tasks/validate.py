@@ -97,6 +97,9 @@ def run(scene, ctx) -> TaskResult:
     quant = ctx.pipeline.get("quantisation")
     sensor = Sensor(gain=gain.counts, sigma=sigma, clip=(sat.lo, sat.hi) if sat is not None else (-np.inf, np.inf),
                     step=quant.step if quant is not None else 0.0)
+    for name, fx in (("saturation", sat), ("quantisation", quant)):
+        if fx is not None:  # applied inside the validation's sensor model (their time is the validation's)
+            ctx.pipeline.add_time(name, 0.0)
     held = task["held_out"]
     if held is None:
         held = list(prof.response.fields.get("held_out", [])) if prof is not None and prof.response else []
