@@ -143,3 +143,36 @@ def test_every_task_declares_its_effects():
     known = set(registry.EFFECTS)
     for name, spec in registry.TASKS.items():
         assert set(spec.effects) <= known, name
+
+
+@pytest.mark.parametrize("scene_name, effect", [
+    ("category_3mm", "object_compliance"),      # categorize reads no displacement
+    ("classify_touches", "can"),                # no transport stage
+    ("path_following_bottle", "can"),
+    ("evaluate_hexagon", "gain"),               # its sensor is the task's own noise model
+    ("validate_cyskin_gesture", "baseline"),    # it was reported, and changed nothing
+    ("validate_cyskin_gesture", "drift"),
+])
+def test_tasks_refuse_what_they_cannot_apply_before_running(scene_name, effect, tmp_path):
+    path = ROOT / "scenes" / f"{scene_name}.toml"
+    try:
+        scene = load_scene(path, NOPLOT)
+    except VtError as exc:  # the recordings' folder is not in this checkout (shared/)
+        pytest.skip(f"{scene_name} does not load here: {exc}")
+    more = {**scene.effects, effect: registry.EFFECTS[effect].params.defaults()}
+    with pytest.raises(VtError) as exc:
+        run_scene(_with_effects(scene, more), tmp_path / "o")
+    msg = str(exc.value)
+    assert f"effects.{effect}" in msg and f"task '{scene.task}' cannot apply" in msg and "\n" not in msg
+    assert not (tmp_path / "o").exists()
+
+
+def test_validate_needs_soft_layer(tmp_path):
+    path = ROOT / "scenes" / "validate_cyskin_gesture.toml"
+    try:
+        scene = load_scene(path, NOPLOT)
+    except VtError as exc:
+        pytest.skip(f"validate_cyskin_gesture does not load here: {exc}")
+    fewer = {k: v for k, v in scene.effects.items() if k != "soft_layer"}
+    with pytest.raises(VtError, match=r"effects\.soft_layer"):
+        run_scene(_with_effects(scene, fewer), tmp_path / "o")
