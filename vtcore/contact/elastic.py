@@ -47,7 +47,7 @@ from functools import lru_cache
 import numpy as np
 
 from ..errors import InputError
-from .fft import Convolver
+from .fft import Convolver, one_blas_thread
 
 MODELS = ("local", "halfspace", "finite_layer")
 _RHO_MAX = 40.0  # layer kernel cut-off, in layer thicknesses
@@ -126,6 +126,11 @@ def base_transfer(kh, poisson, base="bonded"):
 @lru_cache(maxsize=16)
 def _layer_table(poisson: float, base: str = "bonded"):
     """rho (R,), F(rho) (R,) = int_0^20 (C(t) - 1) J0(t rho) dt, trapezoid on a fine t grid."""
+    with one_blas_thread():  # cached: the same bits whoever computes it first
+        return _layer_table_values(poisson, base)
+
+
+def _layer_table_values(poisson, base):
     from scipy.special import j0
 
     t = np.linspace(0.0, 20.0, 2001)  # 16 points per period of J0(t rho) at rho = 40
@@ -254,6 +259,11 @@ SPREADINGS = ("layer", "boussinesq")
 @lru_cache(maxsize=16)
 def _base_table(poisson: float, base: str):
     """rho (R,), G(rho) (R,) = int_0^30 T(t) J0(t rho) t dt: base stress x 2 pi h^2 per unit point load."""
+    with one_blas_thread():  # cached: the same bits whoever computes it first
+        return _base_table_values(poisson, base)
+
+
+def _base_table_values(poisson, base):
     from scipy.special import j0
 
     t = np.linspace(0.0, 30.0, 3001)  # T(t) ~ t exp(-t): nothing beyond 30
@@ -298,6 +308,11 @@ def spreading_kernel(shape, dx, dy, h, kind="boussinesq", poisson=0.49, base="bo
 @lru_cache(maxsize=8)
 def _cached_kernel(kind, shape, dx, dy, e, nu, h, base):
     """The (2 mx, 2 my) kernel behind an operator: shared by its precisions and truncations."""
+    with one_blas_thread():  # cached: the same bits whoever computes it first
+        return _kernel(kind, shape, dx, dy, e, nu, h, base)
+
+
+def _kernel(kind, shape, dx, dy, e, nu, h, base):
     from .materials import SoftLayer
 
     if kind.startswith("spread:"):

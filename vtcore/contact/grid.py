@@ -19,6 +19,7 @@ import numpy as np
 
 from ..errors import InputError
 from . import elastic
+from .fft import one_blas_thread
 from .materials import SoftLayer
 
 TAXEL_RADIUS = 2e-3  # m, CySkin taxels are 4 mm discs (seed 000, 001)
@@ -223,19 +224,26 @@ def taxel_sampler(layout, fld: ContactField, samples_per_taxel=7, radius=TAXEL_R
            int(samples_per_taxel), float(radius))
     a = _SAMPLER_CACHE.get(key)
     if a is None:
-        pts = fld.taxel_xy(layout)[:, None, :] + disc_offsets(samples_per_taxel, radius)[None, :, :]
-        a = bilinear_matrix(pts, fld.x, fld.y)
-        # on the plane, taxels facing away have no point above them; in the flat domain every
-        # taxel has its own patch of the layer
-        facing = nrm @ fld.n > 0.1 if not flat else np.ones(len(pos), bool)
-        if not facing.all():
-            from scipy.sparse import diags
-
-            a = (diags(facing.astype(float)) @ a).tocsr()
-            a.eliminate_zeros()
+        with one_blas_thread():  # cached: the same bits whoever computes it first
+            a = _sampler(layout, fld, samples_per_taxel, radius, pos, nrm, flat)
         if len(_SAMPLER_CACHE) > 32:
             _SAMPLER_CACHE.clear()
         _SAMPLER_CACHE[key] = a
+    return a
+
+
+def _sampler(layout, fld, samples_per_taxel, radius, pos, nrm, flat):
+    """The (N, mx*my) disc-averaging matrix behind :func:`taxel_sampler` (uncached)."""
+    pts = fld.taxel_xy(layout)[:, None, :] + disc_offsets(samples_per_taxel, radius)[None, :, :]
+    a = bilinear_matrix(pts, fld.x, fld.y)
+    # on the plane, taxels facing away have no point above them; in the flat domain every
+    # taxel has its own patch of the layer
+    facing = nrm @ fld.n > 0.1 if not flat else np.ones(len(pos), bool)
+    if not facing.all():
+        from scipy.sparse import diags
+
+        a = (diags(facing.astype(float)) @ a).tocsr()
+        a.eliminate_zeros()
     return a
 
 
