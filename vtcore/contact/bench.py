@@ -55,6 +55,24 @@ def _time_run(layout, mesh, poses, layer, repeat=3, **kw):
     return np.array([r.pressure for r in res]), best, best_cpu
 
 
+def _big_skin_row(mesh, layer, frames, rep) -> dict:
+    """The local model on a large skin (4,096 taxels on a flat 64 x 64 lattice, 2 mm grid), its error
+    against the finite layer at 1 mm on the same skin."""
+    from ..layout import Layout
+
+    i, j = np.meshgrid(np.arange(64), np.arange(64), indexing="ij")
+    pos = np.column_stack([(i.ravel() - 31.5) * 4e-3, (j.ravel() - 31.5) * 4e-3, np.zeros(i.size)])
+    big = Layout(pos, np.tile([0, 0, 1.0], (len(pos), 1)), np.arange(len(pos)), np.zeros(len(pos), int))
+    bp = _trajectory(big, mesh, layer, frames)
+    ref, _, _ = _time_run(big, mesh, bp, layer, repeat=1, model="finite_layer", grid=ContactGrid(spacing=1e-3),
+                          samples_per_taxel=1)
+    p, dt, cpu = _time_run(big, mesh, bp, layer, repeat=rep, model="local", grid=ContactGrid(spacing=2e-3),
+                           samples_per_taxel=1)
+    err = float(np.mean(np.linalg.norm(p - ref, axis=1) / np.maximum(np.linalg.norm(ref, axis=1), 1e-12)))
+    return {"model": "local", "taxels": len(big), "triangles": len(mesh.faces), "grid_mm": 2.0, "samples": 1,
+            "error": err, "ms_per_frame": dt * 1e3, "cpu_ms_per_frame": cpu * 1e3, "frames_per_s": 1.0 / dt}
+
+
 def run(out: Path, quick: bool = False, peers: bool = False) -> list[dict]:
     """Run the benchmark, write ``table.md``, ``table.csv``, ``accuracy_vs_time.png`` into ``out``, and
     the solver side by side (:mod:`vtcore.contact.peers`: ``peers.md``, ``time_vs_n.png``); with
@@ -97,22 +115,8 @@ def run(out: Path, quick: bool = False, peers: bool = False) -> list[dict]:
     rows.append({"model": "finite_layer (reference)", "taxels": len(layout), "triangles": len(ref_mesh.faces),
                  "grid_mm": ref_grid * 1e3, "samples": ref_samples, "error": float("nan"),
                  "ms_per_frame": ref_dt * 1e3, "cpu_ms_per_frame": ref_cpu * 1e3, "frames_per_s": 1.0 / ref_dt})
-    if not quick:  # the local model on a large skin: 4,096 taxels on a flat 64 x 64 lattice
-        from ..layout import Layout
-
-        i, j = np.meshgrid(np.arange(64), np.arange(64), indexing="ij")
-        pos = np.column_stack([(i.ravel() - 31.5) * 4e-3, (j.ravel() - 31.5) * 4e-3, np.zeros(i.size)])
-        big = Layout(pos, np.tile([0, 0, 1.0], (len(pos), 1)), np.arange(len(pos)), np.zeros(len(pos), int))
-        bp = _trajectory(big, mesh, layer, frames)
-        big_ref, _, _ = _time_run(big, mesh, bp, layer, repeat=1, model="finite_layer",
-                                  grid=ContactGrid(spacing=1e-3), samples_per_taxel=1)
-        p, dt, cpu = _time_run(big, mesh, bp, layer, repeat=rep, model="local", grid=ContactGrid(spacing=2e-3),
-                               samples_per_taxel=1)
-        big_norm = np.maximum(np.linalg.norm(big_ref, axis=1), 1e-12)
-        err = float(np.mean(np.linalg.norm(p - big_ref, axis=1) / big_norm))
-        rows.append({"model": "local", "taxels": len(big), "triangles": len(mesh.faces), "grid_mm": 2.0,
-                     "samples": 1, "error": err, "ms_per_frame": dt * 1e3, "cpu_ms_per_frame": cpu * 1e3,
-                     "frames_per_s": 1.0 / dt})
+    if not quick:
+        rows.append(_big_skin_row(mesh, layer, frames, rep))
 
     load = (load0, os.getloadavg()[0]) if hasattr(os, "getloadavg") else (float("nan"),) * 2
     write_table(out, rows, title=f"Contact benchmark ({'quick' if quick else 'full'})", notes=[

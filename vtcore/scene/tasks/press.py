@@ -196,6 +196,16 @@ _MESH_KEYS = {"sphere": "subdivisions", "cylinder": "sections", "halfcylinder": 
               "fingerpad": "sections"}
 
 
+def _resolution_notes(area, spacing, mesh, k, kind) -> list[str]:
+    """Warn (and return report lines) where the grid does not resolve the contact or resolves the
+    object's facets (:func:`vtcore.contact.finish.resolution_warnings`), naming the keys to change."""
+    lines = resolution_warnings(area, spacing, mesh, grid_key="layer.grid_spacing",
+                                mesh_key=f"objects[{k}].{_MESH_KEYS.get(kind, 'mesh')}")
+    for line in lines:
+        warnings.warn(line, ResolutionWarning, stacklevel=3)
+    return [f"**Warning:** {line}." for line in lines]
+
+
 def run(scene, ctx) -> TaskResult:
     if not scene["objects"]:
         raise scene.error("objects", "task 'press' needs at least one [[objects]] table")
@@ -328,10 +338,7 @@ def run(scene, ctx) -> TaskResult:
     notes = [f"Contact model `{opts['model']}`, layer {layer.thickness * 1e3:g} mm of {layer.material} "
              f"(E = {layer.young_modulus / 1e3:.1f} kPa, nu = {layer.poisson}; {layer.source}). "
              f"Mode: {mode}, {len(frames)} frames."]
-    for line in resolution_warnings(area, opts["grid"].spacing, mesh, grid_key="layer.grid_spacing",
-                                    mesh_key=f"objects[{k}].{_MESH_KEYS.get(obj['kind'], 'mesh')}"):
-        notes.append(f"**Warning:** {line}.")
-        warnings.warn(line, ResolutionWarning, stacklevel=2)
+    notes += _resolution_notes(area, opts["grid"].spacing, mesh, k, obj["kind"])
     big = compression_note(max(r.max_compression for r in results), layer.thickness, f"pressing {obj['name']}")
     if big:
         notes.append(f"**Warning:** {big}.")
