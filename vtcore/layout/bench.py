@@ -227,7 +227,7 @@ def _fill_rows(quick, on_row=None):
 
     # 1. face count, the side of a 72 mm x 200 mm link (about 100 modules)
     R, L = 0.072, 0.2
-    for faces in ((1000, 3000, 10_000) if quick else (1000, 10_000, 50_000, 100_000, 200_000)):
+    for faces in ((1000, 2000, 4000) if quick else (1000, 10_000, 50_000, 100_000, 200_000)):
         edge = float(np.sqrt(4 * np.pi * R * L / faces))
         mesh = cadmeshes.full_cylinder(R, L, edge)
         side = np.abs(mesh.face_normals[:, 2]) < 0.5
@@ -239,7 +239,7 @@ def _fill_rows(quick, on_row=None):
                 lambda: _fill_summary(*place(mesh, "hexagon", (R, 0, 0), (0, 1, 0))), acc="strain_max")
     # 2. region size on a 180 mm radius, 700 mm link of ~100k faces (module area ~490 mm2)
     big = cadmeshes.full_cylinder(0.18, 0.7, float(np.sqrt(4 * np.pi * 0.18 * 0.7 / (5_000 if quick else 100_000))))
-    for n_mod in ((10, 30, 100) if quick else (10, 100, 1000)):
+    for n_mod in ((10, 20, 40) if quick else (10, 100, 1000)):
         rad = float(np.sqrt(n_mod * 490e-6 / np.pi))
         row("fill_region", "grow", f"r=180 mm link, {len(big.faces)} faces, radius {1e3 * rad:.0f} mm", n_mod,
             lambda rad=rad: _fill_summary(*fill(big, (0.18, 0, 0), (0, 1, 0), radius=rad)))

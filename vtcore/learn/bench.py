@@ -49,7 +49,7 @@ def run(out: Path, quick: bool = False) -> list[dict]:
                     notes=["Not run: torch is not installed in this environment."])
         save_png(_not_run(str(exc)), out / "accuracy_vs_time.png")
         return rows
-    size = dict(per_object=12, epochs=4, cloud_points=128, points=3000) if quick else \
+    size = dict(per_object=6, epochs=2, cloud_points=128, points=3000) if quick else \
         dict(per_object=60, epochs=10, cloud_points=512, points=12000)
     touches = (3, 7, 13)  # >= 3 points per curve, quick or not
     scans = scans_series(size["points"])
