@@ -286,8 +286,11 @@ def render_report(scene: Scene, result: dict, res: TaskResult) -> str:
     if result["effects"]:
         lines += ["| effect | seconds |", "|---|---|"]
         lines += [f"| {e['name']} | {e['seconds']:.4f} |" for e in result["effects"]]
-    else:
+    elif not result.get("effects_not_applied"):
         lines.append("None listed: an ideal sensor, no soft layer, no noise.")
+    if result.get("effects_not_applied"):
+        lines += ["", "Listed but changing no output in this run: "
+                  + ", ".join(f"`{n}`" for n in result["effects_not_applied"]) + "."]
     lines.append("")
     if result.get("warnings"):
         lines += ["## Warnings", ""]
