@@ -48,6 +48,21 @@ def test_one_benchmark_and_an_outside_folder_make_one_report(tmp_path):
     assert "](can/accuracy_vs_time.png)" in report
     assert "](../elsewhere/blender/accuracy_vs_time.png)" in report
     assert (out / "can" / "accuracy_vs_time.png").is_file()
+    # the closing note: what the area's error is measured against (its module's REFERENCE)
+    from vtcore.can.bench import REFERENCE
+
+    assert report.index("## blender") < report.index("## What each area's error is measured against")
+    assert f"- **can**: {REFERENCE}" in report
+
+
+def test_every_area_names_its_reference():
+    import importlib
+
+    from vtcore.cli.bench import available
+
+    for name, module in available().items():
+        ref = getattr(importlib.import_module(module), "REFERENCE", None)
+        assert isinstance(ref, str) and ref, name
 
 
 def test_bad_names_are_one_clear_message(tmp_path):

@@ -55,6 +55,7 @@ samples_per_taxel = 3
 kind = "fingerpad"
 [task]
 recordings = {recordings}
+[effects.soft_layer]
 [effects.gain]
 counts_per_pa = 0.7
 [effects.noise]

@@ -24,7 +24,10 @@ def test_contour_scene_reports_every_method(tmp_path, scenes_dir, name):
         assert m[f"{method}_taps"] >= 2
         assert m[f"{method}_d_mean_mm"] <= m[f"{method}_d_max_mm"]
     assert m["mesh_d_mean_mm"] < 7.5  # below the taxel pitch
-    assert [e["name"] for e in res["effects"]] == ["gain", "noise", "saturation", "quantisation"]
+    # every listed effect is reported, applied or not (a floor of 0 on readings already >= 0 changes nothing)
+    listed = ["soft_layer", "gain", "noise", "saturation", "quantisation"]
+    assert [e["name"] for e in res["effects"]][:3] == listed[:3]
+    assert sorted([e["name"] for e in res["effects"]] + res["effects_not_applied"]) == sorted(listed)
     arrays = np.load(out / "arrays.npz")
     t, n = arrays["pressure"].shape
     assert arrays["frames"].shape == (t, n) and arrays["edge"].shape == (t, n) and arrays["edge"].dtype == bool

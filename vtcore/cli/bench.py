@@ -63,8 +63,18 @@ def section(folder: Path, name: str, link: str, seconds: float | None = None) ->
     return lines
 
 
-def write_report(out: Path, sections: list[list[str]], quick: bool) -> Path:
-    """Write ``out/README.md`` from the sections (atomically); return its path."""
+def closing_note(references: dict[str, str]) -> list[str]:
+    """The report's last section: what each area's error is measured against (its bench module's
+    ``REFERENCE``); an area that names none is said to."""
+    lines = ["## What each area's error is measured against", ""]
+    lines += [f"- **{n}**: {ref or 'no reference named (its bench module has no REFERENCE)'}"
+              for n, ref in references.items()]
+    return lines + [""]
+
+
+def write_report(out: Path, sections: list[list[str]], quick: bool, references: dict[str, str] | None = None) -> Path:
+    """Write ``out/README.md`` from the sections (atomically), closing with what each area's error is
+    measured against (``references``: area -> its REFERENCE); return its path."""
     from .._io import atomic_write
 
     head = ["# Benchmarks", "",
@@ -76,7 +86,8 @@ def write_report(out: Path, sections: list[list[str]], quick: bool) -> Path:
     out.mkdir(parents=True, exist_ok=True)
     path = out / "README.md"
     with atomic_write(path, "w", encoding="utf-8") as fh:
-        fh.write("\n".join(head + [ln for s in sections for ln in s]).rstrip("\n") + "\n")
+        tail = closing_note(references) if references else []
+        fh.write("\n".join(head + [ln for s in sections for ln in s] + tail).rstrip("\n") + "\n")
     return path
 
 
@@ -93,9 +104,10 @@ def cmd_bench(args) -> int:
         if not (d / TABLE).is_file():
             raise InputError(f"--with {d}: no {TABLE} there (run that benchmark first)")
     out = Path(args.out)
-    sections = []
+    sections, references = [], {}
     for n in names:
         module = importlib.import_module(benches[n])
+        references[n] = getattr(module, "REFERENCE", None)
         print(f"bench {n} ...", flush=True)
         t0 = time.perf_counter()
         # --peers goes only to the benchmarks that run other solvers side by side (contact)
@@ -106,7 +118,7 @@ def cmd_bench(args) -> int:
         # Linked relative to the report, wherever the folder is.
         rel = Path(os.path.relpath(d.resolve(), out.resolve())).as_posix()
         sections.append(section(d, d.name, rel))
-    path = write_report(out, sections, args.quick)
+    path = write_report(out, sections, args.quick, references)
     print(f"benchmarks written to {out}/ (report: {path})")
     return 0
 

@@ -39,6 +39,7 @@ from ..errors import InputError, UnreachableTargetError
 from . import elastic
 from .finish import check_compression, finish_press, footprint, moved, press_frame, require_contact, \
     travel_and_indentation
+from .fft import one_blas_thread
 from .grid import ContactField, digest, grid_cells
 from .proximity import envelope_posed
 from .roots import illinois
@@ -106,6 +107,16 @@ def unrolled_skin(layout, h, layer_extent, grid, taxel_radius):
     hit = _CACHE.get(key)
     if hit is not None:
         return hit
+    with one_blas_thread():  # cached: the same bits whoever computes it first
+        hit = _flat_values(flat, pos, nrm, h, layer_extent, grid, taxel_radius)
+    if len(_CACHE) > 8:
+        _CACHE.clear()
+    _CACHE[key] = hit
+    return hit
+
+
+def _flat_values(flat, pos, nrm, h, layer_extent, grid, taxel_radius):
+    """The flat grid's cells, outer-surface points, normals, area factor and skin mask (uncached)."""
     dx = grid.spacing
     lo = flat.min(axis=0) - taxel_radius - grid.margin
     hi = flat.max(axis=0) + taxel_radius + grid.margin
@@ -128,11 +139,7 @@ def unrolled_skin(layout, h, layer_extent, grid, taxel_radius):
     skin = np.ones((mx, my), bool)
     if extent is not None:
         skin &= np.hypot(X - centre[0], Y - centre[1]) <= extent
-    hit = {"x": X[:, 0], "y": Y[0], "X": X, "Y": Y, "pts": pts, "nrm": nr, "area_factor": area, "skin": skin}
-    if len(_CACHE) > 8:
-        _CACHE.clear()
-    _CACHE[key] = hit
-    return hit
+    return {"x": X[:, 0], "y": Y[0], "X": X, "Y": Y, "pts": pts, "nrm": nr, "area_factor": area, "skin": skin}
 
 
 def _local_force_travel(g, w, force):

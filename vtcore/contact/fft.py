@@ -34,6 +34,22 @@ import numpy as np
 THREADED_POINTS = 128 * 128
 
 
+def one_blas_thread():
+    """A context in which numpy's and scipy's BLAS run on one thread, for values that are cached.
+
+    A BLAS product's last bits depend on its thread count, and a cached value outlives the call
+    that computed it: the finite layer's Hankel tables computed by a direct ``press`` (all cores)
+    and then reused inside a scene run (one BLAS thread, ``vtcore.scene.runner``) gave that run
+    other bytes than a fresh process (up to 2e-10 Pa: the sweep benchmark's serial loop after the
+    contact benchmark, 0 of 4 points identical to dask). Every cache of the contact stage fills
+    itself under this context, so its values are the same whoever asks first.
+    """
+    import scipy.linalg  # noqa: F401  (loads scipy's own OpenBLAS, so it is limited too)
+    from threadpoolctl import threadpool_limits
+
+    return threadpool_limits(limits=1, user_api="blas")
+
+
 def workers() -> int:
     """Cores this process may use (its CPU affinity), for the FFT threads."""
     try:

@@ -10,12 +10,16 @@ caches that keep what stays fixed along a trajectory.
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
+import time
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..errors import InputError
 from . import elastic
+from .fft import one_blas_thread
 from .materials import SoftLayer
 
 TAXEL_RADIUS = 2e-3  # m, CySkin taxels are 4 mm discs (seed 000, 001)
@@ -220,19 +224,26 @@ def taxel_sampler(layout, fld: ContactField, samples_per_taxel=7, radius=TAXEL_R
            int(samples_per_taxel), float(radius))
     a = _SAMPLER_CACHE.get(key)
     if a is None:
-        pts = fld.taxel_xy(layout)[:, None, :] + disc_offsets(samples_per_taxel, radius)[None, :, :]
-        a = bilinear_matrix(pts, fld.x, fld.y)
-        # on the plane, taxels facing away have no point above them; in the flat domain every
-        # taxel has its own patch of the layer
-        facing = nrm @ fld.n > 0.1 if not flat else np.ones(len(pos), bool)
-        if not facing.all():
-            from scipy.sparse import diags
-
-            a = (diags(facing.astype(float)) @ a).tocsr()
-            a.eliminate_zeros()
+        with one_blas_thread():  # cached: the same bits whoever computes it first
+            a = _sampler(layout, fld, samples_per_taxel, radius, pos, nrm, flat)
         if len(_SAMPLER_CACHE) > 32:
             _SAMPLER_CACHE.clear()
         _SAMPLER_CACHE[key] = a
+    return a
+
+
+def _sampler(layout, fld, samples_per_taxel, radius, pos, nrm, flat):
+    """The (N, mx*my) disc-averaging matrix behind :func:`taxel_sampler` (uncached)."""
+    pts = fld.taxel_xy(layout)[:, None, :] + disc_offsets(samples_per_taxel, radius)[None, :, :]
+    a = bilinear_matrix(pts, fld.x, fld.y)
+    # on the plane, taxels facing away have no point above them; in the flat domain every
+    # taxel has its own patch of the layer
+    facing = nrm @ fld.n > 0.1 if not flat else np.ones(len(pos), bool)
+    if not facing.all():
+        from scipy.sparse import diags
+
+        a = (diags(facing.astype(float)) @ a).tocsr()
+        a.eliminate_zeros()
     return a
 
 
@@ -258,13 +269,41 @@ def taxel_readings(layout, fld: ContactField, surface_pressure, layer, spread: b
     return surf, taxel_means(layout, fld, fld.stress, samples_per_taxel, radius)
 
 
+#: The clock of the open :func:`spread_timer` (None: spreading is not timed).
+_SPREAD_CLOCK: contextvars.ContextVar = contextvars.ContextVar("vtcore_spread_clock", default=None)
+
+
+@contextlib.contextmanager
+def spread_timer():
+    """Time every :func:`spread_field` call made inside the block, wherever it runs (a press, a probe,
+    a solver): yields ``{"seconds": float, "calls": int}``, filled as the calls return. A nested
+    timer takes the calls of its own block (a scene's soft_layer effect times its own)."""
+    clock = {"seconds": 0.0, "calls": 0}
+    token = _SPREAD_CLOCK.set(clock)
+    try:
+        yield clock
+    finally:
+        _SPREAD_CLOCK.reset(token)
+
+
 def spread_field(fld: ContactField, layer, spreading: str = "layer") -> np.ndarray:
     """Stress (Pa) at the layer's base under the surface pressure of ``fld``.
 
     layer : SoftLayer (or a thickness in metres, then Boussinesq is used).
     spreading : "layer" (exact base stress of the layer on its rigid base) or
-    "boussinesq" (half-space stress at depth h).
+    "boussinesq" (half-space stress at depth h). Timed by an open :func:`spread_timer`.
     """
+    t0 = time.perf_counter()
+    try:
+        return _spread(fld, layer, spreading)
+    finally:
+        clock = _SPREAD_CLOCK.get()
+        if clock is not None:
+            clock["seconds"] += time.perf_counter() - t0
+            clock["calls"] += 1
+
+
+def _spread(fld: ContactField, layer, spreading: str) -> np.ndarray:
     if not isinstance(layer, SoftLayer):
         h, nu, base, spreading = float(layer), 0.49, "bonded", "boussinesq"
     else:

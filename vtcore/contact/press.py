@@ -31,6 +31,7 @@ from . import elastic
 from .curved import press_unrolled
 from .finish import (PressResult, check_compression, finish_press, footprint, moved, press_frame, require_contact,
                      travel_and_indentation)
+from .fft import one_blas_thread
 from .grid import TAXEL_RADIUS, ContactField, ContactGrid, digest, grid_cells
 from .materials import SoftLayer
 from .proximity import envelope_posed, prepared_mesh
@@ -109,6 +110,15 @@ def _skin_grid(layout, h, layer_extent, direction, grid, taxel_radius):
     hit = _SKIN_CACHE.get(key)
     if hit is not None:
         return hit
+    with one_blas_thread():  # cached: the same bits whoever computes it first
+        hit = _skin_values(layout, h, layer_extent, direction, grid, taxel_radius)
+    if len(_SKIN_CACHE) > 16:
+        _SKIN_CACHE.clear()
+    _SKIN_CACHE[key] = hit
+    return hit
+
+
+def _skin_values(layout, h, layer_extent, direction, grid, taxel_radius):
     u, n, e1, e2 = press_frame(layout, direction)
     pos = np.asarray(layout.positions, float)
     nrm = np.asarray(layout.normals, float)
@@ -137,12 +147,8 @@ def _skin_grid(layout, h, layer_extent, direction, grid, taxel_radius):
     if extent is not None:
         skin &= np.hypot(X, Y) <= extent
     pts = origin + X[..., None] * e1 + Y[..., None] * e2 + S[..., None] * n
-    hit = {"u": u, "n": n, "e1": e1, "e2": e2, "origin": origin, "x": X[:, 0], "y": Y[0], "X": X, "Y": Y, "S": S,
-           "skin": skin, "pts": pts}
-    if len(_SKIN_CACHE) > 16:
-        _SKIN_CACHE.clear()
-    _SKIN_CACHE[key] = hit
-    return hit
+    return {"u": u, "n": n, "e1": e1, "e2": e2, "origin": origin, "x": X[:, 0], "y": Y[0], "X": X, "Y": Y, "S": S,
+            "skin": skin, "pts": pts}
 
 
 def press(layout, mesh, pose, layer: SoftLayer, *, force=None, indentation=None, direction=None,

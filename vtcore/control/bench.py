@@ -26,6 +26,9 @@ import numpy as np
 
 from .._bench import save_png, write_table
 
+#: What this benchmark measures its error against (the closing note of ``vtcore bench`` lists it).
+REFERENCE = "the object's true contour (seed 002's d-bar and d_M)"
+
 SETUPS = (("seed002_planar", "ruler"), ("seed002_planar", "mug"),
           ("seed002_curved", "ruler"), ("seed002_curved", "mug"))
 METHODS = ("mesh", "image", "subtaxel")

@@ -31,7 +31,8 @@ class Settings:
     draws, seed : noise draws of the localisation map. two_point : compute it; two_point_spacing : m
     between its points (None: 2 x the sample spacing), step and max_separation of the separations,
     directions over half a turn. model, spreading, table_spacing, table_forces : the contact solve of
-    the table (its cell, m, and how many forces from 0.02 N to force_max, log-spaced).
+    the table (its cell, m, and how many forces from 0.02 N to force_max, log-spaced; spreading None:
+    the taxels read the surface pressure).
     dead : taxel ids that read nothing. probe_axis : (3,) the direction the probe's long axis (and the
     first two-point orientation) follows on the surface; None: on a mesh (:func:`evaluate`) the
     surface's flattest direction where it has one (a finger lies along a link, not across it), else
@@ -51,7 +52,7 @@ class Settings:
     max_separation: float = 0.05
     two_point_directions: int = 4
     model: str = "finite_layer"
-    spreading: str = "layer"
+    spreading: str | None = "layer"  # None: the taxels read the surface pressure (no soft_layer effect)
     table_spacing: float | None = None
     table_forces: int = 9
     dead: tuple = ()

@@ -172,7 +172,7 @@ def default_forces(reference: float, force_max: float, n: int = 9, force_min: fl
 
 
 def response_table(probe: Probe, layer, *, forces, spacing: float | None = None, model: str = "finite_layer",
-                   spreading: str = "layer", taxel_radius: float | None = None, disc_samples: int = 19,
+                   spreading: str | None = "layer", taxel_radius: float | None = None, disc_samples: int = 19,
                    reach: float | None = None) -> ResponseTable:
     """Press ``probe`` on a flat layer once per force and tabulate what a taxel reads around it.
 
@@ -213,13 +213,14 @@ def response_table(probe: Probe, layer, *, forces, spacing: float | None = None,
     offs = disc_offsets(disc_samples, taxel_radius)
     for f in forces:
         try:
-            res = press(one, mesh, pose0, flat, force=float(f), grid=grid, model=model, spreading=spreading,
+            res = press(one, mesh, pose0, flat, force=float(f), grid=grid, model=model,
+                        spread=spreading is not None, spreading=spreading or "layer",
                         samples_per_taxel=1, warm_start=prev)
         except UnreachableTargetError:
             bottomed = float(f)
             break
         fld = res.field
-        rows.append(disc_means(fld.stress, offs, spacing))
+        rows.append(disc_means(fld.stress if fld.stress is not None else fld.pressure, offs, spacing))
         kept.append(f)
         radius.append(float(np.sqrt(res.contact_area / np.pi)))
         xs, ys, prev = fld.x, fld.y, res

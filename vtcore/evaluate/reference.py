@@ -59,7 +59,8 @@ class Reference:
 def _press_kw(settings: Settings, grid_spacing: float, margin: float):
     from ..contact import ContactGrid
 
-    return {"model": settings.model, "spreading": settings.spreading, "samples_per_taxel": 19,
+    return {"model": settings.model, "spread": settings.spreading is not None,
+            "spreading": settings.spreading or "layer", "samples_per_taxel": 19,
             "grid": ContactGrid(spacing=grid_spacing, margin=margin)}
 
 

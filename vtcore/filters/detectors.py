@@ -38,6 +38,20 @@ def _check_frame(values, n):
     return v
 
 
+def _scaled_response(filt, v, peak, fraction, gmax, epsilon=None):
+    """Eq. 6 response (N,) of ``v`` (N,) and its Eq. 7 threshold, computed on ``v`` scaled by a power
+    of two near ``1 / peak`` and scaled back: exact (a power of two changes no mantissa) where the
+    frame is representable squared, and where it is not (a uniform frame of 1e160: peak^2
+    overflows) the mask is still right and the response is infinite, not an OverflowError."""
+    k = int(np.frexp(peak)[1]) if peak > 0 and np.isfinite(peak) else 0
+    r = filt(np.ldexp(v, -k))
+    eps = (float(relative_threshold(r, fraction, _FLOOR * gmax)) if epsilon is None
+           else float(np.ldexp(float(epsilon), -2 * k)))
+    mask = r > eps
+    with np.errstate(over="ignore"):
+        return np.ldexp(r, 2 * k), mask, float(np.ldexp(eps, 2 * k))
+
+
 class MeshEdgeDetector:
     """Seed 002's edge extraction on the skin mesh.
 
@@ -59,19 +73,14 @@ class MeshEdgeDetector:
         self.min_pressure = float(min_pressure)
         self._gmax = float(self.filter.g.max()) if self.filter.g.size else 0.0
 
-    def epsilon_for(self, response, peak):
-        if self.epsilon is not None:
-            return float(self.epsilon)
-        return float(relative_threshold(response, self.fraction, _FLOOR * peak**2 * self._gmax))
-
     def edges(self, values):
         """Eq. 6 response (N,) and Eq. 7 mask (N,) of one frame."""
         v = _check_frame(values, self.filter.n)
-        r = self.filter(v)
         peak = float(np.max(np.abs(v))) if v.size else 0.0
         if peak <= self.min_pressure or peak == 0.0:
-            return r, np.zeros(v.shape, dtype=bool)
-        return r, r > self.epsilon_for(r, peak)
+            return self.filter(v), np.zeros(v.shape, dtype=bool)
+        r, mask, _ = _scaled_response(self.filter, v, peak, self.fraction, self._gmax, self.epsilon)
+        return r, mask
 
     def detect(self, values) -> EdgeFeatures:
         r, mask = self.edges(values)
@@ -180,12 +189,12 @@ class SubtaxelEdgeDetector:
     def edges(self, values):
         v = _check_frame(values, self.n)
         fine = self.interpolated(v)
-        r = self.filter(fine)
         peak = float(np.max(np.abs(v))) if v.size else 0.0
         if peak <= self.min_pressure or peak == 0.0:
+            r = self.filter(fine)
             return fine, r, np.zeros(r.shape, dtype=bool), 0.0
-        eps = float(relative_threshold(r, self.fraction, _FLOOR * peak**2 * self._gmax))
-        return fine, r, r > eps, eps
+        r, mask, eps = _scaled_response(self.filter, fine, peak, self.fraction, self._gmax)
+        return fine, r, mask, eps
 
     def detect(self, values) -> EdgeFeatures:
         fine, r, mask, eps = self.edges(values)

@@ -18,6 +18,10 @@ import numpy as np
 
 from .._bench import best_time, in_child, save_png, write_table
 
+#: What this benchmark measures its error against (the closing note of ``vtcore bench`` lists it).
+REFERENCE = ("the exported skins as yourdfpy and MuJoCo load them: distance to the link's mesh, angle to its "
+             "normal")
+
 GOALS = ("Goals (issue 25): every UR10 link skinned from its URDF in < 60 s in all; merged URDF and MJCF export < 5 s. "
          "(issue 33): exposure of every G1 link (visual) at the zero pose and 32 sampled configurations < 20 s; "
          "adds < 20 % to a link's fill.")

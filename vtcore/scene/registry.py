@@ -19,12 +19,18 @@ import time
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
+import numpy as np
+
+from ..contact.grid import spread_timer
 from ..errors import InputError
 from .notices import scene_key
 from .schema import Field, Section
 
 #: Stages in the order data passes through them.
 STAGES = ("contact", "sensor", "transport")
+#: The effects of each stage, for the tasks' declarations of what they can apply (TaskSpec.effects).
+CONTACT_EFFECTS = ("soft_layer", "object_compliance")
+SENSOR_EFFECTS = ("gain", "baseline", "drift", "noise", "saturation", "quantisation", "sampling")
 
 
 @dataclass
@@ -61,6 +67,9 @@ class TaskSpec:
     sections: tuple[str, ...] = ()
     doc: str = ""
     sweep_summary: Callable | None = None
+    #: the effects the task can apply (the effect contract, docs/inputs.md): a scene listing any other
+    #: is refused naming the effect and the task
+    effects: tuple[str, ...] = ()
 
 
 SECTIONS: dict[str, Field] = {}
@@ -101,11 +110,31 @@ def discover() -> None:
     _DISCOVERED = True
 
 
+def _readings(state):
+    """What an effect's ``apply`` works on, copied: ``(readings, keys)``, the array (or a state dict's
+    ``frames`` or ``pressure``) and the dict's keys (an effect may add an output: a displacement);
+    None when there is nothing to compare."""
+    x = state.get("frames", state.get("pressure")) if isinstance(state, dict) else state
+    keys = frozenset(state) if isinstance(state, dict) else frozenset()
+    try:
+        return (np.array(x, dtype=float, copy=True) if x is not None else np.zeros(0)), keys
+    except (TypeError, ValueError):
+        return None
+
+
+def _changed(before, after) -> bool:
+    """Whether ``apply`` changed its readings (or added an output), from two :func:`_readings`."""
+    if before is None or after is None or before[1] != after[1]:
+        return True
+    a, b = before[0], after[0]
+    return a.shape != b.shape or a.tobytes() != b.tobytes()
+
+
 class _Timed:
     """Proxy that adds the time spent in every method call to its effect's total."""
 
-    def __init__(self, name, obj, totals):
-        self._name, self._obj, self._totals = name, obj, totals
+    def __init__(self, name, obj, totals, used):
+        self._name, self._obj, self._totals, self._used = name, obj, totals, used
 
     def __getattr__(self, attr):
         val = getattr(self._obj, attr)
@@ -114,9 +143,15 @@ class _Timed:
 
         def timed(*args, **kwargs):
             t0 = time.perf_counter()
+            before = _readings(args[0]) if attr == "apply" and args else None
             try:
-                with scene_key(f"effects.{self._name}"):  # its warnings name the effect
-                    return val(*args, **kwargs)
+                # its warnings name the effect; a spreading inside it is its own time, not a solver's
+                with scene_key(f"effects.{self._name}"), spread_timer():
+                    out = val(*args, **kwargs)
+                # applied = changed what it was given (a floor of 0 on readings already >= 0 changes nothing)
+                if attr != "apply" or _changed(before, _readings(out)):
+                    self._used.add(self._name)
+                return out
             except InputError as exc:
                 if exc.file is not None or exc.key not in EFFECTS[self._name].params.fields:
                     raise
@@ -135,11 +170,15 @@ class Pipeline:
     on ``state`` (each effect's ``apply`` returns the new state);
     ``pipeline.get(name)`` returns a listed effect (timed) or ``None``, for
     effects that a model consults rather than applies (a soft layer).
+    An effect counts as applied once any of its methods runs, or once
+    :meth:`add_time` adds work done for it elsewhere (a spreading inside a solver);
+    :meth:`report` lists only the applied ones, :meth:`not_applied` the others.
     """
 
     def __init__(self, listed: dict[str, dict], ctx=None):
         discover()
         self.seconds: dict[str, float] = {}
+        self.used: set[str] = set()
         self._effects: dict[str, _Timed] = {}
         order = sorted(listed, key=lambda n: (STAGES.index(EFFECTS[n].stage), EFFECTS[n].order, n))
         for name in order:
@@ -147,7 +186,7 @@ class Pipeline:
             t0 = time.perf_counter()
             obj = EFFECTS[name].factory(listed[name], ctx)
             self.seconds[name] += time.perf_counter() - t0
-            self._effects[name] = _Timed(name, obj, self.seconds)
+            self._effects[name] = _Timed(name, obj, self.seconds, self.used)
 
     @property
     def names(self) -> list[str]:
@@ -167,6 +206,24 @@ class Pipeline:
             state = self._effects[name].apply(state, ctx)
         return state
 
+    def add_time(self, name: str, seconds: float) -> None:
+        """Count ``seconds`` of work done for the listed effect ``name`` outside its own methods."""
+        self.seconds[name] += float(seconds)
+        self.used.add(name)
+
     def report(self) -> list[dict]:
-        """``[{"name", "seconds"}]`` in the order the effects run."""
-        return [{"name": n, "seconds": round(self.seconds[n], 6)} for n in self._effects]
+        """``[{"name", "seconds"}]`` of the applied effects, in the order they run (construction included)."""
+        return [{"name": n, "seconds": round(self.seconds[n], 6)} for n in self._effects if n in self.used]
+
+    def not_applied(self) -> list[str]:
+        """The listed effects that changed nothing in this run (never applied)."""
+        return [n for n in self._effects if n not in self.used]
+
+
+def check_task_effects(task: TaskSpec, listed, error) -> None:
+    """Refuse a listed effect the task cannot apply: ``error(key, message)`` builds the one-line error."""
+    for name in listed:
+        if name not in task.effects:
+            can = ", ".join(task.effects) or "none"
+            raise error(f"effects.{name}", f"task '{task.name}' cannot apply the effect '{name}' (it applies: "
+                                           f"{can}); remove [effects.{name}]")

@@ -1,8 +1,9 @@
 """Running a scene and writing its results (the results contract of DESIGN.md).
 
 ``DIR/result.json``: ``scene``, ``task``, ``seed``, ``effects`` (``[{"name",
-"seconds"}]`` in run order), ``metrics`` (flat name -> number), ``versions``,
-``seconds``, ``arrays`` (name -> shape), ``figures``.
+"seconds"}]`` in run order: the listed effects that changed an output, docs/inputs.md "The
+effect contract"), ``effects_not_applied`` (the listed ones that changed none), ``metrics``
+(flat name -> number), ``versions``, ``seconds``, ``arrays`` (name -> shape), ``figures``.
 ``DIR/arrays.npz``: standard names (``positions``, ``normals``, ``timestamps``,
 ``frames``, ``pressure``, ``force``, ``edge``) where the task produces them.
 ``DIR/*.png`` and ``DIR/report.md``.
@@ -28,6 +29,7 @@ from .._io import atomic_write, check_terminated, save_npz, sigterm_held, write_
 from ..errors import Cancelled, VtError
 from ..inputs import check_output_dir, os_error
 from .._progress import progress
+from ..contact.grid import spread_timer
 from . import registry
 from .loader import Scene, load_scene
 from .notices import Notices, warnings_of
@@ -196,10 +198,13 @@ def _run_staged(scene: Scene, out, notes) -> dict:
 def _run(scene: Scene, out: Path, notes: Notices | None = None) -> dict:
     t0 = time.perf_counter()
     ctx = RunContext(scene=scene, pipeline=None, out=out, rng=np.random.default_rng(scene.seed))
-    ctx.pipeline = registry.Pipeline(scene.effects, ctx)
     task = registry.TASKS[scene.task]
-    with single_threaded_blas():
+    registry.check_task_effects(task, scene.effects, scene.error)
+    ctx.pipeline = registry.Pipeline(scene.effects, ctx)
+    notes = notes if notes is not None else Notices(scene.path)
+    with single_threaded_blas(), spread_timer() as spread:
         res: TaskResult = task.run(scene, ctx)
+    _count_spreading(ctx.pipeline, spread, notes)
     seconds = time.perf_counter() - t0
 
     figures = []
@@ -217,7 +222,9 @@ def _run(scene: Scene, out: Path, notes: Notices | None = None) -> dict:
                     fig.savefig(fh, format="png", dpi=120, bbox_inches="tight")
                     plt.close(fig)
             figures.append(name)
-    notes = notes if notes is not None else Notices(scene.path)
+    for name in ctx.pipeline.not_applied():
+        notes.add("listed, but changed no output in this run (not applied, or applied with no effect on "
+                  "these readings)", key=f"effects.{name}")
     for name, bad in nonfinite_arrays(res.arrays, res.nan_meaning).items():
         notes.add(f"{bad} of its values are NaN or infinity (not a documented meaning of this array)",
                   key=f"arrays.{name}")
@@ -230,6 +237,7 @@ def _run(scene: Scene, out: Path, notes: Notices | None = None) -> dict:
         "task": scene.task,
         "seed": scene.seed,
         "effects": ctx.pipeline.report(),
+        "effects_not_applied": ctx.pipeline.not_applied(),
         "metrics": _clean_metrics(res.metrics),
         "versions": versions(),
         "seconds": round(seconds, 4),
@@ -245,6 +253,19 @@ def _run(scene: Scene, out: Path, notes: Notices | None = None) -> dict:
     with atomic_write(out / "report.md", "w", encoding="utf-8") as fh:
         fh.write(render_report(scene, result, res))
     return result
+
+
+def _count_spreading(pipeline, clock: dict, notes) -> None:
+    """Count the stress spread through the layer inside solvers and probers (``clock``, from
+    :func:`~vtcore.contact.grid.spread_timer`) as the soft_layer effect's work; spreading without
+    ``[effects.soft_layer]`` breaks the effect contract and is said, not hidden."""
+    if not clock["calls"]:
+        return
+    if pipeline.has("soft_layer"):
+        pipeline.add_time("soft_layer", clock["seconds"])
+    else:
+        notes.add(f"the task spread the stress through the layer {clock['calls']} times without "
+                  "[effects.soft_layer] (a bug of the task: please report it)", key="effects.soft_layer")
 
 
 def render_report(scene: Scene, result: dict, res: TaskResult) -> str:
@@ -265,8 +286,11 @@ def render_report(scene: Scene, result: dict, res: TaskResult) -> str:
     if result["effects"]:
         lines += ["| effect | seconds |", "|---|---|"]
         lines += [f"| {e['name']} | {e['seconds']:.4f} |" for e in result["effects"]]
-    else:
+    elif not result.get("effects_not_applied"):
         lines.append("None listed: an ideal sensor, no soft layer, no noise.")
+    if result.get("effects_not_applied"):
+        lines += ["", "Listed but changing no output in this run: "
+                  + ", ".join(f"`{n}`" for n in result["effects_not_applied"]) + "."]
     lines.append("")
     if result.get("warnings"):
         lines += ["## Warnings", ""]

@@ -33,6 +33,9 @@ from pathlib import Path
 
 from .._bench import save_png, write_table
 
+#: What this benchmark measures its error against (the closing note of ``vtcore bench`` lists it).
+REFERENCE = "the serial loop's arrays.npz, byte for byte"
+
 #: The benchmark's points: the demo press at 16 forces on a 0.12 mm contact grid (about 0.6 s of CPU each
 #: once a process is warm; 0.05 s on the scene's own 1 mm grid).
 SETS = ["output.plots=false", "layer.grid_spacing=0.00012"]

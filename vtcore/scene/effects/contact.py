@@ -80,3 +80,16 @@ register_effect(EffectSpec("object_compliance", "contact", 20, ObjectCompliance,
     "default_stiffness": Field("float", default=5000.0, ge=STIFFNESS_N_M[0], le=STIFFNESS_N_M[1], unit="N/m",
                                doc="stiffness of objects whose table gives none")}),
     doc="object's local stiffness in series with the layer"))
+
+
+def spread_options(pipeline) -> dict:
+    """``press()`` keywords of the listed ``soft_layer`` effect: spread the stress through the layer only
+    when the scene lists ``[effects.soft_layer]``, with its kernel (and its samples per taxel, if set).
+    Tasks that press through vtcore.contact.press pass these instead of press's own default (spread)."""
+    fx = pipeline.get("soft_layer")
+    if fx is None:
+        return {"spread": False}
+    kw = {"spread": True, "spreading": fx.kernel}
+    if fx.samples:
+        kw["samples_per_taxel"] = fx.samples
+    return kw

@@ -18,7 +18,7 @@ from ...augment import (ClusterPropagation, GPPropagation, ProbeModel, SmoothPro
 from ...augment.experiment import probe_object
 from ...augment.objects import OBJECTS
 from ...augment.plots import augmented_panels, touch_sequence
-from ..registry import TaskSpec, register_task
+from ..registry import CONTACT_EFFECTS, SENSOR_EFFECTS, TaskSpec, register_task
 from ..runner import TaskResult
 from ..schema import Field, Section
 
@@ -41,9 +41,9 @@ PARAMS = Section({
                              doc="series probe: soft layer under the probe, in series with the object"),
     "response_noise": Field("float", default=5.0, ge=0, doc="series probe: counts, std of the averaged p̄"),
     "probe_noise": Field("bool", default=True,
-                         doc="measure each touch's displacement as a robot does: position noise and late "
-                             "contact detection (vtcore.augment.probe_noise); a non-physical touch is "
-                             "repeated, then rejected and replaced, and counted"),
+                         doc="with [effects.noise] listed, measure each touch's displacement as a robot does: "
+                             "position noise and late contact detection (vtcore.augment.probe_noise); a "
+                             "non-physical touch is repeated, then rejected and replaced, and counted"),
     "position_noise": Field("float", default=5e-5, ge=0, unit="m",
                             doc="std of each measured robot position (assumption: the order of a Franka "
                                 "Panda's 0.1 mm pose repeatability)"),
@@ -108,18 +108,22 @@ PROBE_NOISE_KEYS = ("probe_noise", "position_noise", "approach_speed", "detect_k
 def probe_noise(scene, ctx):
     """The :class:`~vtcore.augment.probe_noise.ProbeNoise` of the scene's probes, or None.
 
-    The detection threshold uses the per-taxel noise of the scene's listed ``noise``
-    effect (the one p̄ is read through), else the measured skin noise
-    (:func:`~vtcore.augment.probe_noise.skin_noise`). Returns ``(noise, sigma, source)``.
+    The detection threshold uses the per-taxel noise of the scene's listed ``noise`` effect (the
+    one p̄ is read through). Without ``[effects.noise]`` the probes are noise-free: the effect
+    contract (docs/inputs.md) computes no effect a scene does not list, so the measured CySkin
+    noise is ``[effects.noise] profile = "cyskin"``, not a fallback. Returns ``(noise, sigma, source)``
+    (``noise`` None when no probe noise is simulated; ``sigma`` 0 without [effects.noise]).
     """
-    from ...augment.probe_noise import ProbeNoise, SkinNoise, skin_noise
+    from ...augment.probe_noise import ProbeNoise, SkinNoise
 
     p = scene["task"]
     listed = ctx.pipeline.get("noise")
-    skin = SkinNoise(float(listed.sigma), p["detect_k"], "the scene's [effects.noise]") if listed is not None \
-        else SkinNoise(skin_noise().sigma, p["detect_k"], skin_noise().source)
+    if listed is None:
+        return None, 0.0, "none: the scene lists no [effects.noise]"
+    skin = SkinNoise(float(listed.sigma), p["detect_k"], "the scene's [effects.noise]")
     if not p["probe_noise"]:
         return None, skin.sigma, skin.source
+    ctx.pipeline.add_time("noise", 0.0)  # the probes' noise is the listed effect's (timed inside the probes)
     noise = ProbeNoise.from_skin(skin, position_sigma=p["position_noise"], approach_speed=p["approach_speed"],
                                  retries=p["probe_retries"])
     noise.min_displacement = max(noise.expected(probe_floor(scene, ctx), p["target_response"]), 0.0)
@@ -256,4 +260,5 @@ def run(scene, ctx) -> TaskResult:
                       files=files)
 
 
-register_task(TaskSpec("augment", run, PARAMS, doc="seed 000: probe an object, propagate tactile colours"))
+register_task(TaskSpec("augment", run, PARAMS, effects=CONTACT_EFFECTS + SENSOR_EFFECTS,
+                       doc="seed 000: probe an object, propagate tactile colours"))

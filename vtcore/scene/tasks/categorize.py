@@ -22,6 +22,7 @@ on every reading.
 
 from __future__ import annotations
 
+import time
 import warnings
 
 import numpy as np
@@ -34,7 +35,7 @@ from ...categorize.variants import variant_grid, variant_sweep, variants_summary
 from ...contact.materials import LargeDeformationWarning, compression_note
 from ...errors import UnreachableTargetError
 from ...tolerances import EPS
-from ..registry import TaskSpec, register_task
+from ..registry import SENSOR_EFFECTS, TaskSpec, register_task
 from ..runner import TaskResult
 from ..budget import MAX_FORCE_N
 from ..schema import Field, Section
@@ -248,12 +249,22 @@ def _variant_sensor(ctx, rate, p_half):
     from ...contact.sensor import gain
 
     listed = ctx.pipeline.get("gain")
-    cpp = listed.counts_per_pa if listed is not None else 1.0
+    if listed is None:
+        if not p_half:
+            return _sensor(ctx, rate)
+        # a transfer curve is a gain's: applying one (at 1 count/Pa) the scene does not list broke the
+        # effect contract (docs/inputs.md)
+        raise ctx.scene.error("effects.gain", f"a sensor variant with p_half {p_half:g} Pa (task.variant_p_halfs / "
+                                              "task.jitter_p_halfs) is a gain's transfer curve: list [effects.gain] "
+                                              "or keep only p_half 0 (linear, the listed sensor)")
+    cpp = listed.counts_per_pa
 
     def apply(block):
-        # gain runs first in a read-out (effect order 10); when the scene lists none, the
-        # variants still differ by their transfer, so it is applied here all the same.
-        state = {"frames": gain(block, cpp, p_half), "timestamps": np.arange(len(block)) / rate}
+        # gain runs first in a read-out (effect order 10), replaced here by the variant's transfer
+        t0 = time.perf_counter()
+        frames = gain(block, cpp, p_half)
+        ctx.pipeline.add_time("gain", time.perf_counter() - t0)  # the listed gain's slope, the variant's curve
+        state = {"frames": frames, "timestamps": np.arange(len(block)) / rate}
         for name in ctx.pipeline.stage("sensor"):
             if name != "gain":
                 state = ctx.pipeline.get(name).apply(state, ctx)
@@ -729,7 +740,9 @@ def sweep_summary(scene, rows, keys) -> str:
 
 
 register_task(TaskSpec("categorize", run, PARAMS, sections=("objects",),
+                       effects=("soft_layer",) + SENSOR_EFFECTS,
                        doc="seed 001: tactile images, PCA + K-Means categories, 7 tasks, resolution study",
                        sweep_summary=sweep_summary))
 register_task(TaskSpec("categorize_sweep", run_sweep, SWEEP_PARAMS, sections=("objects",),
+                       effects=("soft_layer",) + SENSOR_EFFECTS,
                        doc="soft-layer designer: which layer thickness solves which task"))

@@ -20,7 +20,7 @@ from ...errors import InputError
 from ...learn import datasets as D
 from ...learn.experiment import PAPER_TABLE1, active_vs_random, touches_to_reach, train_and_test, train_mixed
 from ...plots import png_writer
-from ..registry import TaskSpec, register_task
+from ..registry import CONTACT_EFFECTS, SENSOR_EFFECTS, TaskSpec, register_task
 from ..runner import TaskResult
 from ..schema import Field, Section
 from .augment import PARAMS as AUGMENT
@@ -287,5 +287,5 @@ def _active_table(av, p) -> str:
     return "\n".join(lines)
 
 
-register_task(TaskSpec("classify", run, PARAMS,
+register_task(TaskSpec("classify", run, PARAMS, effects=CONTACT_EFFECTS + SENSOR_EFFECTS,
                        doc="seed 000: PointNet on augmented clouds against the number of touches (needs torch)"))

@@ -21,7 +21,7 @@ import time
 import numpy as np
 
 from ...plots import png_writer, pyplot
-from ..registry import TaskSpec, register_task
+from ..registry import SENSOR_EFFECTS, TaskSpec, register_task
 from ..runner import TaskResult
 from ..budget import MAX_FORCE_N
 from ..schema import Field, Section
@@ -121,6 +121,7 @@ def run(scene, ctx) -> TaskResult:
     from ...control.contour import (PressContact, believed_skin, random_starts, seed002_object,
                                     taxel_position_error)
     from ...layout import skin_mesh
+    from ..effects.contact import spread_options
     from ..sections.layer import build_layer, layer_options
 
     p = scene["task"]
@@ -152,7 +153,8 @@ def run(scene, ctx) -> TaskResult:
         if layer.thickness <= 0:
             raise scene.error("layer.thickness", "the contour task presses through a soft layer: must be > 0 m")
         sense = PressContact(layout, make_object(spec[0], **spec[1]), obj_world, layer, force=p["force"],
-                             lift=p["lift"], active_depth=p["active_depth"], **layer_options(scene))
+                             lift=p["lift"], active_depth=p["active_depth"],
+                             **{**layer_options(scene), **spread_options(ctx.pipeline)})
         n_active = len(sense.active)
     else:
         sense = AnalyticContact(layout.positions, contour, force=p["force"], depth=layer.thickness)
@@ -341,5 +343,5 @@ def _edges_figure(layout, detectors, runs_by_method):
     return fig
 
 
-register_task(TaskSpec("contour", run, PARAMS, sections=("layer",),
+register_task(TaskSpec("contour", run, PARAMS, sections=("layer",), effects=("soft_layer",) + SENSOR_EFFECTS,
                        doc="seed 002 tapping contour following with the mesh, image and sub-taxel edge filters"))

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...tolerances import LENGTH_TOL
-from ..registry import TaskSpec, register_task
+from ..registry import SENSOR_EFFECTS, TaskSpec, register_task
 from ..runner import TaskResult
 from ..budget import MAX_FORCE_N
 from ..schema import Field, Section
@@ -37,6 +37,7 @@ def run(scene, ctx) -> TaskResult:
     from ...contact import make_object, press
     from ...filters import EdgeFilter, MeshEdgeDetector
     from ...layout import skin_mesh
+    from ..effects.contact import spread_options
     from ..sections.layer import build_layer, layer_options
     from .contour import control_skin
 
@@ -56,8 +57,9 @@ def run(scene, ctx) -> TaskResult:
         s.apply_translation([0.0, 0.0, 2 * f["radius"] + layer.thickness + 0.005])
         parts.append(s)
     obj = trimesh.util.concatenate(parts)
+    # the stress spreads through the layer only with [effects.soft_layer] (the effect contract)
     res = press(layout, obj, np.eye(4), layer, force=p["force"], direction=[0.0, 0.0, -1.0],
-                **layer_options(scene))
+                **{**layer_options(scene), **spread_options(ctx.pipeline)})
     pressure = np.broadcast_to(res.pressure, (p["readings"], len(layout))).copy()
     frames = np.asarray(ctx.pipeline.apply("sensor", pressure.copy(), ctx))
     ef = EdgeFilter(mesh)
@@ -118,4 +120,5 @@ def _figure(layout, frame, response, edge, name):
 
 
 register_task(TaskSpec("edge_press", run, PARAMS, sections=("layer",),
+                       effects=("soft_layer",) + SENSOR_EFFECTS,
                        doc="press fingertips on a skin and show the seed 002 edge filter (Fig. 1)"))

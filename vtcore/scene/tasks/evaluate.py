@@ -57,8 +57,9 @@ PARAMS = Section({
 })
 
 
-def settings_of(scene, layout, rng):
-    """(Settings, SensorNoise, dead ids) from the scene's ``[task]`` and ``[layer]`` tables."""
+def settings_of(scene, layout, rng, spread=None):
+    """(Settings, SensorNoise, dead ids) from the scene's ``[task]`` and ``[layer]`` tables; ``spread``:
+    the listed soft_layer effect (its kernel spreads the stress to the taxels) or None (surface pressure)."""
     from ...evaluate import Probe, Settings, sensor_noise
 
     t = scene["task"]
@@ -87,6 +88,7 @@ def settings_of(scene, layout, rng):
                   two_point=t["two_point"], two_point_spacing=t["two_point_spacing"],
                   two_point_step=t["two_point_step"], max_separation=t["max_separation"],
                   two_point_directions=t["directions"], model=layer.get("model", "finite_layer"),
+                  spreading=spread.kernel if spread is not None else None,
                   dead=tuple(sorted(set(dead))), table_spacing=t["table_spacing"], table_forces=t["table_forces"],
                   probe_axis=None if t["probe_axis"] is None else _direction(t["probe_axis"]))
     return st, noise
@@ -143,7 +145,7 @@ def run(scene, ctx) -> TaskResult:
     mesh = build_end_effector(scene)
     layout = build_layout(scene)
     layer = build_layer(scene)
-    st, noise = settings_of(scene, layout, ctx.child_rng("taxels"))
+    st, noise = settings_of(scene, layout, ctx.child_rng("taxels"), ctx.pipeline.get("soft_layer"))
     try:
         dm = evaluate(layout, mesh, layer, st, noise, spacing=t["spacing"], margin=t["margin"])
     except ValueError as exc:
@@ -216,5 +218,5 @@ def sweep_summary(scene, rows, grid_keys) -> str:
     return "\n".join(["### Designs side by side (covered surface)", "", markdown_table(table), ""])
 
 
-register_task(TaskSpec("evaluate", run, PARAMS, sections=(), doc="design maps: detection, localisation, "
+register_task(TaskSpec("evaluate", run, PARAMS, sections=(), effects=("soft_layer",), doc="design maps: detection, localisation, "
                        "two-point discrimination and blind spots of a skin (issue 29)", sweep_summary=sweep_summary))

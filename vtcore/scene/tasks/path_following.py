@@ -26,7 +26,7 @@ from ...errors import InputError
 from ...inputs import need_time
 from ...plots import pyplot
 from ..budget import CONTACT_FRAME_S
-from ..registry import TaskSpec, register_task
+from ..registry import CONTACT_EFFECTS, SENSOR_EFFECTS, TaskSpec, register_task
 from ..runner import TaskResult
 from ..schema import Field, Section
 from ..sections.layer import build_layer, layer_options
@@ -68,7 +68,7 @@ PARAMS = Section({
     "noise": Field("float", default=None, ge=0,
                    doc="counts, read noise of one taxel in the loop (added per taxel, clipped at 0, with the "
                        "contact plant; divided by sqrt(10) on the mean with the series plant); default the "
-                       "scene's [effects.noise] sigma, else the measured CySkin noise (sensor profile)"),
+                       "scene's [effects.noise] sigma, else none"),
     "overshoot_threshold": Field("float", default=100.0, ge=0,
                                  doc="counts: an excursion larger than this that crosses the set-point counts its "
                                      "excursion past it as an overshoot"),
@@ -169,16 +169,15 @@ def run(scene, ctx) -> TaskResult:
 
 
 def loop_noise(scene, ctx, p) -> tuple[float, str]:
-    """Per-taxel read noise (counts) of the loop and where it comes from."""
-    from ...augment.probe_noise import skin_noise
-
+    """Per-taxel read noise (counts) of the loop and where it comes from: ``task.noise``, else the
+    listed ``[effects.noise]``, else none (no effect the scene does not list; docs/inputs.md)."""
     if p["noise"] is not None:
         return float(p["noise"]), "task.noise"
     listed = ctx.pipeline.get("noise")
     if listed is not None:
+        ctx.pipeline.add_time("noise", 0.0)  # read by the loop (its time is the loop's)
         return float(listed.sigma), "the scene's [effects.noise]"
-    measured = skin_noise()
-    return measured.sigma, measured.source
+    return 0.0, "none (no task.noise, no [effects.noise])"
 
 
 def stations(p, z0, layout) -> np.ndarray:
@@ -269,5 +268,5 @@ def _figure(runs, probed, preds, start, end, radial, p):
     return fig
 
 
-register_task(TaskSpec("path_following", run, PARAMS,
+register_task(TaskSpec("path_following", run, PARAMS, effects=CONTACT_EFFECTS + SENSOR_EFFECTS,
                        doc="seed 000 Fig. 9: path following with the Eq. 5 force set-point"))

@@ -26,10 +26,11 @@ import warnings
 import numpy as np
 
 from ...contact import press, press_sequence, probe
+from ...contact.finish import ResolutionWarning, resolution_warnings
 from ...contact.materials import LargeDeformationWarning, compression_note
 from ...plots import pyplot, skin_3d, taxel_map
 from ...tolerances import EPS
-from ..registry import TaskSpec, register_task
+from ..registry import CONTACT_EFFECTS, SENSOR_EFFECTS, TaskSpec, register_task
 from ..runner import TaskResult
 from ..budget import MAX_FORCE_N, check_frames
 from ..schema import Field, Section
@@ -161,7 +162,8 @@ def _profile_figure(cut, title):
 
 
 def _edge_step(layout, values):
-    """Largest neighbour-to-neighbour difference on the skin mesh, over the largest value.
+    """Largest neighbour-to-neighbour difference on the skin mesh, over the readings' range (from 0 or the
+    most negative reading up to the largest): a fraction in [0, 1].
 
     skin_mesh meshes any layout (one taxel, a line, repeated positions), so an error
     from it is a real one and reaches the user instead of a silent NaN metric.
@@ -172,7 +174,10 @@ def _edge_step(layout, values):
     vmax = float(np.max(values)) if len(values) else 0.0
     if len(e) == 0 or vmax <= 0:
         return 0.0
-    return float(np.abs(values[e[:, 0]] - values[e[:, 1]]).max() / vmax)
+    # over the range down to the most tensile reading (a frictionless base's taxels can read below 0):
+    # the same as over the largest value where no reading is negative, and never above 1
+    span = vmax - min(float(np.min(values)), 0.0)
+    return float(np.abs(values[e[:, 0]] - values[e[:, 1]]).max() / span)
 
 
 def halfmax_diameter(fld, values=None) -> float:
@@ -184,6 +189,21 @@ def halfmax_diameter(fld, values=None) -> float:
         return 0.0
     area = float((v >= 0.5 * vmax).sum()) * fld.spacing**2
     return 2.0 * np.sqrt(area / np.pi)
+
+
+#: The object key that sets how finely an object kind's curved surface is tessellated.
+_MESH_KEYS = {"sphere": "subdivisions", "cylinder": "sections", "halfcylinder": "sections", "mug": "sections",
+              "fingerpad": "sections"}
+
+
+def _resolution_notes(area, spacing, mesh, k, kind) -> list[str]:
+    """Warn (and return report lines) where the grid does not resolve the contact or resolves the
+    object's facets (:func:`vtcore.contact.finish.resolution_warnings`), naming the keys to change."""
+    lines = resolution_warnings(area, spacing, mesh, grid_key="layer.grid_spacing",
+                                mesh_key=f"objects[{k}].{_MESH_KEYS.get(kind, 'mesh')}")
+    for line in lines:
+        warnings.warn(line, ResolutionWarning, stacklevel=3)
+    return [f"**Warning:** {line}." for line in lines]
 
 
 def run(scene, ctx) -> TaskResult:
@@ -318,6 +338,7 @@ def run(scene, ctx) -> TaskResult:
     notes = [f"Contact model `{opts['model']}`, layer {layer.thickness * 1e3:g} mm of {layer.material} "
              f"(E = {layer.young_modulus / 1e3:.1f} kPa, nu = {layer.poisson}; {layer.source}). "
              f"Mode: {mode}, {len(frames)} frames."]
+    notes += _resolution_notes(area, opts["grid"].spacing, mesh, k, obj["kind"])
     big = compression_note(max(r.max_compression for r in results), layer.thickness, f"pressing {obj['name']}")
     if big:
         notes.append(f"**Warning:** {big}.")
@@ -326,4 +347,5 @@ def run(scene, ctx) -> TaskResult:
 
 
 register_task(TaskSpec("press", run, PARAMS, sections=("layout", "objects"),
+                       effects=CONTACT_EFFECTS + SENSOR_EFFECTS + ("can",),
                        doc="press an object at a target force (or mean response), or along keyframes"))

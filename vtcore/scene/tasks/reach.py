@@ -21,7 +21,7 @@ from ...control.link_skin import LinkSkin
 from ...control.reach import CONTROLLERS, Obstacle, check_steps, influence_radii, reach
 from ...layout.io import MAX_COORDINATE_M
 from ...plots import pyplot
-from ..registry import TaskSpec, register_task
+from ..registry import CONTACT_EFFECTS, SENSOR_EFFECTS, TaskSpec, register_task
 from ..runner import TaskResult
 from ..schema import Field, Section
 from ..sections.layer import build_layer
@@ -160,15 +160,16 @@ def run(scene, ctx) -> TaskResult:
 
 
 def link_skin(scene, ctx, p) -> tuple[LinkSkin, str]:
-    """The link's skin: the scene's [layer], its listed gain and noise (else the measured CySkin noise)."""
-    from ...augment.probe_noise import skin_noise
-
+    """The link's skin: the scene's [layer], its listed gain (else ``task.counts_per_pa``) and listed
+    noise (else none: no effect the scene does not list, docs/inputs.md)."""
     layer = build_layer(scene)
     gain = ctx.pipeline.get("gain")
     listed = ctx.pipeline.get("noise")
-    measured = skin_noise()
     sigma, source = (float(listed.sigma), "the scene's [effects.noise]") if listed is not None \
-        else (measured.sigma, measured.source)
+        else (0.0, "none (no [effects.noise])")
+    for name, fx in (("gain", gain), ("noise", listed)):
+        if fx is not None:
+            ctx.pipeline.add_time(name, 0.0)  # read by the link model (its time is the controllers')
     return LinkSkin(radius=p["link_radius"], length=p["skin_length"], thickness=layer.thickness,
                     e_star=layer.e_star, counts_per_pa=gain.counts_per_pa if gain is not None else p["counts_per_pa"],
                     noise=sigma, detect_k=p["detect_k"]), source
@@ -257,5 +258,5 @@ def _figure(runs, clouds, obstacles, eps, m, p):
     return fig
 
 
-register_task(TaskSpec("reach", run, PARAMS,
+register_task(TaskSpec("reach", run, PARAMS, effects=CONTACT_EFFECTS + SENSOR_EFFECTS,
                        doc="seed 000 Fig. 10: reaching in clutter with Eqs. 6-7 beside the reactive and impedance baselines"))

@@ -69,6 +69,11 @@ def run(scene, ctx) -> TaskResult:
     if gain is None or noise is None:
         raise scene.error("effects", "task 'validate' needs [effects.gain] and [effects.noise] (the transfer "
                                      "curve, and the noise that both detects contact and is simulated)")
+    spread = ctx.pipeline.get("soft_layer")
+    if spread is None or spread.kernel != "layer":
+        # every simulated press spreads the stress with the layer's own kernel, as the gain was fitted
+        raise scene.error("effects.soft_layer", "task 'validate' reads the stress spread through the layer (the "
+                                                "gain is fitted so): list [effects.soft_layer] with kernel = \"layer\"")
     layout = build_layout(scene)
     prof = getattr(gain, "profile_obj", None)
     if task["indenter_from_profile"]:
@@ -92,6 +97,9 @@ def run(scene, ctx) -> TaskResult:
     quant = ctx.pipeline.get("quantisation")
     sensor = Sensor(gain=gain.counts, sigma=sigma, clip=(sat.lo, sat.hi) if sat is not None else (-np.inf, np.inf),
                     step=quant.step if quant is not None else 0.0)
+    for name, fx in (("saturation", sat), ("quantisation", quant)):
+        if fx is not None:  # applied inside the validation's sensor model (their time is the validation's)
+            ctx.pipeline.add_time(name, 0.0)
     held = task["held_out"]
     if held is None:
         held = list(prof.response.fields.get("held_out", [])) if prof is not None and prof.response else []
@@ -102,7 +110,7 @@ def run(scene, ctx) -> TaskResult:
     notes: list[str] = []
     v = validate(paths, layout, layer=layer, indenter=indenter, sensor=sensor, rng=ctx.child_rng("validate-noise"),
                  k=k, conform=task["conform"], held_out=held, grid=opts["grid"],
-                 samples_per_taxel=opts["samples_per_taxel"], warn=notes.append)
+                 samples_per_taxel=spread.samples or opts["samples_per_taxel"], warn=notes.append)
     arrays = {"positions": layout.positions, "normals": layout.normals, "taxel_ids": layout.taxel_ids,
               "real": v.real, "sim": v.sim, "noise_sigma": sigma, "pressure": v.pressure, "force": v.force,
               "compression": v.compression, "recording": v.recording, "frame": v.frame, "held_out": v.held_out,
@@ -139,4 +147,5 @@ def _table(m: dict) -> str:
 
 
 register_task(TaskSpec("validate", run, PARAMS, sections=("layout", "layer"),
+                       effects=("soft_layer", "gain", "noise", "saturation", "quantisation"),
                        doc="compare the sensor model with real recordings, press by press"))
