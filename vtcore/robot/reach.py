@@ -25,10 +25,17 @@ CHUNK = 2_000_000
 def exit_distance(hull, origins, directions) -> np.ndarray:
     """(N,) metres: where the line ``origins + t directions`` (N, 3) each, unit) leaves the convex
     ``hull`` (a trimesh), as ``t`` (negative: the hull lies behind the origin); nan where the line
-    misses it. The hull as half-spaces n.x <= d, one per face (coplanar faces repeat a plane)."""
+    misses it (:func:`crossing`)."""
+    return crossing(hull, origins, directions)[1]
+
+
+def crossing(hull, origins, directions) -> tuple[np.ndarray, np.ndarray]:
+    """``(t_enter, t_exit)``, (N,) metres each: where the line ``origins + t directions`` ((N, 3) each,
+    unit) enters and leaves the convex ``hull`` (a trimesh); nan where it misses. The hull as
+    half-spaces n.x <= d, one per face (coplanar faces repeat a plane)."""
     n = np.asarray(hull.face_normals, dtype=np.float64)
     d = np.einsum("ij,ij->i", n, np.asarray(hull.triangles, dtype=np.float64)[:, 0])
-    out = np.full(len(origins), np.nan)
+    out, into = np.full(len(origins), np.nan), np.full(len(origins), np.nan)
     step = max(1, CHUNK // max(len(n), 1))
     for k in range(0, len(origins), step):
         a = origins[k:k + step] @ n.T - d  # > 0: outside that face's plane
@@ -40,23 +47,79 @@ def exit_distance(hull, origins, directions) -> np.ndarray:
         parallel_out = ((np.abs(b) <= 1e-12) & (a > 1e-9)).any(axis=1)
         hit = (t_enter <= t_exit + 1e-9) & ~parallel_out & np.isfinite(t_exit)
         out[k:k + step] = np.where(hit, t_exit, np.nan)
-    return out
+        into[k:k + step] = np.where(hit, t_enter, np.nan)
+    return into, out
 
 
-def contact_reach(robot: Robot, link: str, positions, normals) -> np.ndarray:
-    """(N,) metres: where along each taxel's normal line (positions, normals (N, 3) in the link
-    frame) the link's colliding geometry ends as MuJoCo collides it (the convex hull of each
-    collision element; primitives are convex): positive above the taxel, negative below it (a taxel
-    laid on a visual mesh outside the collision hull), the outermost where several overlap; 0 where
-    none ends within :data:`REACH_MAX`."""
-    from .meshes import geometry_mesh
-
+def reach_to(parts, positions, normals) -> tuple[np.ndarray, np.ndarray]:
+    """``(reach (N,) metres, met (N,) bool)``: where along each taxel's normal line (positions,
+    normals (N, 3), the parts' frame) the convex ``parts`` (trimeshes) end: positive above the taxel,
+    negative below it, the outermost where several overlap; ``met`` where some part ends within
+    :data:`REACH_MAX` (elsewhere reach is 0)."""
     p = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
     u = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
     u = u / np.linalg.norm(u, axis=1, keepdims=True)
     reach = np.full(len(p), -np.inf)
-    for g in robot.link(link).collisions:
-        t = exit_distance(geometry_mesh(g, robot).convex_hull, p, u)
+    for part in parts:
+        t = exit_distance(part, p, u)
         near = np.abs(t) <= REACH_MAX  # nan compares False
         reach[near] = np.maximum(reach[near], t[near])
-    return np.where(np.isfinite(reach), reach, 0.0)
+    met = np.isfinite(reach)
+    return np.where(met, reach, 0.0), met
+
+
+def collision_hulls(robot: Robot, link: str) -> list:
+    """The link's colliding geometry as MuJoCo collides it: each collision element's convex hull."""
+    from .meshes import geometry_mesh
+
+    return [geometry_mesh(g, robot).convex_hull for g in robot.link(link).collisions]
+
+
+def contact_reach(robot: Robot, link: str, positions, normals, parts=None) -> np.ndarray:
+    """(N,) metres: where along each taxel's normal line (positions, normals (N, 3) in the link
+    frame) the link's colliding geometry ends as MuJoCo collides it (``parts``, convex trimeshes;
+    default the convex hull of each collision element, :func:`collision_hulls`): positive above the
+    taxel, negative below it (a taxel laid on a visual mesh outside the collision hull), the outermost
+    where several overlap; 0 where none ends within :data:`REACH_MAX`."""
+    return reach_to(collision_hulls(robot, link) if parts is None else parts, positions, normals)[0]
+
+
+#: metres: a probe comes from this far out along a taxel's normal (a fingertip's reach over the skin); a
+#: geom of another body on that line, or of the link itself farther out, takes the touch instead
+PROBE_M = 0.02
+#: MuJoCo geom group the check parks non-colliding geoms in, out of its rays' way
+_IGNORED_GROUP = 5
+
+
+def unreadable_sites(model_path, sites) -> dict:
+    """Which of the touch sites ``sites`` (names) of the MJCF at ``model_path`` cannot read, at the
+    zero pose: site name -> why. Each site is probed by MuJoCo's own ray (``mj_ray``, colliding geoms
+    only) from :data:`PROBE_M` out along its axis towards it; it reads when the first geom hit is of
+    the site's own body and the hit lies within the site's height (a touch sensor counts the contacts
+    of its body inside its volume). A miss: "nothing collides along its normal", "covered by BODY",
+    or the contact surface this far from the taxel."""
+    import mujoco
+
+    m = mujoco.MjModel.from_xml_path(str(model_path))
+    d = mujoco.MjData(m)
+    mujoco.mj_kinematics(m, d)
+    colliding = (m.geom_contype != 0) | (m.geom_conaffinity != 0)
+    m.geom_group[:] = np.where(colliding, 0, _IGNORED_GROUP)
+    groups = np.array([1, 0, 0, 0, 0, 0], dtype=np.uint8)
+    hit = np.zeros(1, dtype=np.int32)
+    out = {}
+    for name in sites:  # one C call per site: mj_ray has no batch over origins
+        k = m.site(name).id
+        p, n = d.site_xpos[k], d.site_xmat[k].reshape(3, 3)[:, 2]
+        dist = mujoco.mj_ray(m, d, p + PROBE_M * n, -n, groups, 1, -1, hit)
+        if hit[0] < 0 or dist > PROBE_M + m.site_size[k][2]:  # mj_ray's line goes on past the taxel
+            out[name] = "nothing of its link collides within its site along its normal"
+            continue
+        body = int(m.geom_bodyid[hit[0]])
+        if body != int(m.site_bodyid[k]):
+            out[name] = f"covered by {m.body(body).name}"
+            continue
+        s = PROBE_M - dist  # the contact surface's height over the taxel along its normal
+        if abs(s) > m.site_size[k][2]:
+            out[name] = f"its link's contact surface is {s * 1e3:.1f} mm along its normal, beyond its site"
+    return out
