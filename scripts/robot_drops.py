@@ -21,7 +21,7 @@ import numpy as np
 ROBOTS = {
     "g1": ("g1_description/urdf/g1_29dof_with_hand_rev_1_0.urdf",
            [("left_wrist_roll_link", "visual"), ("left_elbow_link", "visual"), ("left_hand_palm_link", "visual"),
-            ("torso_link", "visual")]),
+            ("right_elbow_link", "visual"), ("right_wrist_roll_link", "visual")]),
     "allegro": ("allegro_hand_description/urdf/allegro_right_hand.urdf",
                 [("link_7.0_tip", "collision"), ("palm_link", "visual"), ("link_2.0", "visual"),
                  ("link_9.0", "visual")]),
