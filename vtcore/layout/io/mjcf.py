@@ -145,7 +145,8 @@ def add_skin(layout: Layout, parent: ET.Element, sensor: ET.Element, *, position
         pad (its own body's contact surface) is raised to just above it.
     pad_radius : m, the ``"taxel"`` footprint's pads at most this wide (None: each covers its share
         of the skin, :func:`cover_radii`; a robot export's pads stay under their own taxel, so that a wide
-        pad on a curved link does not stand over its neighbours).
+        pad on a curved link does not stand over its neighbours; the site then stays centred on its taxel,
+        the taxel's frame on the link, and reaches over the pad).
     Returns the site names in taxel order.
     """
     if footprint not in FOOTPRINTS:
@@ -182,6 +183,8 @@ def add_skin(layout: Layout, parent: ET.Element, sensor: ET.Element, *, position
                           size=f"{_fmt(cover[k])} {_fmt(h)}", density="0", contype="1", conaffinity="1",
                           rgba="0.85 0.85 0.8 1")
         half = (h if pad else 0.0) + abs(reach[k]) + SITE_MARGIN  # the link's contact surface within it
+        if pad_radius is not None and pad:  # a robot's taxel frame stays on its link: the site reaches the pad's top
+            centre, half = p, half + h
         ET.SubElement(parent, "site", name=name, type="cylinder", pos=_vec(centre), zaxis=_vec(n),
                       size=f"{_fmt(r_taxel)} {_fmt(half)}", rgba=green)
     for name in names:
