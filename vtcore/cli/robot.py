@@ -80,6 +80,11 @@ def cmd_export(args) -> int:
             why = r["unreadable_why"]
             shown = "; ".join(f"{n}: {why[n]}" for n in bad[:8]) + (f"; ... ({len(bad)} in all)" if len(bad) > 8 else "")
             print(f"  {len(bad)} of {r['taxels']} taxels on {r['link']!r} cannot read: {shown}")
+        some = r.get("covered_at_some_poses") or {}
+        if some:
+            first = next(iter(some))
+            print(f"  {len(some)} more read at the zero pose but not at some joint configurations ({first}: "
+                  f"{some[first]})")
     return 0
 
 

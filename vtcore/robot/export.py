@@ -31,7 +31,7 @@ from ..layout.io import mjcf as mjcf_io
 from ..layout.io import urdf as urdf_io
 from ..layout.io.common import identifier, read_robot_xml
 from .model import Robot
-from .reach import contact_reach, unreadable_sites
+from .reach import POSES, contact_reach, unreadable_sites
 
 FORMATS = ("urdf", "mjcf")
 #: kg m^2: MuJoCo's compiler refuses an inertia with an eigenvalue under this (mjMINVAL; iCub's
@@ -285,9 +285,10 @@ def export_skinned(robot_path, layouts, out, *, format: str | None = None, prefi
     mjcf_io.relative_contact_files(tree.getroot(), contact_geoms, out.parent)
     mjcf_io.write_tree(tree, out)
     for rec, names in zip(records, sites):  # MuJoCo's own rays judge the written model
-        bad = unreadable_sites(out, names)
+        bad, some = unreadable_sites(out, names, poses=POSES)
         rec["unreadable"] = [n for n in names if n in bad]
         rec["unreadable_why"] = bad
+        rec["covered_at_some_poses"] = some  # read at the zero pose, not at some of POSES random ones
     return records
 
 

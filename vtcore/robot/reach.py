@@ -91,25 +91,60 @@ PROBE_M = 0.02
 _IGNORED_GROUP = 5
 
 
-def unreadable_sites(model_path, sites) -> dict:
+#: joint configurations (seeded, uniform within the limits) the export also probes every site at
+POSES = 8
+
+
+def unreadable_sites(model_path, sites, poses: int = 0, seed: int = 0):
     """Which of the touch sites ``sites`` (names) of the MJCF at ``model_path`` cannot read, at the
     zero pose: site name -> why. Each site is probed by MuJoCo's own ray (``mj_ray``, colliding geoms
     only) from :data:`PROBE_M` out along its axis towards it; it reads when the first geom hit is of
     the site's own body and the hit lies within the site's height (a touch sensor counts the contacts
-    of its body inside its volume). A miss: "nothing collides along its normal", "covered by BODY",
-    or the contact surface this far from the taxel."""
+    of its body inside its volume). A miss: nothing of its link within its site, "covered by BODY",
+    or the contact surface this far from the taxel.
+
+    poses : also probe at this many seeded random configurations (hinge and slide joints uniform within
+    their limits, +-pi where unlimited); then returns ``(at_zero, at_some)``: the zero pose's dict and
+    site name -> why for the sites that read at the zero pose but not at some of those poses."""
     import mujoco
 
     m = mujoco.MjModel.from_xml_path(str(model_path))
     d = mujoco.MjData(m)
-    mujoco.mj_kinematics(m, d)
     colliding = (m.geom_contype != 0) | (m.geom_conaffinity != 0)
     m.geom_group[:] = np.where(colliding, 0, _IGNORED_GROUP)
+    ids = np.array([m.site(name).id for name in sites], dtype=int)
+    zero = _probe(m, d, ids, m.qpos0)
+    if not poses:
+        return zero
+    rng = np.random.default_rng(seed)
+    some: dict = {}
+    for _ in range(poses):
+        some.update({k: v for k, v in _probe(m, d, ids, _random_qpos(m, rng)).items() if k not in zero})
+    return zero, {name: some[name] for name in sites if name in some}
+
+
+def _random_qpos(m, rng) -> np.ndarray:
+    import mujoco
+
+    q = m.qpos0.copy()
+    for j in range(m.njnt):
+        if m.jnt_type[j] in (mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE):
+            lo, hi = m.jnt_range[j] if m.jnt_limited[j] else (-np.pi, np.pi)
+            q[m.jnt_qposadr[j]] = rng.uniform(lo, hi)
+    return q
+
+
+def _probe(m, d, ids, qpos) -> dict:
+    """site name -> why it cannot read, at the joint positions ``qpos`` (see :func:`unreadable_sites`)."""
+    import mujoco
+
+    d.qpos[:] = qpos
+    mujoco.mj_kinematics(m, d)
     groups = np.array([1, 0, 0, 0, 0, 0], dtype=np.uint8)
     hit = np.zeros(1, dtype=np.int32)
     out = {}
-    for name in sites:  # one C call per site: mj_ray has no batch over origins
-        k = m.site(name).id
+    for k in ids:  # one C call per site: mj_ray has no batch over origins
+        name = m.site(k).name
         p, n = d.site_xpos[k], d.site_xmat[k].reshape(3, 3)[:, 2]
         dist = mujoco.mj_ray(m, d, p + PROBE_M * n, -n, groups, 1, -1, hit)
         if hit[0] < 0 or dist > PROBE_M + m.site_size[k][2]:  # mj_ray's line goes on past the taxel
