@@ -3,9 +3,13 @@
 - URDF robot -> URDF: one fixed link per taxel under the layout's link (``vtcore.layout.io.urdf``).
 - MJCF robot -> MJCF: sites and touch sensors in the link's body (``vtcore.layout.io.mjcf``),
   pads as the layout export has them; a body defined in an ``<include>``d file is written inline.
-- In MJCF, each site reaches the link's contact surface as MuJoCo collides it, a mesh geom's
-  convex hull, up to 8 mm over a UR10 link's mesh (:mod:`.reach`): a ball resting on the hull
-  above a taxel is counted by that taxel.
+- In MJCF, a skinned link whose colliding geometry does not hug its skin (a mesh's convex hull 8 mm
+  over a UR10 forearm's, the Allegro palm's box around its visual mesh) collides by convex parts that
+  follow the surface the skin lies on instead (:mod:`.contact_geometry`: CoACD, cut under the taxels,
+  with taxel-sized pads); each site reaches that contact surface (:mod:`.reach`). MuJoCo's own rays
+  then probe every site of the written model at the zero pose and 8 seeded configurations: each
+  record names the taxels that cannot read (``unreadable``, ``unreadable_why``) and those a
+  neighbour covers at some poses (``covered_at_some_poses``).
 - URDF robot -> MJCF: the robot converted by MuJoCo's own URDF import (``MjSpec``: every link a
   body of the same name, joints with their limits, collision meshes; COLLADA collision meshes, which
   MuJoCo does not read, converted to STL beside the output), then the skin added as above.
