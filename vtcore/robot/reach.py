@@ -87,6 +87,12 @@ def contact_reach(robot: Robot, link: str, positions, normals, parts=None) -> np
 #: metres: a probe comes from this far out along a taxel's normal (a fingertip's reach over the skin); a
 #: geom of another body on that line, or of the link itself farther out, takes the touch instead
 PROBE_M = 0.02
+#: metres: the probe is a ball this wide (a 20 g steel ball, 8.5 mm): rays round the axis at this radius find a
+#: neighbour beside the taxel that the ball would rest on (a thin ray passed the G1 torso by an elbow taxel)
+PROBE_RADIUS_M = 0.0085
+#: rays round the axis, on rings at these fractions of the ball's radius
+RING_RAYS = 8
+RING_FRACTIONS = (0.5, 0.9)
 #: MuJoCo geom group the check parks non-colliding geoms in, out of its rays' way
 _IGNORED_GROUP = 5
 
@@ -128,7 +134,8 @@ def _random_qpos(m, rng) -> np.ndarray:
 
     q = m.qpos0.copy()
     for j in range(m.njnt):
-        if m.jnt_type[j] in (mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE):
+        # int(): a numpy integer never equals a pybind11 enum, so every joint stayed at 0
+        if int(m.jnt_type[j]) in (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)):
             lo, hi = m.jnt_range[j] if m.jnt_limited[j] else (-np.pi, np.pi)
             q[m.jnt_qposadr[j]] = rng.uniform(lo, hi)
     return q
@@ -157,4 +164,30 @@ def _probe(m, d, ids, qpos) -> dict:
         s = PROBE_M - dist  # the contact surface's height over the taxel along its normal
         if abs(s) > m.site_size[k][2]:
             out[name] = f"its link's contact surface is {s * 1e3:.1f} mm along its normal, beyond its site"
+            continue
+        other = _beside(m, d, p, n, s, int(m.site_bodyid[k]), groups, hit)
+        if other is not None:
+            out[name] = f"a ball {2e3 * PROBE_RADIUS_M:.0f} mm wide rests on {other} beside it"
     return out
+
+
+def _beside(m, d, p, n, surface: float, body: int, groups, hit):
+    """The name of another body a ball of radius :data:`PROBE_RADIUS_M` coming down the axis ``n`` onto
+    the point ``p`` (its link's surface ``surface`` m along ``n``) meets before it reaches that surface,
+    found by rays round the axis (a body at lateral distance rho blocks when it stands higher than the
+    ball's underside there); None if none does."""
+    import mujoco
+
+    a = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
+    a /= np.linalg.norm(a)
+    b = np.cross(n, a)
+    r = PROBE_RADIUS_M
+    for frac in RING_FRACTIONS:
+        rho = frac * r
+        lift = r - np.sqrt(r * r - rho * rho)  # the ball's underside this far above its lowest point at rho
+        for ang in np.linspace(0, 2 * np.pi, RING_RAYS, endpoint=False):
+            o = p + rho * (np.cos(ang) * a + np.sin(ang) * b) + PROBE_M * n
+            dist = mujoco.mj_ray(m, d, o, -n, groups, 1, body, hit)  # the link itself excluded
+            if hit[0] >= 0 and PROBE_M - dist > surface + lift:
+                return m.body(int(m.geom_bodyid[hit[0]])).name
+    return None
