@@ -56,7 +56,7 @@ def _skin_object(scene):
 
 def _settings_key(s, ob, ind):
     return (ob.name, len(ob.data.vertices), ind.name, ind.data.name, len(ind.data.vertices), s.thickness, s.material,
-            s.live_model, s.use_force, s.force, s.counts_per_pa, s.edge_fraction, s.geometry)
+            s.live_model, s.use_force, s.force, s.sensor_gain(), s.edge_fraction, s.geometry)
 
 
 def _live_for(scene, ob, ind):
@@ -73,7 +73,7 @@ def _live_for(scene, ob, ind):
         verts = world @ inv[:3, :3].T + inv[:3, 3]
         live = interactive.LiveTouch(skin.read_layout(ob), skin.triangles(ob), verts, tri, thickness=s.thickness,
                                      material=s.material, model=s.live_model,
-                                     force=s.force if s.use_force else None, counts_per_pa=s.counts_per_pa,
+                                     force=s.force if s.use_force else None, counts_per_pa=s.sensor_gain(),
                                      edge_fraction=s.edge_fraction, geometry=s.geometry)
         _STATE.update(live=live, key=key, pose=None,
                       worker=None if bpy.app.background else interactive.LiveWorker(live))

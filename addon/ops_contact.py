@@ -45,7 +45,7 @@ class VTSKIN_OT_simulate(Op, bpy.types.Operator):
         ob, layout, tri, verts, faces, pose = got
         with failing("Contact failed"):
             c = interactive.simulate(layout, tri, verts, faces, pose, thickness=s.thickness, material=s.material,
-                                     force=s.force if s.use_force else None, counts_per_pa=s.counts_per_pa,
+                                     force=s.force if s.use_force else None, counts_per_pa=s.sensor_gain(),
                                      edge_fraction=s.edge_fraction, geometry=s.geometry)
         me = ob.data
         bridge.set_attribute(me, "pressure", c.pressure)
@@ -98,7 +98,7 @@ class VTSKIN_OT_bake(Op, bpy.types.Operator):
             with failing("Bake failed"):
                 res = interactive.bake(layout, tri, verts, faces, np.stack(poses), thickness=s.thickness,
                                        material=s.material, forces=np.array(forces) if s.use_force else None,
-                                       counts_per_pa=s.counts_per_pa, edge_fraction=s.edge_fraction,
+                                       counts_per_pa=s.sensor_gain(), edge_fraction=s.edge_fraction,
                                        callback=lambda i, t: wm.progress_update(i + 1), geometry=s.geometry)
         finally:
             wm.progress_end()

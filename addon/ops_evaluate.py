@@ -121,7 +121,7 @@ class VTSKIN_OT_evaluate_skin(Op, bpy.types.Operator):
             m = interactive.evaluate_skin(skin.read_layout(ob), verts, tri, thickness=s.thickness,
                                           material=s.material, reference_force=s.map_reference_force,
                                           spacing=s.map_spacing, margin=s.map_margin, probe=s.map_probe,
-                                          two_point=s.map_two_point, counts_per_pa=s.counts_per_pa)
+                                          two_point=s.map_two_point, counts_per_pa=s.sensor_gain())
         me = ee.data
         for name in FLOATS:
             if name in m.values:

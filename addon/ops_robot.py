@@ -155,6 +155,11 @@ class VTSKIN_OT_export_robot(Op, bpy.types.Operator):
                                                        s.skinned_format, prefix=s.skinned_prefix or None,
                                                        packages=packages, **opts)
         self.report({"INFO"}, f"Wrote {out}: " + ", ".join(f"{r['taxels']} taxels on {r['link']}" for r in records))
+        for r in records:  # vtcore's contact check of the written model: taxels no touch can reach
+            if r.get("unreadable"):
+                first = r["unreadable"][0]
+                self.report({"WARNING"}, f"{len(r['unreadable'])} of {r['taxels']} taxels on {r['link']} cannot "
+                                         f"read ({first}: {r['unreadable_why'][first]})")
         return {"FINISHED"}
 
 

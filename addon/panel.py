@@ -137,6 +137,16 @@ class VTSKIN_PT_layer(_Panel, bpy.types.Panel):
     props = ("thickness", "material")
 
 
+def _sensor_line(gain) -> str:
+    """The sensor every operator simulates, as vtcore names it (a bad profile: its error, shown)."""
+    from vtcore.scene import interactive
+
+    try:
+        return interactive.sensor_summary(gain)
+    except ValueError as exc:
+        return str(exc)
+
+
 class VTSKIN_PT_contact(_Panel, bpy.types.Panel):
     bl_idname = "VTSKIN_PT_contact"
     bl_label = "Contact"
@@ -147,7 +157,10 @@ class VTSKIN_PT_contact(_Panel, bpy.types.Panel):
         row = col.row(align=True)
         row.prop(s, "use_force")
         _row(row, s, "force", enabled=s.use_force)
-        col.prop(s, "counts_per_pa")
+        row = col.row(align=True)
+        row.prop(s, "gain_override")
+        _row(row, s, "counts_per_pa", enabled=s.gain_override)
+        col.label(text=_sensor_line(s.sensor_gain()))
         _button(col, "vtskin.simulate", "PLAY")
         _row(col, s, "frame_start", "frame_end")
         row = col.row(align=True)

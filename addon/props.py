@@ -208,7 +208,16 @@ class VTSKIN_PG_scene(bpy.types.PropertyGroup):
         ("plane", "Plane", "The plane normal to the press: fast, exact for flat patches"),
         ("unrolled", "Unrolled skin", "The patch's own flat coordinates, the layer compressed along its normals: "
                                       "curved patches (one laid patch; merged patches have no common unrolling)")])
-    counts_per_pa: FloatProperty(name="Gain (counts/Pa)", default=0.1, min=1e-6)
+    # the sensor: the shipped CySkin profile, as on the command line, unless a gain is typed as an override
+    gain_override: BoolProperty(name="Override gain", default=False,
+                                description="Simulate, evaluate and touch live with the gain below instead of the "
+                                            "CySkin sensor profile's fitted response (the command line's default)")
+    counts_per_pa: FloatProperty(name="Gain (counts/Pa)", default=1.53, min=1e-6,
+                                 description="Sensor gain used when Override gain is on, counts per pascal")
+
+    def sensor_gain(self):
+        """counts/Pa for vtcore: the typed gain when overridden, else None (the sensor profile's)."""
+        return self.counts_per_pa if self.gain_override else None
     frame_start: IntProperty(name="Start", default=1)
     frame_end: IntProperty(name="End", default=24)
     # Filters

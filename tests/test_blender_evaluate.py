@@ -52,7 +52,7 @@ def test_evaluate_skin_writes_the_maps_vtcore_computes(skinned, tmp_path):
     assert ev.any() and not ev.all()
     verts, tri = ops_evaluate.mesh_in_skin_frame(ee, ob)
     ref = interactive.evaluate_skin(skin.read_layout(ob), verts, tri, thickness=0.003, spacing=0.004, margin=0.005,
-                                    two_point=False, counts_per_pa=s.counts_per_pa)
+                                    two_point=False, counts_per_pa=s.sensor_gain())
     np.testing.assert_allclose(thr, ref.values["threshold_n"], rtol=1e-6)
     np.testing.assert_allclose(attr(ee, "localisation_mm"), ref.values["localisation_mm"], rtol=1e-6)
     me = ee.data
@@ -107,7 +107,7 @@ def test_live_touch_follows_the_indenter(skinned, model):
             bpy.context.view_layer.update()
             pose = np.linalg.inv(bridge.matrix(ob)) @ bridge.rigid(bridge.matrix(ind))
             ref = interactive.simulate(layout, tri, verts, faces, pose, thickness=0.003, force=2.0, model=model,
-                                       counts_per_pa=s.counts_per_pa, edge_fraction=s.edge_fraction)
+                                       counts_per_pa=s.sensor_gain(), edge_fraction=s.edge_fraction)
             p = attr(ob, "pressure")
             np.testing.assert_allclose(p, ref.pressure, rtol=1e-5, atol=1e-6 * ref.pressure.max())
             np.testing.assert_array_equal(attr(ob, "edge"), ref.edge)
@@ -193,7 +193,7 @@ def test_maps_on_a_real_robot_link_with_a_legend():
     # vtcore called directly on the link's vertices in the skin's frame gives the same maps
     v, t = ops_evaluate.mesh_in_skin_frame(fore, ob)
     ref = interactive.evaluate_skin(skin.read_layout(ob), v, t, thickness=0.003, spacing=0.004, margin=0.04,
-                                    two_point=False, counts_per_pa=s.counts_per_pa)
+                                    two_point=False, counts_per_pa=s.sensor_gain())
     np.testing.assert_allclose(thr, ref.values["threshold_n"], rtol=1e-6)
     # on the skin a firm (5 N) finger press is felt almost everywhere; well off it, nowhere
     assert np.median(thr[cov]) < s.map_reference_force and blind[cov].mean() < 0.3
@@ -247,8 +247,53 @@ def test_maps_on_a_cad_link_in_millimetres():
     # the skin frame is metric: the link is its 72 mm tube there, not 72 m
     assert 0.15 < np.ptp(v, axis=0).max() < 0.3
     ref = interactive.evaluate_skin(skin.read_layout(ob), v, t, thickness=0.003, spacing=0.004, margin=0.01,
-                                    two_point=False, counts_per_pa=s.counts_per_pa)
+                                    two_point=False, counts_per_pa=s.sensor_gain())
     np.testing.assert_allclose(thr, ref.values["threshold_n"], rtol=1e-6)
     np.testing.assert_allclose(attr(ee, "localisation_mm"), ref.values["localisation_mm"], rtol=1e-6)
     assert cov.sum() > 20 and np.median(thr[cov]) < s.map_reference_force and blind[cov].mean() < 0.3
     assert "Detection threshold (N" in ee.vtskin.map_legend
+
+
+def test_the_add_on_and_the_command_line_feel_the_same_touch(skinned, tmp_path):
+    """Issue 33: the add-on evaluated with the panel's gain (0.1 counts/Pa) while the command line used the
+    CySkin profile's 1.53, so the same skin's detection thresholds differed about 18x. By default both
+    use the profile now: Evaluate Skin and ``vtcore evaluate`` of the same skin, mesh and settings give
+    the same median detection threshold within 1 %; a typed gain is an explicit override, kept in the
+    .blend."""
+    import json
+    import re
+    import subprocess
+
+    import trimesh
+
+    from vtcore.layout import save
+
+    from addon import ops_evaluate, skin
+
+    ee, _, ob = skinned
+    s = bpy.context.scene.vtskin
+    fast_maps(s)
+    assert not s.gain_override and s.sensor_gain() is None
+    bpy.context.view_layer.objects.active = ob
+    assert bpy.ops.vtskin.evaluate_skin() == {"FINISHED"}
+    legend = ee["vtskin_legends"]["threshold"]
+    addon_n = float(re.search(r"threshold median ([0-9.e+-]+) N", legend).group(1))
+    verts, tri = ops_evaluate.mesh_in_skin_frame(ee, ob)
+    trimesh.Trimesh(verts, tri, process=False).export(tmp_path / "ee.ply")
+    save(skin.read_layout(ob), tmp_path / "skin.json")
+    r = subprocess.run([sys.executable, "-m", "vtcore", "evaluate", str(tmp_path / "skin.json"), "--mesh",
+                        str(tmp_path / "ee.ply"), "--out", str(tmp_path / "cli"), "--set", "task.spacing=0.004",
+                        "--set", "task.margin=0.005", "--set", "task.two_point=false", "--set",
+                        f"layer.thickness={s.thickness}", "--set", f"layer.material={s.material}"],
+                       capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr
+    cli_n = json.loads((tmp_path / "cli" / "result.json").read_text())["metrics"]["threshold_covered_median_n"]
+    assert addon_n == pytest.approx(cli_n, rel=0.01), (addon_n, cli_n)
+    s.gain_override, s.counts_per_pa = True, 0.1  # the old default, now an explicit override: ~18x less sensitive
+    assert bpy.ops.vtskin.evaluate_skin() == {"FINISHED"}
+    slow_n = float(re.search(r"threshold median ([0-9.e+-]+) N", ee["vtskin_legends"]["threshold"]).group(1))
+    assert slow_n > 5 * addon_n
+    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "gain.blend"))
+    bpy.ops.wm.open_mainfile(filepath=str(tmp_path / "gain.blend"))
+    s = bpy.context.scene.vtskin
+    assert s.gain_override and s.counts_per_pa == pytest.approx(0.1) and s.sensor_gain() == pytest.approx(0.1)

@@ -80,3 +80,29 @@ def test_designs_through_dask(files, tmp_path):
     assert r.returncode == 0, r.stderr
     assert (out / "sweep.csv").is_file() and (out / "comparison.md").is_file()
     assert "Designs side by side" in (out / "report.md").read_text()
+
+
+def test_a_robot_layout_needs_no_mesh_and_refuses_one_it_does_not_lie_on(tmp_path):
+    """Issue 33: a layout laid on a robot link records the robot, link and geometry; evaluate finds the
+    link's surface itself. The Allegro palm skinned on its collision box, evaluated on the palm's visual
+    STL, is refused in one line naming how far off the taxels are; a --set typo names the key, not a
+    generated TOML, and leaves no output folder."""
+    from vtcore.robot import lay_on_link, load_robot
+    from vtcore.robot.samples import example_robot_data
+    from vtcore.layout import save
+
+    erd = example_robot_data()
+    robot = load_robot(erd / "allegro_hand_description" / "urdf" / "allegro_right_hand.urdf")
+    lay, _ = lay_on_link(robot, "palm_link", "hexagon", geometry="collision")
+    save(lay, tmp_path / "palm.json")
+    r = vt("evaluate", tmp_path / "palm.json", "--out", tmp_path / "maps", *FAST)
+    assert r.returncode == 0, r.stderr
+    res = json.loads((tmp_path / "maps" / "result.json").read_text())
+    assert res["metrics"]["samples"] > 0 and (tmp_path / "maps" / "palm_link_collision.stl").is_file()
+    r = vt("evaluate", tmp_path / "palm.json", "--mesh", erd / "allegro_hand_description" / "meshes" / "base_link.STL",
+           "--out", tmp_path / "off")
+    assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1, r.stderr
+    assert "does not lie on this mesh" in r.stderr and "mm and" in r.stderr and "palm_link" in r.stderr
+    r = vt("evaluate", tmp_path / "palm.json", "--set", "layer.thicknes=0.002", "--out", tmp_path / "typo")
+    assert r.returncode == 2 and "thickness" in r.stderr and "evaluate.toml" not in r.stderr, r.stderr
+    assert not (tmp_path / "typo").exists()

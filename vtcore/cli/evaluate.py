@@ -1,4 +1,4 @@
-"""``vtcore evaluate LAYOUT [LAYOUT ...] --mesh MESH [--scene SCENE.toml] [--set KEY=V[,V2...]] --out DIR``.
+"""``vtcore evaluate LAYOUT [LAYOUT ...] [--mesh MESH] [--scene SCENE.toml] [--set KEY=V[,V2...]] --out DIR``.
 
 Design maps of one skin, or several designs side by side: every layout given, times every grid of
 ``--set KEY=V1,V2`` values (layer thickness, module type, ...). Each design is one run of the
@@ -37,12 +37,18 @@ def _base_scene(args, out: Path) -> Path:
     for t in ("end_effector", "layout"):
         if t in tables and args.scene and not (args.mesh if t == "end_effector" else args.layouts):
             keep[t] = tables[t]
+    layout = _first_layout(args)
     if args.mesh:
+        if layout is not None:
+            lies_on(layout, args.mesh, args.scale)
         keep["end_effector"] = {"shape": "mesh", "mesh": str(Path(args.mesh).resolve()), "scale": args.scale}
+    elif "end_effector" not in keep and layout is not None and layout.meta.get("robot"):
+        keep["end_effector"] = {"shape": "mesh", "mesh": str(link_surface(layout, args, out).resolve()), "scale": 1.0}
     if args.layouts:
         keep["layout"] = {"file": args.layouts[0]}
     if "end_effector" not in keep:
-        raise InputError("give the robot's mesh (--mesh MESH) or a --scene with an [end_effector]", key="--mesh")
+        raise InputError("give the robot's mesh (--mesh MESH) or a --scene with an [end_effector] (a layout laid "
+                         "on a robot link with vtcore layout place ROBOT --link NAME needs neither)", key="--mesh")
     lines = ["# written by vtcore evaluate: the base scene of every design in this folder",
              "[scene]", f"name = {toml_literal(out.name or 'evaluate')}", 'task = "evaluate"',
              f"seed = {int(tables.get('scene', {}).get('seed', 0))}"]
@@ -53,6 +59,74 @@ def _base_scene(args, out: Path) -> Path:
 
     with atomic_write(path, "w", encoding="utf-8") as fh:
         fh.write("\n".join(lines) + "\n")
+    return path
+
+
+#: metres and degrees: a layout farther than this from the --mesh it is evaluated on does not lie on it
+LIES_ON_MM, LIES_ON_DEG = 0.5, 30.0
+
+
+def _first_layout(args):
+    from ..layout import load
+
+    return load(args.layouts[0]) if args.layouts else None
+
+
+def lies_on(layout, mesh_path, scale: float = 1.0) -> None:
+    """Refuse (InputError, one line naming the distance) a ``--mesh`` the layout's taxels do not lie on:
+    the largest taxel distance to the mesh over :data:`LIES_ON_MM` or the largest angle between a taxel's
+    normal and its face's over :data:`LIES_ON_DEG` (a collision-box skin evaluated on the visual STL)."""
+    import numpy as np
+
+    from ..errors import InputError
+    from ..layout.meshinput import load_mesh
+    from ..layout.surface import closest_points
+
+    mesh = load_mesh(mesh_path, scale=scale)
+    t = layout.transform
+    p, n = layout.positions @ t[:3, :3].T + t[:3, 3], layout.normals @ t[:3, :3].T
+    _, face, dist = closest_points(mesh, p)
+    cos = np.einsum("ij,ij->i", n / np.linalg.norm(n, axis=1, keepdims=True), mesh.face_normals[face])
+    deg = float(np.degrees(np.arccos(np.clip(cos, -1, 1))).max())
+    mm = 1e3 * float(dist.max())
+    if mm > LIES_ON_MM or deg > LIES_ON_DEG:
+        where = (f" (it was laid on link {layout.meta['link']!r}'s {layout.meta.get('geometry', 'visual')} geometry of "
+                 f"{layout.meta['robot']}: leave out --mesh)") if layout.meta.get("robot") else ""
+        raise InputError(f"the layout does not lie on this mesh: taxels up to {mm:.1f} mm and {deg:.0f} degrees off "
+                         f"(at most {LIES_ON_MM} mm and {LIES_ON_DEG:.0f} degrees){where}", file=mesh_path,
+                         key="--mesh")
+
+
+def evaluation_surface(robot, link: str, geometry: str):
+    """The surface of ``link`` a robot layout is evaluated on: the whole link (its ``geometry``, in
+    its frame). HOOK (issue 33): once the link's exposed surface exists (``vtcore.robot.exposure``),
+    the maps belong on the exposed faces only; this is the one place to restrict it."""
+    from ..robot import link_mesh
+
+    return link_mesh(robot, link, geometry)
+
+
+def link_surface(layout, args, out: Path) -> Path:
+    """Write the surface of the robot link the layout records (``meta["robot"]``, ``["link"]``,
+    ``["geometry"]``; package:// paths through ``--package`` as ``layout place`` resolves them) to
+    ``out/<link>_<geometry>.stl`` in the link's frame, metres; returns its path."""
+    from ..errors import InputError
+    from ..robot import load_robot
+    from .robot import packages
+
+    robot_file = Path(layout.meta["robot"])
+    if not robot_file.is_file():
+        raise InputError(f"the layout was laid on the robot {robot_file}, which is not there: give the link's "
+                         "mesh with --mesh", file=args.layouts[0], key="robot")
+    robot = load_robot(robot_file, packages(args.package))
+    link = layout.meta.get("link") or layout.parent or layout.frame
+    geometry = layout.meta.get("geometry") or "visual"
+    mesh = evaluation_surface(robot, link, geometry)
+    path = out / f"{link}_{geometry}.stl"
+    from .._io import atomic_write
+
+    with atomic_write(path, "wb") as fh:
+        mesh.export(fh, file_type="stl")
     return path
 
 
@@ -70,14 +144,22 @@ def _grid(args) -> tuple[list[str], list[str]]:
     return grid, sets
 
 
-def cmd_evaluate(args) -> int:
-    from .._progress import progress
-    from ..evaluate.compare import write_comparison
-    from ..scene import load_scene, run_scene
-    from ..sweep import plan_sweep, run_sweep
+def _said_of_the_input(exc, out: Path):
+    """``exc`` without the base scene the command generated in ``out`` as its file (the user never
+    wrote it: a --set typo is the --set's), else unchanged."""
+    from ..errors import InputError
 
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    scene = str((out / "evaluate.toml").resolve())
+    text = str(exc)
+    if scene not in text:
+        return exc
+    return InputError(text.replace(f"{scene}: ", "").replace(scene, "the --set values"))
+
+
+def _plan(args, out: Path):
+    """``(base scene path, sweep plan, grid)`` of the command's designs, every one validated before any runs."""
+    from ..sweep import plan_sweep
+
     grid, sets = _grid(args)
     if len(args.layouts) > 1:
         # the layouts travel with the results: the folder names and the scene stay short and valid
@@ -93,6 +175,24 @@ def cmd_evaluate(args) -> int:
         args.layouts = [str(Path(args.layouts[0]).resolve())]
     scene = _base_scene(args, out)
     plan = plan_sweep(scene, grid, args.seeds, sets)  # every design validated before anything runs
+    return scene, plan, grid
+
+
+def cmd_evaluate(args) -> int:
+    from .._progress import progress
+    from ..evaluate.compare import write_comparison
+    from ..scene import load_scene, run_scene
+    from ..sweep import run_sweep
+
+    out = Path(args.out)
+    created = not out.exists()
+    out.mkdir(parents=True, exist_ok=True)
+    try:
+        scene, plan, grid = _plan(args, out)
+    except ValueError as exc:  # a refused input leaves nothing behind, and names what the user typed
+        if created:
+            shutil.rmtree(out, ignore_errors=True)
+        raise _said_of_the_input(exc, out) from None
     if len(plan.points) == 1 and not plan.keys:
         res = run_scene(load_scene(scene, plan.points[0].overrides), out)
         m = res["metrics"]
@@ -128,7 +228,10 @@ def register(sub) -> None:
                                         "and two-point discrimination; several designs side by side")
     p.add_argument("layouts", nargs="*", metavar="LAYOUT",
                    help="layout file(s) (any format vtcore layout reads); several: compared side by side")
-    p.add_argument("--mesh", help="the robot link's mesh (STL, OBJ, PLY, ...) the layout lies on")
+    p.add_argument("--mesh", help="the robot link's mesh (STL, OBJ, PLY, ...) the layout lies on (default for a "
+                                  "layout laid on a robot link: that link's geometry, from the robot file it records)")
+    p.add_argument("--package", action="append", metavar="NAME=FOLDER",
+                   help="where a package:// package of the layout's robot is (as vtcore layout place --package)")
     p.add_argument("--scale", type=float, default=1.0, help="factor from the mesh file's unit to metres (0.001: mm)")
     p.add_argument("--scene", help="a scene whose [layer] (and, for an evaluate scene, [task]) to use")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE[,VALUE...]",

@@ -105,6 +105,16 @@ def cmd_export(args) -> int:
     _warnings(caught)
     for r in records:
         print(f"{args.out}: {r['taxels']} taxels on {r['link']!r} ({r['names'][0]} .. {r['names'][-1]})")
+        bad = r.get("unreadable") or []
+        if bad:  # the export's contact check (MuJoCo's rays at the zero pose): these taxels cannot sense
+            why = r["unreadable_why"]
+            shown = "; ".join(f"{n}: {why[n]}" for n in bad[:8]) + (f"; ... ({len(bad)} in all)" if len(bad) > 8 else "")
+            print(f"  {len(bad)} of {r['taxels']} taxels on {r['link']!r} cannot read: {shown}")
+        some = r.get("covered_at_some_poses") or {}
+        if some:
+            first = next(iter(some))
+            print(f"  {len(some)} more read at the zero pose but not at some joint configurations ({first}: "
+                  f"{some[first]})")
     return 0
 
 

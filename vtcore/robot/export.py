@@ -3,9 +3,13 @@
 - URDF robot -> URDF: one fixed link per taxel under the layout's link (``vtcore.layout.io.urdf``).
 - MJCF robot -> MJCF: sites and touch sensors in the link's body (``vtcore.layout.io.mjcf``),
   pads as the layout export has them; a body defined in an ``<include>``d file is written inline.
-- In MJCF, each site reaches the link's contact surface as MuJoCo collides it, a mesh geom's
-  convex hull, up to 8 mm over a UR10 link's mesh (:mod:`.reach`): a ball resting on the hull
-  above a taxel is counted by that taxel.
+- In MJCF, a skinned link whose colliding geometry does not hug its skin (a mesh's convex hull 8 mm
+  over a UR10 forearm's, the Allegro palm's box around its visual mesh) collides by convex parts that
+  follow the surface the skin lies on instead (:mod:`.contact_geometry`: CoACD, cut under the taxels,
+  with taxel-sized pads); each site reaches that contact surface (:mod:`.reach`). MuJoCo's own rays
+  then probe every site of the written model at the zero pose and 8 seeded configurations: each
+  record names the taxels that cannot read (``unreadable``, ``unreadable_why``) and those a
+  neighbour covers at some poses (``covered_at_some_poses``).
 - URDF robot -> MJCF: the robot converted by MuJoCo's own URDF import (``MjSpec``: every link a
   body of the same name, joints with their limits, collision meshes; COLLADA collision meshes, which
   MuJoCo does not read, converted to STL beside the output), then the skin added as above.
@@ -29,14 +33,16 @@ from ..errors import FormatError, InputError
 from ..layout import Layout
 from ..layout.io import mjcf as mjcf_io
 from ..layout.io import urdf as urdf_io
-from ..layout.io.common import read_robot_xml
+from ..layout.io.common import identifier, read_robot_xml
 from .model import Robot
-from .reach import contact_reach
+from .reach import POSES, contact_reach, unreadable_sites
 
 FORMATS = ("urdf", "mjcf")
 #: kg m^2: MuJoCo's compiler refuses an inertia with an eigenvalue under this (mjMINVAL; iCub's
 #: ``r_ankle_1``: 0.75 kg, eigenvalues ~1e-20); such a link with mass gets a box's inertia in the MJCF
 INERTIA_MIN = 1e-15
+#: metres: a rebuilt link's pads reach this far beyond their taxel's disc (under it, not over its neighbours)
+PAD_RIM = 1e-3
 
 
 def robot_format(path) -> str:
@@ -254,16 +260,78 @@ def export_skinned(robot_path, layouts, out, *, format: str | None = None, prefi
         mjcf_io.inline_includes(tree.getroot(), robot_path.parent, robot_path)
         links = [b.get("name") for b in tree.getroot().iter("body")]
     robot = load_robot(robot_path, packages)
+    contact_geoms, sites, contact = [], [], {}
+    skins: dict = {}  # link -> every skin on it: its contact surface is cut under all of them
+    for lay in layouts:
+        skins.setdefault(lay.parent or lay.frame, []).append(lay)
     for lay, prefix in zip(layouts, prefixes):
         link = skin_link(lay, links)
-        # each site reaches the link's contact surface as MuJoCo collides it (a mesh's convex hull)
-        reach = contact_reach(robot, link, *taxel_frames(lay)) if link in robot.links else None
-        names = mjcf_io.merge_into_tree(lay, tree, link, robot_path, prefix=prefix, reach=reach,
-                                        **{"pad": False, **mjcf_options})
+        reach = None
+        if link in robot.links:
+            # the link's contact surface follows the surface the skin lies on (convex parts), and each
+            # site reaches that surface as MuJoCo collides it
+            if link not in contact:  # once per link, however many skins it carries
+                parts, geoms = link_contact(robot, link, skins.get(link, [lay]), tree, out)
+                contact[link] = (parts, bool(geoms))
+                contact_geoms += geoms
+            parts, rebuilt = contact[link]
+            reach = contact_reach(robot, link, *taxel_frames(lay), parts=parts)
+        # on a rebuilt link the skin brings its own contact surface: pads under the taxels, where the
+        # decomposition's parts (a few mm off the mesh) may lie below it or not reach it
+        opts = {**mjcf_options, "pad": mjcf_options.get("pad") if mjcf_options.get("pad") is not None
+                else bool(reach is not None and rebuilt)}
+        if opts["pad"] and reach is not None and rebuilt:
+            opts.setdefault("pad_radius", mjcf_io.taxel_radius(lay) + PAD_RIM)
+        names = mjcf_io.merge_into_tree(lay, tree, link, robot_path, prefix=prefix, reach=reach, **opts)
+        sites.append(names)
         records.append({"link": link, "taxels": len(lay), "names": [names[0], names[-1]] if names else []})
     mjcf_io.rebase(tree.getroot(), model_dir, out.parent)
+    mjcf_io.relative_contact_files(tree.getroot(), contact_geoms, out.parent)
     mjcf_io.write_tree(tree, out)
+    for rec, names in zip(records, sites):  # MuJoCo's own rays judge the written model
+        bad, some = unreadable_sites(out, names, poses=POSES)
+        rec["unreadable"] = [n for n in names if n in bad]
+        rec["unreadable_why"] = bad
+        rec["covered_at_some_poses"] = some  # read at the zero pose, not at some of POSES random ones
     return records
+
+
+def link_contact(robot: Robot, link: str, layouts, tree: ET.ElementTree, out: Path):
+    """``(parts, geom names)``: the convex parts MuJoCo will collide ``link`` by in the exported
+    MJCF ``tree``, and the names of the geoms added for them. The link's own colliding geometry (each
+    collision element's hull) where it already hugs the skins ``layouts`` (:func:`.contact_geometry.needs_parts`);
+    else a convex decomposition of the geometry the skin was laid on (``meta["geometry"]``, default
+    collision; cached in ``<out stem>_meshes/``), cut under the skin (:func:`.contact_geometry.under_skin`),
+    replaces the link's colliding geoms; the parts are written there as ``<link>_contact_<k>.stl``."""
+    from .contact_geometry import convex_parts, needs_parts, under_skin
+    from .meshes import link_mesh
+    from .reach import collision_hulls, reach_to
+    from .skin import occluded
+
+    frames = [taxel_frames(lay) for lay in layouts]
+    positions, normals = np.vstack([f[0] for f in frames]), np.vstack([f[1] for f in frames])
+    hulls = collision_hulls(robot, link)
+    if hulls and not needs_parts(*reach_to(hulls, positions, normals)):
+        return hulls, []
+    geometry = layouts[0].meta.get("geometry") or "collision"
+    if not robot.link(link).geometry(geometry):
+        geometry = "collision" if geometry == "visual" else "visual"
+    if not robot.link(link).geometry(geometry):
+        return hulls, []  # no surface to follow: MuJoCo collides what the file has
+    folder = out.parent / f"{out.stem}_meshes"
+    mesh = link_mesh(robot, link, geometry)
+    u = normals / np.linalg.norm(normals, axis=1, keepdims=True)
+    covered = occluded(mesh, positions + 1e-4 * u, u)  # under the link's own mesh: a pocket, left as it is
+    parts = under_skin(convex_parts(mesh, folder), positions, normals, covered)
+    if not parts:
+        return hulls, []
+    files = []
+    for k, part in enumerate(parts):
+        files.append((folder / f"{identifier(link)}_contact_{k:02d}.stl").resolve())
+        part.export(files[-1])
+    body = next(b for b in tree.getroot().iter("body") if b.get("name") == link)
+    names = mjcf_io.replace_contact(tree.getroot(), body, files, f"{identifier(link)}_vtcontact_")
+    return parts, names
 
 
 def taxel_frames(layout: Layout) -> tuple[np.ndarray, np.ndarray]:

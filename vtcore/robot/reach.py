@@ -25,10 +25,17 @@ CHUNK = 2_000_000
 def exit_distance(hull, origins, directions) -> np.ndarray:
     """(N,) metres: where the line ``origins + t directions`` (N, 3) each, unit) leaves the convex
     ``hull`` (a trimesh), as ``t`` (negative: the hull lies behind the origin); nan where the line
-    misses it. The hull as half-spaces n.x <= d, one per face (coplanar faces repeat a plane)."""
+    misses it (:func:`crossing`)."""
+    return crossing(hull, origins, directions)[1]
+
+
+def crossing(hull, origins, directions) -> tuple[np.ndarray, np.ndarray]:
+    """``(t_enter, t_exit)``, (N,) metres each: where the line ``origins + t directions`` ((N, 3) each,
+    unit) enters and leaves the convex ``hull`` (a trimesh); nan where it misses. The hull as
+    half-spaces n.x <= d, one per face (coplanar faces repeat a plane)."""
     n = np.asarray(hull.face_normals, dtype=np.float64)
     d = np.einsum("ij,ij->i", n, np.asarray(hull.triangles, dtype=np.float64)[:, 0])
-    out = np.full(len(origins), np.nan)
+    out, into = np.full(len(origins), np.nan), np.full(len(origins), np.nan)
     step = max(1, CHUNK // max(len(n), 1))
     for k in range(0, len(origins), step):
         a = origins[k:k + step] @ n.T - d  # > 0: outside that face's plane
@@ -40,23 +47,147 @@ def exit_distance(hull, origins, directions) -> np.ndarray:
         parallel_out = ((np.abs(b) <= 1e-12) & (a > 1e-9)).any(axis=1)
         hit = (t_enter <= t_exit + 1e-9) & ~parallel_out & np.isfinite(t_exit)
         out[k:k + step] = np.where(hit, t_exit, np.nan)
-    return out
+        into[k:k + step] = np.where(hit, t_enter, np.nan)
+    return into, out
 
 
-def contact_reach(robot: Robot, link: str, positions, normals) -> np.ndarray:
-    """(N,) metres: where along each taxel's normal line (positions, normals (N, 3) in the link
-    frame) the link's colliding geometry ends as MuJoCo collides it (the convex hull of each
-    collision element; primitives are convex): positive above the taxel, negative below it (a taxel
-    laid on a visual mesh outside the collision hull), the outermost where several overlap; 0 where
-    none ends within :data:`REACH_MAX`."""
-    from .meshes import geometry_mesh
-
+def reach_to(parts, positions, normals) -> tuple[np.ndarray, np.ndarray]:
+    """``(reach (N,) metres, met (N,) bool)``: where along each taxel's normal line (positions,
+    normals (N, 3), the parts' frame) the convex ``parts`` (trimeshes) end: positive above the taxel,
+    negative below it, the outermost where several overlap; ``met`` where some part ends within
+    :data:`REACH_MAX` (elsewhere reach is 0)."""
     p = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
     u = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
     u = u / np.linalg.norm(u, axis=1, keepdims=True)
     reach = np.full(len(p), -np.inf)
-    for g in robot.link(link).collisions:
-        t = exit_distance(geometry_mesh(g, robot).convex_hull, p, u)
+    for part in parts:
+        t = exit_distance(part, p, u)
         near = np.abs(t) <= REACH_MAX  # nan compares False
         reach[near] = np.maximum(reach[near], t[near])
-    return np.where(np.isfinite(reach), reach, 0.0)
+    met = np.isfinite(reach)
+    return np.where(met, reach, 0.0), met
+
+
+def collision_hulls(robot: Robot, link: str) -> list:
+    """The link's colliding geometry as MuJoCo collides it: each collision element's convex hull."""
+    from .meshes import geometry_mesh
+
+    return [geometry_mesh(g, robot).convex_hull for g in robot.link(link).collisions]
+
+
+def contact_reach(robot: Robot, link: str, positions, normals, parts=None) -> np.ndarray:
+    """(N,) metres: where along each taxel's normal line (positions, normals (N, 3) in the link
+    frame) the link's colliding geometry ends as MuJoCo collides it (``parts``, convex trimeshes;
+    default the convex hull of each collision element, :func:`collision_hulls`): positive above the
+    taxel, negative below it (a taxel laid on a visual mesh outside the collision hull), the outermost
+    where several overlap; 0 where none ends within :data:`REACH_MAX`."""
+    return reach_to(collision_hulls(robot, link) if parts is None else parts, positions, normals)[0]
+
+
+#: metres: a probe comes from this far out along a taxel's normal (a fingertip's reach over the skin); a
+#: geom of another body on that line, or of the link itself farther out, takes the touch instead
+PROBE_M = 0.02
+#: metres: the probe is a ball this wide (a 20 g steel ball, 8.5 mm): rays round the axis at this radius find a
+#: neighbour beside the taxel that the ball would rest on (a thin ray passed the G1 torso by an elbow taxel)
+PROBE_RADIUS_M = 0.0085
+#: rays round the axis, on rings at these fractions of the ball's radius
+RING_RAYS = 8
+RING_FRACTIONS = (0.5, 0.9)
+#: MuJoCo geom group the check parks non-colliding geoms in, out of its rays' way
+_IGNORED_GROUP = 5
+
+
+#: joint configurations (seeded, uniform within the limits) the export also probes every site at
+POSES = 8
+
+
+def unreadable_sites(model_path, sites, poses: int = 0, seed: int = 0):
+    """Which of the touch sites ``sites`` (names) of the MJCF at ``model_path`` cannot read, at the
+    zero pose: site name -> why. Each site is probed by MuJoCo's own ray (``mj_ray``, colliding geoms
+    only) from :data:`PROBE_M` out along its axis towards it; it reads when the first geom hit is of
+    the site's own body and the hit lies within the site's height (a touch sensor counts the contacts
+    of its body inside its volume). A miss: nothing of its link within its site, "covered by BODY",
+    or the contact surface this far from the taxel.
+
+    poses : also probe at this many seeded random configurations (hinge and slide joints uniform within
+    their limits, +-pi where unlimited); then returns ``(at_zero, at_some)``: the zero pose's dict and
+    site name -> why for the sites that read at the zero pose but not at some of those poses."""
+    import mujoco
+
+    m = mujoco.MjModel.from_xml_path(str(model_path))
+    d = mujoco.MjData(m)
+    colliding = (m.geom_contype != 0) | (m.geom_conaffinity != 0)
+    m.geom_group[:] = np.where(colliding, 0, _IGNORED_GROUP)
+    ids = np.array([m.site(name).id for name in sites], dtype=int)
+    zero = _probe(m, d, ids, m.qpos0)
+    if not poses:
+        return zero
+    rng = np.random.default_rng(seed)
+    some: dict = {}
+    for _ in range(poses):
+        some.update({k: v for k, v in _probe(m, d, ids, _random_qpos(m, rng)).items() if k not in zero})
+    return zero, {name: some[name] for name in sites if name in some}
+
+
+def _random_qpos(m, rng) -> np.ndarray:
+    import mujoco
+
+    q = m.qpos0.copy()
+    for j in range(m.njnt):
+        # int(): a numpy integer never equals a pybind11 enum, so every joint stayed at 0
+        if int(m.jnt_type[j]) in (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)):
+            lo, hi = m.jnt_range[j] if m.jnt_limited[j] else (-np.pi, np.pi)
+            q[m.jnt_qposadr[j]] = rng.uniform(lo, hi)
+    return q
+
+
+def _probe(m, d, ids, qpos) -> dict:
+    """site name -> why it cannot read, at the joint positions ``qpos`` (see :func:`unreadable_sites`)."""
+    import mujoco
+
+    d.qpos[:] = qpos
+    mujoco.mj_kinematics(m, d)
+    groups = np.array([1, 0, 0, 0, 0, 0], dtype=np.uint8)
+    hit = np.zeros(1, dtype=np.int32)
+    out = {}
+    for k in ids:  # one C call per site: mj_ray has no batch over origins
+        name = m.site(k).name
+        p, n = d.site_xpos[k], d.site_xmat[k].reshape(3, 3)[:, 2]
+        dist = mujoco.mj_ray(m, d, p + PROBE_M * n, -n, groups, 1, -1, hit)
+        if hit[0] < 0 or dist > PROBE_M + m.site_size[k][2]:  # mj_ray's line goes on past the taxel
+            out[name] = "nothing of its link collides within its site along its normal"
+            continue
+        body = int(m.geom_bodyid[hit[0]])
+        if body != int(m.site_bodyid[k]):
+            out[name] = f"covered by {m.body(body).name}"
+            continue
+        s = PROBE_M - dist  # the contact surface's height over the taxel along its normal
+        if abs(s) > m.site_size[k][2]:
+            out[name] = f"its link's contact surface is {s * 1e3:.1f} mm along its normal, beyond its site"
+            continue
+        other = _beside(m, d, p, n, s, int(m.site_bodyid[k]), groups, hit)
+        if other is not None:
+            out[name] = f"a ball {2e3 * PROBE_RADIUS_M:.0f} mm wide rests on {other} beside it"
+    return out
+
+
+def _beside(m, d, p, n, surface: float, body: int, groups, hit):
+    """The name of another body a ball of radius :data:`PROBE_RADIUS_M` coming down the axis ``n`` onto
+    the point ``p`` (its link's surface ``surface`` m along ``n``) meets before it reaches that surface,
+    found by rays round the axis (a body at lateral distance rho blocks when it stands higher than the
+    ball's underside there); None if none does."""
+    import mujoco
+
+    a = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
+    a /= np.linalg.norm(a)
+    b = np.cross(n, a)
+    r = PROBE_RADIUS_M
+    for frac in RING_FRACTIONS:
+        rho = frac * r
+        lift = r - np.sqrt(r * r - rho * rho)  # the ball's underside this far above its lowest point at rho
+        for ang in np.linspace(0, 2 * np.pi, RING_RAYS, endpoint=False):
+            o = p + rho * (np.cos(ang) * a + np.sin(ang) * b) + PROBE_M * n
+            dist = mujoco.mj_ray(m, d, o, -n, groups, 1, body, hit)  # the link itself excluded
+            if hit[0] >= 0 and PROBE_M - dist > surface + lift:
+                return m.body(int(m.geom_bodyid[hit[0]])).name
+    return None

@@ -134,7 +134,8 @@ def _quat(r: np.ndarray) -> np.ndarray:
 
 def add_skin(layout: Layout, parent: ET.Element, sensor: ET.Element, *, positions: np.ndarray,
              normals: np.ndarray, prefix: str, footprint: str = "taxel", pad: bool = False,
-             site_radius: float | None = None, pad_thickness: float = 1e-3, reach=None) -> list[str]:
+             site_radius: float | None = None, pad_thickness: float = 1e-3, reach=None,
+             pad_radius: float | None = None) -> list[str]:
     """Add sites (and pads) for every taxel to the MJCF body ``parent`` and touch sensors to ``sensor``.
 
     positions, normals : (N, 3) in ``parent``'s frame (metres, unit normals).
@@ -142,6 +143,10 @@ def add_skin(layout: Layout, parent: ET.Element, sensor: ET.Element, *, position
         MuJoCo collides it (a mesh geom's convex hull, ``vtcore.robot.reach``; negative: below the
         taxel). Each site reaches that far either way, so a contact on that surface counts; a tile's
         pad (its own body's contact surface) is raised to just above it.
+    pad_radius : m, the ``"taxel"`` footprint's pads at most this wide (None: each covers its share
+        of the skin, :func:`cover_radii`; a robot export's pads stay under their own taxel, so that a wide
+        pad on a curved link does not stand over its neighbours; the site then stays centred on its taxel,
+        the taxel's frame on the link, and reaches over the pad).
     Returns the site names in taxel order.
     """
     if footprint not in FOOTPRINTS:
@@ -156,6 +161,8 @@ def add_skin(layout: Layout, parent: ET.Element, sensor: ET.Element, *, position
     names = [f"{prefix}{lab}" for lab in taxel_labels(layout)]
     r_taxel = float(site_radius) if site_radius is not None else taxel_radius(layout)
     cover = cover_radii(layout) if (pad or footprint == "tile") else None
+    if pad and footprint == "taxel" and pad_radius is not None:
+        cover = np.minimum(cover, float(pad_radius))
     h = pad_thickness / 2
     reach = np.zeros(len(names)) if reach is None else np.asarray(reach, dtype=np.float64).reshape(len(names))
     green = "0.2 0.8 0.2 0.5"
@@ -176,6 +183,8 @@ def add_skin(layout: Layout, parent: ET.Element, sensor: ET.Element, *, position
                           size=f"{_fmt(cover[k])} {_fmt(h)}", density="0", contype="1", conaffinity="1",
                           rgba="0.85 0.85 0.8 1")
         half = (h if pad else 0.0) + abs(reach[k]) + SITE_MARGIN  # the link's contact surface within it
+        if pad_radius is not None and pad:  # a robot's taxel frame stays on its link: the site reaches the pad's top
+            centre, half = p, half + h
         ET.SubElement(parent, "site", name=name, type="cylinder", pos=_vec(centre), zaxis=_vec(n),
                       size=f"{_fmt(r_taxel)} {_fmt(half)}", rgba=green)
     for name in names:
@@ -235,6 +244,43 @@ def colliding_geoms(root: ET.Element, body: ET.Element) -> int:
         attrs.update({k: g.get(k) for k in ("contype", "conaffinity") if g.get(k) is not None})
         n += int(attrs.get("contype", "1")) != 0 or int(attrs.get("conaffinity", "1")) != 0
     return n
+
+
+def replace_contact(root: ET.Element, body: ET.Element, files, prefix: str) -> list[str]:
+    """Make the convex meshes ``files`` (paths, in ``body``'s frame, metres) ``body``'s contact surface:
+    its own colliding geoms stop colliding (``contype`` = ``conaffinity`` = 0; they stay, for their mass
+    and looks), and one massless mesh geom per file is added (``<prefix><k>``, its asset too, file
+    given as is; :func:`relative_contact_files` makes it relative later). Returns the geom names."""
+    for g in body.findall("geom"):
+        g.set("contype", "0")
+        g.set("conaffinity", "0")
+    asset = root.find("asset")
+    if asset is None:
+        asset = ET.Element("asset")
+        root.insert(1 if root.find("compiler") is not None else 0, asset)
+    added, names = [], []
+    for k, f in enumerate(files):
+        name = f"{prefix}{k}"
+        added.append(ET.SubElement(asset, "mesh", name=name, file=str(f)))
+        added.append(ET.SubElement(body, "geom", name=name, type="mesh", mesh=name, density="0",
+                                   contype="1", conaffinity="1", group="3", rgba="0.6 0.6 0.9 0.3"))
+        names.append(name)
+    indent_added(root, added + ([asset] if len(asset) == len(files) else []))
+    return names
+
+
+def relative_contact_files(root: ET.Element, names, out_dir: Path) -> None:
+    """Write the ``file`` of the mesh assets ``names`` relative to where MuJoCo looks for meshes of the
+    model written in ``out_dir`` (the compiler's ``meshdir``, else ``assetdir``, else the model's folder)."""
+    compiler = root.find("compiler")
+    base = ""
+    if compiler is not None:
+        base = compiler.get("meshdir") or compiler.get("assetdir") or ""
+    base_dir = Path(base) if os.path.isabs(base) else Path(out_dir) / base
+    names = set(names)
+    for mesh in root.iter("mesh"):
+        if mesh.get("name") in names:
+            mesh.set("file", os.path.relpath(Path(mesh.get("file")).resolve(), base_dir.resolve()))
 
 
 def inline_includes(root: ET.Element, model_dir: Path, model) -> None:

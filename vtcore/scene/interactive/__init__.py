@@ -16,8 +16,8 @@ from __future__ import annotations
 
 from ..._progress import Job, keep_going  # noqa: F401  (Job: the add-on runs a long fill in one)
 from .augment import augment, probes_from_file  # noqa: F401
-from .contact import (Contact, SkinEdges, bake, edges, indenter_mesh, sensor_response, simulate,  # noqa: F401
-                      soft_layer)
+from .contact import (Contact, SkinEdges, bake, edges, indenter_mesh, sensor_response,  # noqa: F401
+                      sensor_summary, simulate, soft_layer)
 from .evaluate import SkinMap, evaluate_skin  # noqa: F401
 from .live import LiveFrame, LiveTouch, LiveWorker  # noqa: F401
 from .robot import (LinkPart, RobotImport, export_skinned_robot, import_layout, import_robot,  # noqa: F401

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
@@ -44,11 +45,34 @@ def soft_layer(thickness: float, material: str = "ecoflex_00_20"):
     return SoftLayer(thickness=float(thickness), material=material)
 
 
-def sensor_response(pressure, counts_per_pa):
-    """Counts (same shape) of taxel pressures (Pa): the linear gain, then the 16-bit clip."""
+#: the sensor every front end simulates by default: the shipped CySkin profile, as the command line does
+SENSOR_PROFILE = "cyskin"
+
+
+def sensor_response(pressure, counts_per_pa: float | None = None, profile: str = SENSOR_PROFILE):
+    """Counts (same shape) of taxel pressures (Pa): the sensor profile's fitted transfer (its gain and
+    saturation), or the linear gain ``counts_per_pa`` where one is given (an explicit override), then
+    the 16-bit clip."""
     from ...contact import sensor
 
-    return sensor.saturate(sensor.gain(pressure, counts_per_pa))
+    return sensor.saturate(sensor_model(counts_per_pa, profile).counts(pressure))
+
+
+@lru_cache(maxsize=16)
+def sensor_model(counts_per_pa: float | None = None, profile: str = SENSOR_PROFILE):
+    """The :class:`vtcore.evaluate.SensorNoise` of ``profile`` (gain overridden by ``counts_per_pa``),
+    read once: live touch asks for it every frame."""
+    from ...evaluate import sensor_noise
+
+    return sensor_noise(counts_per_pa=counts_per_pa, profile=profile)
+
+
+def sensor_summary(counts_per_pa: float | None = None, profile: str = SENSOR_PROFILE) -> str:
+    """One line naming the sensor a front end simulates: the profile and its gain (counts/Pa), or the
+    override; and the detection threshold (Pa) it gives."""
+    n = sensor_model(counts_per_pa, profile)
+    src = "override" if counts_per_pa is not None else f"profile {profile!r}"
+    return f"gain {n.counts_per_pa:.3g} counts/Pa ({src}); detects above {n.threshold_pa:.3g} Pa"
 
 
 class SkinEdges:
@@ -82,7 +106,7 @@ def _edges(layout, triangles, response, edge_fraction):
 
 
 def simulate(layout: Layout, triangles, indenter_vertices, indenter_triangles, pose, *, thickness: float,
-             material: str = "ecoflex_00_20", force: float | None = 5.0, counts_per_pa: float = 0.1,
+             material: str = "ecoflex_00_20", force: float | None = 5.0, counts_per_pa: float | None = None,
              edge_fraction: float = 0.3, geometry: str = "plane", model: str = "finite_layer") -> Contact:
     """Press an indenter onto the skin at a target force and read taxels and edges.
 
@@ -91,7 +115,8 @@ def simulate(layout: Layout, triangles, indenter_vertices, indenter_triangles, p
     in its own frame; pose : (4, 4) its pose in the skin frame before pressing
     (it moves towards the skin until ``force`` newtons; ``force=None`` uses the
     pose as it is). thickness : m; material : a vtcore.contact.MATERIALS key.
-    counts_per_pa : sensor gain. edge_fraction : edge threshold as a fraction of
+    counts_per_pa : sensor gain override, counts/Pa (None: the CySkin profile's fitted transfer, as the
+    command line's). edge_fraction : edge threshold as a fraction of
     the frame's largest edge response (Eq. 7 with a relative epsilon). geometry : "plane"
     or "unrolled" (solved on the layout's flat coordinates: curved patches; see
     :func:`vtcore.contact.press`). model : the layer's contact model (vtcore.contact.MODELS).
@@ -114,7 +139,7 @@ def simulate(layout: Layout, triangles, indenter_vertices, indenter_triangles, p
 
 
 def bake(layout: Layout, triangles, indenter_vertices, indenter_triangles, poses, *, thickness: float,
-         material: str = "ecoflex_00_20", forces=None, counts_per_pa: float = 0.1,
+         material: str = "ecoflex_00_20", forces=None, counts_per_pa: float | None = None,
          edge_fraction: float = 0.3, callback=None, geometry: str = "plane") -> dict:
     """Simulate a trajectory: one press per pose, warm-started from the previous frame.
 

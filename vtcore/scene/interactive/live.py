@@ -48,7 +48,7 @@ class LiveTouch:
 
     def __init__(self, layout: Layout, triangles, indenter_vertices, indenter_triangles, *, thickness: float,
                  material: str = "ecoflex_00_20", model: str = "finite_layer", force: float | None = 5.0,
-                 counts_per_pa: float = 0.1, edge_fraction: float = 0.3, geometry: str = "plane"):
+                 counts_per_pa: float | None = None, edge_fraction: float = 0.3, geometry: str = "plane"):
         from ...contact import MODELS
 
         if len(layout) == 0:
@@ -60,7 +60,7 @@ class LiveTouch:
         self.mesh = as_trimesh(indenter_vertices, indenter_triangles, SIZE_RANGE_M)
         self.model, self.geometry = model, geometry
         self.force = force if force else None
-        self.counts_per_pa = float(counts_per_pa)
+        self.counts_per_pa = None if counts_per_pa is None else float(counts_per_pa)
         self.edge_fraction = float(edge_fraction)
         self.skin_edges = SkinEdges(layout, triangles)
         self._last = None
