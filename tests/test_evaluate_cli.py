@@ -99,6 +99,14 @@ def test_a_robot_layout_needs_no_mesh_and_refuses_one_it_does_not_lie_on(tmp_pat
     assert r.returncode == 0, r.stderr
     res = json.loads((tmp_path / "maps" / "result.json").read_text())
     assert res["metrics"]["samples"] > 0 and (tmp_path / "maps" / "palm_link_collision.stl").is_file()
+    # the maps cover the palm's exposed faces only: the fingers' bases cover part of its box
+    import trimesh
+
+    mapped = trimesh.load(tmp_path / "maps" / "palm_link_collision.stl")
+    from vtcore.robot import link_mesh
+
+    assert 0.5 * link_mesh(robot, "palm_link", "collision").area < mapped.area \
+        < 0.95 * link_mesh(robot, "palm_link", "collision").area
     r = vt("evaluate", tmp_path / "palm.json", "--mesh", erd / "allegro_hand_description" / "meshes" / "base_link.STL",
            "--out", tmp_path / "off")
     assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1, r.stderr

@@ -98,12 +98,27 @@ def lies_on(layout, mesh_path, scale: float = 1.0) -> None:
 
 
 def evaluation_surface(robot, link: str, geometry: str):
-    """The surface of ``link`` a robot layout is evaluated on: the whole link (its ``geometry``, in
-    its frame). HOOK (issue 33): once the link's exposed surface exists (``vtcore.robot.exposure``),
-    the maps belong on the exposed faces only; this is the one place to restrict it."""
-    from ..robot import link_mesh
+    """The surface of ``link`` a robot layout is evaluated on: the link's exposed faces
+    (:func:`vtcore.robot.exposure.exposed_faces`, as ``layout place ROBOT --link`` fills them: not
+    covered by another link at the zero pose, reachable by a fingertip), in the link's frame. A
+    design map over a face no object can touch would report detection where nothing presses; a
+    link with no exposed face is the same one-line refusal as ``layout place`` gives."""
+    import numpy as np
 
-    return link_mesh(robot, link, geometry)
+    from ..robot import link_mesh
+    from ..robot.exposure import exposed_faces
+    from ..errors import InputError
+    from ..robot.skin import exposure_mesh
+
+    mesh, _ = exposure_mesh(link_mesh(robot, link, geometry))
+    exposure = exposed_faces(robot, link, geometry, mesh=mesh)
+    if not exposure.mask.any():
+        raise InputError(f"link {link!r} ({geometry} geometry) has no exposed surface to map: "
+                         f"{exposure.excluded_text().split(': ', 1)[1]}; give the surface with --mesh",
+                         file=robot.path, key="--link")
+    if exposure.mask.all():
+        return mesh
+    return mesh.submesh([np.flatnonzero(exposure.mask)], append=True)
 
 
 def link_surface(layout, args, out: Path) -> Path:
