@@ -15,7 +15,7 @@ Rows:
   200 mm link of 101k faces) at 2 mm (goal: detection + localisation under 10 s), cold (the table
   computed) and warm (table kept), with and without the two-point map; 4 and 1 mm; a two-layout
   comparison (goal under 30 s); peak memory (tracemalloc, numpy's buffers included). ``--quick``: 30
-  modules on a 10k-face link, no 1 mm row. Errors: the first layout's maps against press-by-press
+  modules on a 10k-face link. Errors: the first layout's maps against press-by-press
   solves (:func:`map_error`) at the covered samples nearest 8 random taxels (3 with ``--quick``),
   thresholds at 3 (2) of them; rows of one spacing share those samples and solves.
 - ``resolution`` seed 001's Fig. 10 study as design maps: random subsets of s of the hexagon's 60 taxels.
@@ -175,8 +175,7 @@ def perf_rows(quick: bool, layer, noise) -> list[dict]:
     one("2 mm, detection + localisation, warm (table kept)", no2, 0.002)
     one("2 mm, + two-point (4 mm points)", Settings(), 0.002)
     one("4 mm, detection + localisation", no2, 0.004)
-    if not quick:
-        one("1 mm, detection + localisation", no2, 0.001)
+    one("1 mm, detection + localisation", no2, 0.001)  # quick too: three spacings on the error curve
     half = lay.subset(np.isin(lay.module_ids, np.unique(lay.module_ids)[::2]))
     one("two layouts (all modules, every other one), 2 mm, cold", no2, 0.002, layouts=(lay, half), cold=True)
     one("two layouts, 2 mm, + two-point, warm", Settings(), 0.002, layouts=(lay, half))
