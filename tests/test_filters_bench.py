@@ -20,3 +20,22 @@ def test_filters_bench_quick(tmp_path):
         assert r["ms_per_frame"] > 0
         if r["row"].startswith("detect_"):
             assert r["pos_err_mm"] < 7.5 and r["misses"] == 0
+        if r["row"].startswith("mesh_filter"):  # against Eq. 6 summed edge by edge from the triangles
+            assert r["rel_err"] < (1e-12 if r["knob"] == "float64" else 1e-5), r
+
+
+def test_eq6_reference_by_hand():
+    # two triangles (0 1 2), (1 3 2) on unit-ish edges: r_i = sum_j p_j (p_j - p_i) / d_ij
+    import numpy as np
+
+    from vtcore.filters.bench import eq6_reference
+
+    pos = np.array([[0, 0, 0], [1, 0, 0], [0, 2, 0], [1, 2, 0.0]])
+    p = np.array([1.0, 2.0, 3.0, 5.0])
+    r = eq6_reference(pos, [[0, 1, 2], [1, 3, 2]], p[None])[0]
+    d12 = np.sqrt(5.0)
+    want = [2 * (2 - 1) / 1 + 3 * (3 - 1) / 2,
+            1 * (1 - 2) / 1 + 3 * (3 - 2) / d12 + 5 * (5 - 2) / 2,
+            1 * (1 - 3) / 2 + 2 * (2 - 3) / d12 + 5 * (5 - 3) / 1,
+            2 * (2 - 5) / 2 + 3 * (3 - 5) / 1]
+    assert np.allclose(r, want, rtol=1e-14)

@@ -14,7 +14,10 @@ Rows:
 - ``link_1000`` the issue's performance case: a 1,000-taxel skin (100 CySkin modules filled on a 72 x
   200 mm link of 101k faces) at 2 mm (goal: detection + localisation under 10 s), cold (the table
   computed) and warm (table kept), with and without the two-point map; 4 and 1 mm; a two-layout
-  comparison (goal under 30 s); peak memory (tracemalloc, numpy's buffers included).
+  comparison (goal under 30 s); peak memory (tracemalloc, numpy's buffers included). ``--quick``: 30
+  modules on a 10k-face link. Errors: the first layout's maps against press-by-press
+  solves (:func:`map_error`) at the covered samples nearest 8 random taxels (3 with ``--quick``),
+  thresholds at 3 (2) of them; rows of one spacing share those samples and solves.
 - ``resolution`` seed 001's Fig. 10 study as design maps: random subsets of s of the hexagon's 60 taxels.
 
 Every row states the machine's load average when it ran (2 shared cores): wall times move with it,
@@ -105,12 +108,49 @@ def link_skin(faces: int, modules: int):
     return mesh, lay.subset(np.isin(lay.module_ids, keep))
 
 
+def _interior_samples(dm, layout, k: int, seed: int = 5) -> np.ndarray:
+    """Indices of ``k`` covered samples of ``dm``: the one nearest each of ``k`` random taxels (inside a
+    module, where the press-by-press plane solve has taxels all round; see the curved patch's row)."""
+    from scipy.spatial import cKDTree
+
+    s = dm.samples
+    cov = np.flatnonzero(s.covered)
+    taxels = np.random.default_rng(seed).choice(len(layout), size=min(k, len(layout)), replace=False)
+    _, near = cKDTree(s.positions[cov]).query(layout.positions[taxels])
+    return np.unique(cov[near])
+
+
+def map_error(dm, layout, layer, st, noise, k: int, n_thr: int, axis=(0.0, 0.0, 1.0)) -> dict:
+    """The design map ``dm`` of ``layout`` against press-by-press solves (:func:`reference_points`) at
+    ``k`` of its covered samples (:func:`_interior_samples`), the threshold at ``n_thr`` of them.
+    ``axis``: the probe's long axis in the reference where ``st`` leaves it to the map (which lays a
+    finger along the surface's flattest direction: a link's axis, z for :func:`link_skin`)."""
+    idx = _interior_samples(dm, layout, k)
+    s = dm.samples
+    ref_st = Settings(**{**st.__dict__, "two_point": False,
+                         "probe_axis": axis if st.probe_axis is None else st.probe_axis})
+    t_ref, _, ref = _timed(lambda: reference_points(layout, s.positions[idx], s.normals[idx], layer, ref_st, noise,
+                                                    threshold_points=range(n_thr)))
+    nf = np.abs(dm.localisation.error_noise_free[idx] - ref.localisation.error_noise_free) * 1e3
+    both = dm.localisation.located[idx] & ref.localisation.located
+    le = np.abs(dm.localisation.error[idx] - ref.localisation.error)[both]
+    rel = le / np.maximum(ref.localisation.error[both], 1e-4) * 100
+    ok = np.isfinite(ref.threshold[:n_thr]) & dm.detection.detectable[idx[:n_thr]]
+    thr = np.abs(dm.detection.threshold[idx[:n_thr]][ok] / ref.threshold[:n_thr][ok] - 1) * 100
+    return {"points": len(idx), "press_s_per_point": t_ref / len(idx), "loc_noise_free_err_mm_max": float(nf.max()),
+            "loc_expected_err_pct_median": float(np.median(rel)) if len(rel) else None,
+            "loc_expected_err_pct_max": float(rel.max()) if len(rel) else None,
+            "threshold_err_pct_max": float(thr.max()) if len(thr) else None}
+
+
 def perf_rows(quick: bool, layer, noise) -> list[dict]:
-    """The performance case (see the module docstring)."""
+    """The performance case (see the module docstring), each row with its error against press-by-press
+    solves at a few of its samples (the same samples for rows of the same layout and spacing)."""
     from .design import clear_tables
 
     mesh, lay = link_skin(10_000 if quick else 100_000, 30 if quick else 100)
-    rows = []
+    rows, errors = [], {}
+    n_ref, n_thr = (3, 2) if quick else (8, 3)
 
     def one(setting, st, spacing, layouts=(lay,), cold=False):
         if cold:
@@ -121,20 +161,21 @@ def perf_rows(quick: bool, layer, noise) -> list[dict]:
         tracemalloc.stop()
         dm = dms[0]
         s = dm.summary()
+        if spacing not in errors:  # detection and localisation do not depend on two_point or a warm table
+            errors[spacing] = map_error(dm, lay, layer, st, noise, n_ref, n_thr)
         rows.append({"case": "link_1000", "setting": setting, "taxels": sum(len(x) for x in layouts),
                      "faces": len(mesh.faces), "samples": len(dm.samples), "load": _load(), "wall_s": wall,
                      "cpu_s": cpu, "peak_mb": peak / 2 ** 20,
                      "steps": ", ".join(f"{k} {v:.2f}" for k, v in dm.seconds.items()),
                      "threshold_median_n": s["threshold_covered_median_n"],
-                     "localisation_median_mm": s["localisation_covered_median_mm"]})
+                     "localisation_median_mm": s["localisation_covered_median_mm"], **errors[spacing]})
 
     no2 = Settings(two_point=False)
     one("2 mm, detection + localisation, cold (table computed)", no2, 0.002, cold=True)
     one("2 mm, detection + localisation, warm (table kept)", no2, 0.002)
     one("2 mm, + two-point (4 mm points)", Settings(), 0.002)
     one("4 mm, detection + localisation", no2, 0.004)
-    if not quick:
-        one("1 mm, detection + localisation", no2, 0.001)
+    one("1 mm, detection + localisation", no2, 0.001)  # quick too: three spacings on the error curve
     half = lay.subset(np.isin(lay.module_ids, np.unique(lay.module_ids)[::2]))
     one("two layouts (all modules, every other one), 2 mm, cold", no2, 0.002, layouts=(lay, half), cold=True)
     one("two layouts, 2 mm, + two-point, warm", Settings(), 0.002, layouts=(lay, half))
@@ -246,7 +287,9 @@ def run(out: Path, quick: bool = False) -> list[dict]:
         "`load` is the 1-minute load average when the row ran; `cpu_s` is this process's CPU time.",
         "Shortcut errors are against press-by-press solves on a 0.5 mm grid with 19 samples per taxel disc "
         "(the same estimator, noise draws and blob criterion); reading errors are the neighbour taxels' mean "
-        "readings at the reference force, in % of that press's peak reading."])
+        "readings at the reference force, in % of that press's peak reading. link_1000 rows: the same "
+        "comparison at the covered samples nearest a few random taxels (`points`; `press_s_per_point` is the "
+        "reference's cost)."])
     return rows
 
 
