@@ -38,6 +38,7 @@ from . import elastic
 from .finish import check_compression, finish_press, footprint, moved, press_frame, require_contact, \
     travel_and_indentation
 from .grid import ContactField, digest, grid_cells
+from .hyperelastic import contact_solver
 from .proximity import envelope_posed
 from .roots import illinois
 
@@ -203,8 +204,8 @@ def press_unrolled(layout, local, scene, pose, layer, *, force, indentation, dir
         def solve(d):
             """Force (N) along the press after a travel d; keeps the pressure per flat area in state."""
             nonlocal iters, conv_ok
-            sol = elastic.solve_pk(normal_gap(d)[win], op, cell, approach=0.0, p0=state["p"], tol=tol,
-                                   maxiter=maxiter, conv32=op32)
+            sol = contact_solver(model, h)(normal_gap(d)[win], op, cell, approach=0.0, p0=state["p"], tol=tol,
+                                           maxiter=maxiter, conv32=op32)
             iters += sol.iterations
             conv_ok = conv_ok and sol.converged
             p = np.zeros_like(gap)

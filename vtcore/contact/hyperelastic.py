@@ -1,0 +1,161 @@
+"""The fast large-compression layer model (``model = "hyperelastic"``): the finite layer solved in a
+Seth-Hill strain.
+
+A nearly incompressible layer bonded to the rigid end-effector stiffens as it is squeezed: the
+material has to flow out sideways through a gap that closes. The linear finite layer
+(:mod:`vtcore.contact.elastic`) answers the interference ``i = d - g`` (m) of the rigid object with a
+pressure linear in it. This model keeps that kernel (its spreading, its bonded base, its
+incompressibility at small strain) and replaces the interference it is asked to impose by
+
+    i' = h phi(i / h),   phi(c) = (1 - (1 - c)^m) / m      (m = 0: -ln(1 - c))
+
+the Seth-Hill strain of order m of the local stretch ``1 - c`` (c the compression, i / h): m = 1 is
+the linear layer, m = 0 the logarithmic strain, m < 0 stiffer still; phi(c) grows without bound as
+the layer's thickness closes, so the layer never has a negative thickness. The order is fitted
+once to the neo-Hookean finite-element reference (:mod:`vtcore.contact.fem_reference`,
+``vtcore bench layer``) over the four reference indenters, three thicknesses and 5-60 %
+compression: :data:`SETH_HILL_ORDER`. At small compression phi(c) = c + (1 - m) c^2 / 2 + ...: the
+model equals the linear finite layer.
+
+Cost: under an approach the solve is the linear one on a transformed gap; under a target force the
+approach is found by a secant in log force, each step a warm-started approach-controlled solve
+(:func:`solve_large`).
+
+Limits (stated, tested): past :data:`FITTED_COMPRESSION` of the thickness the model is outside its
+fitted range (a :class:`vtcore.contact.materials.LargeDeformationWarning` from the caller); a target
+that needs more than :data:`BOTTOM_OUT` of the thickness raises
+:class:`vtcore.errors.UnreachableTargetError` (the object bottoms out on the end-effector).
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from ..errors import UnreachableTargetError
+from .elastic import ContactSolution, solve_pk
+from .materials import LargeDeformationWarning
+
+#: Seth-Hill order m of the strain the layer is linear in, fitted to the finite-element reference
+SETH_HILL_ORDER = -1.0
+#: compression (share of the thickness) up to which the order was fitted to the reference
+FITTED_COMPRESSION = 0.60
+#: compression (share of the thickness) beyond which a target is refused: the object bottoms out
+BOTTOM_OUT = 0.90
+
+
+def strain(c, m: float = SETH_HILL_ORDER):
+    """phi(c), the Seth-Hill strain of order ``m`` at compression ``c`` (any shape, share of h).
+
+    Defined for every c: below -1 (a gap wider than the layer) and above :data:`BOTTOM_OUT` it
+    continues along its tangent, so a solver exploring there never meets NaN or infinity.
+    """
+    c = np.asarray(c, dtype=float)
+    lo, hi = -1.0, BOTTOM_OUT
+    cc = np.clip(c, lo, hi)
+    lam = 1.0 - cc
+    if abs(m) < 1e-12:
+        phi, slope = -np.log(lam), 1.0 / lam
+    else:
+        phi, slope = (1.0 - lam**m) / m, lam ** (m - 1.0)
+    return phi + slope * (c - cc)
+
+
+def _transformed(gap, approach, h, m):
+    """Gap (m) whose linear solve at approach 0 imposes the transformed interference."""
+    with np.errstate(invalid="ignore"):
+        return np.where(np.isfinite(gap), -h * strain((approach - gap) / h, m), np.inf)
+
+
+def _at_approach(gap, conv, cell_area, h, m, d, p0, tol, maxiter, conv32):
+    sol = solve_pk(_transformed(gap, d, h, m), conv, cell_area, approach=0.0, p0=p0, tol=tol, maxiter=maxiter,
+                   conv32=conv32)
+    sol.approach = float(d)
+    return sol
+
+
+def solve_large(gap, conv, cell_area, thickness, *, force=None, approach=None, p0=None, tol=1e-7, maxiter=1000,
+                conv32=None, order: float = SETH_HILL_ORDER) -> ContactSolution:
+    """Contact of a rigid object with the large-compression layer (arguments as :func:`solve_pk`).
+
+    gap : (mx, my) m (inf where the object is absent). conv : the linear finite layer's compliance
+    operator. thickness : h, m. force : N, or approach : m. Returns a ContactSolution whose
+    ``displacement`` is the surface's (m, ``approach - gap`` in the contact) and ``approach`` the
+    object's. Raises UnreachableTargetError when the force needs more than :data:`BOTTOM_OUT` x h.
+    """
+    g = np.asarray(gap, float)
+    h = float(thickness)
+    if approach is not None:
+        sol = _at_approach(g, conv, cell_area, h, order, float(approach), p0, tol, maxiter, conv32)
+        return _physical(sol, g, h)
+    lin = solve_pk(g, conv, cell_area, force=force, p0=p0, tol=max(tol, 1e-4), maxiter=maxiter, conv32=conv32)
+    if not lin.pressure.any():
+        return lin
+    sol, f, iters = _force_secant(g, conv, cell_area, h, order, force, lin, tol, maxiter, conv32)
+    if f < force * (1 - 1e-3):
+        raise UnreachableTargetError(
+            f"{force} N would squeeze the {h * 1e3:.3g} mm layer by more than {BOTTOM_OUT:.0%} of its thickness "
+            "(model hyperelastic): the object bottoms out on the end-effector; use a thicker or stiffer layer or a "
+            "lower force")
+    sol.pressure *= force / f  # the last secant step's residual (below 1e-6 of the force)
+    sol.iterations = iters
+    return _physical(sol, g, h)
+
+
+def _force_secant(g, conv, cell_area, h, order, force, lin, tol, maxiter, conv32):
+    """(solution, its force N, iterations): the approach whose force is ``force``, by a secant in
+    (log travel, log force) from the linear layer's approach (a press's force is close to a power of
+    its travel), each step a warm-started solve; loose until within 1e-3, then at ``tol``."""
+    gmin = float(g[np.isfinite(g)].min())
+    top = gmin + BOTTOM_OUT * h * 1.001
+    d, sol, prev, n, iters = lin.approach, lin, None, 1.5, lin.iterations
+    f, err = 0.0, np.inf
+    for _ in range(40):
+        tight = abs(err) < 1e-3
+        sol = _at_approach(g, conv, cell_area, h, order, d, sol.pressure, tol if tight else max(tol, 1e-4),
+                           maxiter, conv32)
+        iters += sol.iterations
+        f = _force(sol, cell_area)
+        err = f / force - 1
+        if (tight and abs(err) < 1e-6) or (d >= top and err < 0):
+            break
+        if f <= 0:
+            d = gmin + 2 * (d - gmin)
+            continue
+        if prev is not None and prev[1] > 0 and prev[0] != d and prev[1] != f:
+            n = float(np.clip(np.log(f / prev[1]) / np.log((d - gmin) / (prev[0] - gmin)), 0.5, 50.0))
+        prev = (d, f)
+        d = min(gmin + (d - gmin) * (force / f) ** (1 / n), top)
+    return sol, f, iters
+
+
+def _force(sol, cell_area):
+    return float(sol.pressure.sum() * cell_area)
+
+
+def _physical(sol, gap, h):
+    """The surface displacement the object imposes (m): its interference where it presses; warns
+    (LargeDeformationWarning) past the compression the model was fitted over."""
+    sol.displacement = np.where(sol.pressure > 0, sol.approach - np.where(np.isfinite(gap), gap, 0.0),
+                                sol.displacement)
+    c = float(sol.displacement[sol.pressure > 0].max()) / h if sol.pressure.any() else 0.0
+    if c > FITTED_COMPRESSION:
+        warnings.warn(f"the press compresses the {h * 1e3:.3g} mm layer by {c:.0%} of its thickness, past the "
+                      f"{FITTED_COMPRESSION:.0%} the hyperelastic model was fitted to its finite-element reference "
+                      "over (docs/contact.md, 'Large compression'): read the stresses as qualitative",
+                      LargeDeformationWarning, stacklevel=3)
+    return sol
+
+
+def contact_solver(model: str, thickness: float):
+    """The contact solve of ``model`` with :func:`vtcore.contact.elastic.solve_pk`'s arguments: this
+    module's :func:`solve_large` for ``"hyperelastic"`` (bound to the layer's ``thickness``, m), else
+    ``solve_pk`` itself."""
+    if model != "hyperelastic":
+        return solve_pk
+
+    def solve(gap, conv, cell_area, **kw):
+        return solve_large(gap, conv, cell_area, thickness, **kw)
+
+    return solve
