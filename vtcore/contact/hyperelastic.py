@@ -38,7 +38,7 @@ from .elastic import ContactSolution, solve_pk
 from .materials import LargeDeformationWarning
 
 #: Seth-Hill order m of the strain the layer is linear in, fitted to the finite-element reference
-SETH_HILL_ORDER = -1.0
+SETH_HILL_ORDER = 0.5
 #: compression (share of the thickness) up to which the order was fitted to the reference
 FITTED_COMPRESSION = 0.60
 #: compression (share of the thickness) beyond which a target is refused: the object bottoms out
@@ -60,6 +60,16 @@ def strain(c, m: float = SETH_HILL_ORDER):
     else:
         phi, slope = (1.0 - lam**m) / m, lam ** (m - 1.0)
     return phi + slope * (c - cc)
+
+
+def compression_at(phi, m: float = SETH_HILL_ORDER) -> float:
+    """The compression c (share of h) whose Seth-Hill strain of order ``m`` is ``phi`` >= 0 (:func:`strain`'s
+    inverse there), at most :data:`BOTTOM_OUT`."""
+    top = float(strain(BOTTOM_OUT, m))
+    if phi >= top:
+        return BOTTOM_OUT
+    c = 1.0 - np.exp(-phi) if abs(m) < 1e-12 else 1.0 - (1.0 - m * phi) ** (1.0 / m)
+    return float(min(c, BOTTOM_OUT))
 
 
 def _transformed(gap, approach, h, m):
@@ -98,36 +108,45 @@ def solve_large(gap, conv, cell_area, thickness, *, force=None, approach=None, p
             f"{force} N would squeeze the {h * 1e3:.3g} mm layer by more than {BOTTOM_OUT:.0%} of its thickness "
             "(model hyperelastic): the object bottoms out on the end-effector; use a thicker or stiffer layer or a "
             "lower force")
-    sol.pressure *= force / f  # the last secant step's residual (below 1e-6 of the force)
     sol.iterations = iters
     return _physical(sol, g, h)
 
 
 def _force_secant(g, conv, cell_area, h, order, force, lin, tol, maxiter, conv32):
-    """(solution, its force N, iterations): the approach whose force is ``force``, by a secant in
-    (log travel, log force) from the linear layer's approach (a press's force is close to a power of
-    its travel), each step a warm-started solve; loose until within 1e-3, then at ``tol``."""
+    """(solution, its force N, iterations): the travel d whose transformed press carries ``force``.
+
+    Each step is a force-controlled linear solve on the gap transformed at the current d, warm-started:
+    its rigid shift s says by how much the transformed interference is short (s < 0) or long, and d
+    moves by s over the strain's mean slope in the contact. At the answer s = 0: the force is exact at
+    every step, the consistency of d is what converges (to 1e-6 h).
+    """
     gmin = float(g[np.isfinite(g)].min())
-    top = gmin + BOTTOM_OUT * h * 1.001
-    d, sol, prev, n, iters = lin.approach, lin, None, 1.5, lin.iterations
-    f, err = 0.0, np.inf
-    for _ in range(40):
-        tight = abs(err) < 1e-3
-        sol = _at_approach(g, conv, cell_area, h, order, d, sol.pressure, tol if tight else max(tol, 1e-4),
-                           maxiter, conv32)
+    top = gmin + BOTTOM_OUT * h
+    # first guess: the travel whose strain at the first contact equals the linear layer's compression there
+    d = gmin + h * compression_at(max(lin.approach - gmin, 0.0) / h, order)
+    sol, iters, shift = lin, lin.iterations, np.inf
+    for k in range(40):
+        tight = abs(shift) < 1e-4 * h
+        sol = solve_pk(_transformed(g, d, h, order), conv, cell_area, force=force, p0=sol.pressure,
+                       tol=tol if tight else max(tol, 1e-4), maxiter=maxiter, conv32=conv32)
         iters += sol.iterations
-        f = _force(sol, cell_area)
-        err = f / force - 1
-        if (tight and abs(err) < 1e-6) or (d >= top and err < 0):
+        shift = sol.approach
+        if tight and abs(shift) < 1e-6 * h:
             break
-        if f <= 0:
-            d = gmin + 2 * (d - gmin)
-            continue
-        if prev is not None and prev[1] > 0 and prev[0] != d and prev[1] != f:
-            n = float(np.clip(np.log(f / prev[1]) / np.log((d - gmin) / (prev[0] - gmin)), 0.5, 50.0))
-        prev = (d, f)
-        d = min(gmin + (d - gmin) * (force / f) ** (1 / n), top)
-    return sol, f, iters
+        c = (d - np.where(np.isfinite(g), g, np.inf)[sol.pressure > 0]) / h
+        slope = float(np.mean(_slope(c, order))) if c.size else 1.0
+        d_new = d + shift / slope
+        if d_new >= top and d >= top:
+            break
+        d = min(d_new, top)
+    sol.approach = float(d)
+    return sol, float(sol.pressure.sum() * cell_area) if abs(shift) < 1e-3 * h else 0.0, iters
+
+
+def _slope(c, m):
+    """d phi / d c at compressions c."""
+    lam = 1.0 - np.clip(c, -1.0, BOTTOM_OUT)
+    return lam ** (m - 1.0)
 
 
 def _force(sol, cell_area):
