@@ -132,3 +132,40 @@ def test_reference_matches_the_linear_layer_at_small_compression_and_fast_model_
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         assert np.isfinite(ref.peak_pressure).all() and (np.diff(ref.contact_radius) > 0).all()
+
+
+def test_scene_selects_the_model_and_refuses_an_unknown_one(tmp_path):
+    from vtcore.errors import SceneError
+    from vtcore.scene import run_scene
+
+    text = """
+[scene]
+name = "t"
+task = "press"
+seed = 3
+[end_effector]
+shape = "plane"
+[layout]
+patch = "hexagon"
+[layer]
+thickness = 0.003
+extent = 0.04
+grid_spacing = 0.0015
+samples_per_taxel = 3
+model = "{model}"
+[[objects]]
+name = "ball"
+kind = "sphere"
+radius = 0.03
+[task]
+force = 5.0
+[output]
+plots = false
+"""
+    p = tmp_path / "s.toml"
+    p.write_text(text.format(model="hyperelastic"))
+    run_scene(p, tmp_path / "o")
+    assert any("hyperelastic" in f.read_text(errors="ignore") for f in (tmp_path / "o").rglob("*.md"))
+    p.write_text(text.format(model="neo_hooke"))
+    with pytest.raises(SceneError, match=r"layer\.model"):
+        run_scene(p, tmp_path / "p")

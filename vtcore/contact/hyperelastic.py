@@ -35,12 +35,10 @@ import numpy as np
 
 from ..errors import UnreachableTargetError
 from .elastic import ContactSolution, solve_pk
-from .materials import LargeDeformationWarning
+from .materials import LargeDeformationWarning, compression_note
 
 #: Seth-Hill order m of the strain the layer is linear in, fitted to the finite-element reference
 SETH_HILL_ORDER = 0.5
-#: compression (share of the thickness) up to which the order was fitted to the reference
-FITTED_COMPRESSION = 0.60
 #: compression (share of the thickness) beyond which a target is refused: the object bottoms out
 BOTTOM_OUT = 0.90
 
@@ -158,12 +156,10 @@ def _physical(sol, gap, h):
     (LargeDeformationWarning) past the compression the model was fitted over."""
     sol.displacement = np.where(sol.pressure > 0, sol.approach - np.where(np.isfinite(gap), gap, 0.0),
                                 sol.displacement)
-    c = float(sol.displacement[sol.pressure > 0].max()) / h if sol.pressure.any() else 0.0
-    if c > FITTED_COMPRESSION:
-        warnings.warn(f"the press compresses the {h * 1e3:.3g} mm layer by {c:.0%} of its thickness, past the "
-                      f"{FITTED_COMPRESSION:.0%} the hyperelastic model was fitted to its finite-element reference "
-                      "over (docs/contact.md, 'Large compression'): read the stresses as qualitative",
-                      LargeDeformationWarning, stacklevel=3)
+    c = float(sol.displacement[sol.pressure > 0].max()) if sol.pressure.any() else 0.0
+    note = compression_note(c, h, "the press", "hyperelastic")
+    if note:
+        warnings.warn(note, LargeDeformationWarning, stacklevel=3)
     return sol
 
 

@@ -19,8 +19,8 @@ import numpy as np
 
 from ..errors import InputError
 
-#: far from the profile (beyond a punch's side): the indenter never reaches there, m
-FAR = 1.0
+#: slope (rise over run) at which a profile's rounded edge turns into a straight side (72 degrees)
+SIDE_SLOPE = 3.0
 KINDS = ("sphere", "punch", "cube_edge", "finger")
 
 
@@ -52,37 +52,31 @@ class Indenter:
     def profile(self, x):
         """(f, f') at lateral distances ``x`` (any shape, m): height above the tip (m) and slope.
 
-        Round bodies: a circle of ``radius`` (beyond it the side is vertical: ``FAR``). Punch and
-        cube: flat to ``radius - edge_radius``, a quarter circle of ``edge_radius`` to ``radius``,
-        then ``FAR`` (a side the layer may bulge against is not modelled, in either model).
+        Round bodies: a circle of ``radius``. Punch and cube: flat to ``radius - edge_radius``, then a
+        circle of ``edge_radius``. Where the circle's slope reaches :data:`SIDE_SLOPE` the side goes on
+        straight at that slope (a side flaring at 72 degrees rather than a vertical wall): the layer
+        bulging beside a deep press meets it in both models alike, and the slope stays finite.
         """
-        a = np.abs(np.asarray(x, dtype=float))
-        sgn = np.sign(np.asarray(x, dtype=float))
-        if self.kind in ("sphere", "finger"):
-            r = self.radius
-            inside = a < r * (1 - 1e-9)
-            root = np.sqrt(np.where(inside, r * r - a * a, 1.0))
-            f = np.where(inside, r - root, FAR)
-            fp = np.where(inside, a / root, 0.0)
-        else:
-            flat = self.radius - self.edge_radius
-            re = self.edge_radius
-            s = a - flat
-            inside = (s > 0) & (s < re * (1 - 1e-9))
-            root = np.sqrt(np.where(inside, re * re - s * s, 1.0))
-            f = np.where(s <= 0, 0.0, np.where(inside, re - root, FAR))
-            fp = np.where(inside, s / root, 0.0)
-        return f, fp * sgn
+        xa = np.asarray(x, dtype=float)
+        a = np.abs(xa)
+        r, s = (self.radius, a) if self.kind in ("sphere", "finger") else \
+            (self.edge_radius, a - (self.radius - self.edge_radius))
+        s_t = r * SIDE_SLOPE / np.sqrt(1 + SIDE_SLOPE**2)   # where the circle's slope is SIDE_SLOPE
+        f_t = r - np.sqrt(r * r - s_t * s_t)
+        on = (s > 0) & (s < s_t)
+        root = np.sqrt(np.where(on, r * r - s * s, 1.0))
+        f = np.where(s <= 0, 0.0, np.where(on, r - root, f_t + SIDE_SLOPE * (s - s_t)))
+        fp = np.where(s <= 0, 0.0, np.where(on, s / root, SIDE_SLOPE))
+        return f, fp * np.sign(xa)
 
     def gap(self, X, Y):
-        """Gap (m) of the indenter over a grid ``X, Y`` (m) centred on its axis; ``inf`` where it is absent.
+        """Gap (m) of the indenter over a grid ``X, Y`` (m) centred on its axis.
 
         Axisymmetric kinds use the radius ``hypot(X, Y)``; plane kinds vary along X only (the caller
         bounds the body's length along Y).
         """
         x = np.hypot(X, Y) if self.geometry == "axisymmetric" else np.asarray(X, float)
-        f, _ = self.profile(x)
-        return np.where(f >= FAR, np.inf, f)
+        return self.profile(x)[0]
 
 
 #: The reference cases of docs/contact.md ('Large compression'): seed 001's 30 mm sphere, a 10 mm
