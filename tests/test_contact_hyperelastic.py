@@ -169,3 +169,20 @@ plots = false
     p.write_text(text.format(model="neo_hooke"))
     with pytest.raises(SceneError, match=r"layer\.model"):
         run_scene(p, tmp_path / "p")
+
+
+def test_same_numbers_in_both_python_lanes():
+    """The py311 and py313 lanes (numpy 1.26 / 2, scipy's FFTs) agree to 1e-9: the values were computed
+    in the py311 lane (order 0.4) and agree there and in py313 to ~1e-15."""
+    lay = SoftLayer(thickness=0.003)
+    n = 48
+    dx = 0.024 / n
+    x = (np.arange(n) - n / 2 + 0.5) * dx
+    X, Y = np.meshgrid(x, x, indexing="ij")
+    want = {"sphere": (0.0010296683392950958, 55832.031617437424, 445398590155.81433),
+            "punch": (0.0007221370591799151, 50508.11602705082, 493112461166.36487)}
+    for kind, (d, peak, p2) in want.items():
+        g = CASES[kind].gap(X, Y)
+        s = solve_large(g, compliance_operator(g.shape, dx, dx, lay, "finite_layer"), dx * dx, 0.003, force=3.0,
+                        order=0.4)
+        assert (s.approach, s.pressure.max(), (s.pressure**2).sum()) == pytest.approx((d, peak, p2), rel=1e-9)

@@ -38,7 +38,7 @@ from .elastic import ContactSolution, solve_pk
 from .materials import LargeDeformationWarning, compression_note
 
 #: Seth-Hill order m of the strain the layer is linear in, fitted to the finite-element reference
-SETH_HILL_ORDER = 0.5
+SETH_HILL_ORDER = 0.4
 #: compression (share of the thickness) beyond which a target is refused: the object bottoms out
 BOTTOM_OUT = 0.90
 
