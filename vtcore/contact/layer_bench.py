@@ -133,7 +133,8 @@ def reference_curves(ind: Indenter, layer: SoftLayer, compressions=COMPRESSIONS,
 def run(out: Path, quick: bool = False, refs: dict | None = None) -> list[dict]:
     """Write ``out/layer.md``, ``layer.csv`` and ``layer_curves.png``, ``layer_accuracy_vs_time.png``.
 
-    refs : precomputed reference dicts by ``"<kind>_<h>"`` (else computed here: ~12 x 40-200 s).
+    refs : precomputed reference dicts by ``"<kind>_<h>"`` (``json`` of :func:`reference_curves`); given,
+        only those cases run. Else every case is computed here (12 sweeps of 100-250 s at a load of 20).
     quick : the sphere into 3 mm at 5 and 10 % on a coarse mesh, N = 64 (a smoke run).
     """
     from .._bench import write_table
@@ -149,6 +150,8 @@ def run(out: Path, quick: bool = False, refs: dict | None = None) -> list[dict]:
         lay = SoftLayer(thickness=h)
         for kind in kinds:
             key = f"{kind}_{h}"
+            if refs is not None and key not in refs:
+                continue
             ref = (refs or {}).get(key) or reference_curves(CASES[kind], lay, comps,
                                                                        h / 4 if quick else None)
             row = {"indenter": kind, "h_mm": h * 1e3, "reference_s": round(ref.get("seconds", ref.get("s", 0)), 1)}
@@ -200,7 +203,8 @@ def _plots(out: Path, curves: dict, rows: list[dict], timing: dict) -> None:
             if j == 0:
                 ax.set_ylabel(label)
             if i == 0:
-                ax.set_title(key.replace("_0.0", " ").replace("_", " ") + " mm", fontsize=8)
+                kind, h = key.rsplit("_", 1)
+                ax.set_title(f"{kind} {float(h) * 1e3:g} mm", fontsize=8)
             if i == 2:
                 ax.set_xlabel("compression %")
             ax.tick_params(labelsize=6)

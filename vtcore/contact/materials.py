@@ -125,7 +125,7 @@ class LargeDeformationWarning(UserWarning):
 
 #: largest compression of a layer (share of its thickness) that linear elasticity describes fairly:
 #: silicones stiffen and Poisson's ratio stops being constant well before, and the papers' and this
-#: project's model are linear (docs/contact.md, 'Large deformation')
+#: project's model are linear (docs/contact.md, 'Large compression')
 LARGE_COMPRESSION = 0.30
 
 
@@ -152,4 +152,4 @@ def compression_note(max_compression: float, thickness: float, what: str = "the 
         return None
     return (f"{what} compresses the {thickness * 1e3:.3g} mm layer by {ratio:.0%} of its thickness (more than "
             f"{LARGE_COMPRESSION:.0%}): outside linear elasticity, where real silicone stiffens; read the "
-            "stresses as qualitative (docs/contact.md, 'Large deformation')")
+            "stresses as qualitative (docs/contact.md, 'Large compression')")
