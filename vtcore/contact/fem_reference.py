@@ -89,7 +89,7 @@ _COMPONENTS = ((0, 0), (0, 1), (1, 0), (1, 1), (2, 2))
 def _variation(v, x, axi):
     """The five variable components of dF (5, ...) for a test or trial function ``v``."""
     g = v.grad
-    return np.stack([g[0, 0], g[0, 1], g[1, 0], g[1, 1], v.value[0] / x if axi else 0 * g[0, 0]])
+    return np.stack([g[0, 0], g[0, 1], g[1, 0], g[1, 1], v[0] / x if axi else 0 * g[0, 0]])
 
 
 def _stress(F, mu, lam):
@@ -127,18 +127,18 @@ def _forms(indenter: Indenter, kpen, axi):
         return np.einsum("a...,a...->...", Au, _variation(v, w.x[0], axi)) * wt(w.x[0])
 
     def gap(w):
-        f, fp = indenter.profile(w.x[0] + w.prev.value[0])
-        return w.prev.value[1] + w.d - f, fp
+        f, fp = indenter.profile(w.x[0] + w.prev[0])
+        return w.prev[1] + w.d - f, fp
 
     @LinearForm
     def c_residual(v, w):
         g, fp = gap(w)
-        return kpen * np.maximum(g, 0) * (v.value[1] - fp * v.value[0]) * wt(w.x[0])
+        return kpen * np.maximum(g, 0) * (v[1] - fp * v[0]) * wt(w.x[0])
 
     @BilinearForm
     def c_tangent(u, v, w):
         g, fp = gap(w)
-        return kpen * (g > 0) * (u.value[1] - fp * u.value[0]) * (v.value[1] - fp * v.value[0]) * wt(w.x[0])
+        return kpen * (g > 0) * (u[1] - fp * u[0]) * (v[1] - fp * v[0]) * wt(w.x[0])
 
     return residual, tangent, c_residual, c_tangent
 
@@ -146,11 +146,11 @@ def _forms(indenter: Indenter, kpen, axi):
 def _damped(basis, x, dx, axi):
     """x + s dx with the largest s in 1, 1/2, ... 1/32 that inverts no element (Newton's first steps
     into a new contact can overshoot)."""
-    X = basis.global_coordinates().value[0]
+    X = basis.global_coordinates()[0]
     for k in range(6):
         y = x + dx / 2**k
         w = basis.interpolate(y)
-        F = _deformation(w.grad, w.value, X, axi)
+        F = _deformation(w.grad, w, X, axi)
         if (np.linalg.det(np.moveaxis(F, (0, 1), (-2, -1))) > 0).all():
             return y
     raise FloatingPointError("the Newton step inverts an element however it is damped")
@@ -163,14 +163,14 @@ def _newton_solver(basis, fb, fixed, forms, mu, lam, axi, h, max_newton):
     from skfem import asm, condense
 
     residual, tangent, c_res, c_tan = forms
-    X = basis.global_coordinates().value[0]
+    X = basis.global_coordinates()[0]
     free = basis.complement_dofs(fixed)
 
     def solve(x, d):
         x = x.copy()
         for it in range(1, max_newton + 1):
             pw, pf = basis.interpolate(x), fb.interpolate(x)
-            P, A = _stress(_deformation(pw.grad, pw.value, X, axi), mu, lam)
+            P, A = _stress(_deformation(pw.grad, pw, X, axi), mu, lam)
             R = asm(residual, basis, P=P) + asm(c_res, fb, prev=pf, d=d)
             K = asm(tangent, basis, A=A) + asm(c_tan, fb, prev=pf, d=d)
             dx = np.zeros_like(x)
@@ -186,8 +186,8 @@ def _newton_solver(basis, fb, fixed, forms, mu, lam, axi, h, max_newton):
 def _contact_state(fb, x, d, indenter, kpen, axi):
     """(force, peak pressure on the deformed projected surface, contact radius) at displacement x."""
     w = fb.interpolate(x)
-    X = fb.global_coordinates().value[0]
-    ux, uz = w.value
+    X = fb.global_coordinates()[0]
+    ux, uz = w[0], w[1]
     f, _ = indenter.profile(X + ux)
     pen = np.maximum(uz + d - f, 0.0)
     dx = fb.dx  # quadrature weights x facet lengths (nfacets, nqp)
