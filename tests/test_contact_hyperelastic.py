@@ -186,3 +186,14 @@ def test_same_numbers_in_both_python_lanes():
         s = solve_large(g, compliance_operator(g.shape, dx, dx, lay, "finite_layer"), dx * dx, 0.003, force=3.0,
                         order=0.4)
         assert (s.approach, s.pressure.max(), (s.pressure**2).sum()) == pytest.approx((d, peak, p2), rel=1e-9)
+
+
+def test_unrolled_geometry_takes_the_model_too():
+    """On a flat patch the unrolled solve equals the plane one (as for the linear models)."""
+    m = make_object("sphere")
+    pose = placement_pose(m, top=0.003, gap=1e-3)
+    lay = SoftLayer(thickness=0.003, extent=0.04)
+    plane = press(FLAT, m, pose, lay, force=5.0, model="hyperelastic")
+    flat = press(FLAT, m, pose, lay, force=5.0, model="hyperelastic", geometry="unrolled")
+    assert flat.force == pytest.approx(5.0, rel=1e-3)
+    assert flat.indentation == pytest.approx(plane.indentation, rel=0.02)
