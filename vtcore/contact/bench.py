@@ -75,11 +75,14 @@ def _big_skin_row(mesh, layer, frames, rep) -> dict:
 
 def run(out: Path, quick: bool = False, peers: bool = False) -> list[dict]:
     """Run the benchmark, write ``table.md``, ``table.csv``, ``accuracy_vs_time.png`` into ``out``, and
-    the solver side by side (:mod:`vtcore.contact.peers`: ``peers.md``, ``time_vs_n.png``); with
+    the solver side by side (:mod:`vtcore.contact.peers`: ``peers.md``, ``time_vs_n.png``), the layer
+    models against the finite-element reference (:mod:`vtcore.contact.layer_bench`: ``layer/``); with
     ``peers=True`` tamaas and ContactMechanics run beside vtcore in a throwaway venv under ``out``."""
+    from .layer_bench import run as run_layer
     from .peers import run as run_peers
 
     run_peers(Path(out), quick=quick, peers=peers)
+    run_layer(Path(out) / "layer", quick=quick)  # the layer models against the finite-element reference
     from ..layout import seed002_curved
 
     out = Path(out)

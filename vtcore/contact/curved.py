@@ -41,6 +41,7 @@ from .finish import check_compression, finish_press, footprint, moved, press_fra
     travel_and_indentation
 from .fft import one_blas_thread
 from .grid import ContactField, digest, grid_cells
+from .hyperelastic import contact_solver
 from .proximity import envelope_posed
 from .roots import illinois
 
@@ -241,6 +242,7 @@ class _FlatSolver:
                                                           tol if truncation is None else truncation, precision)
         self.gap, self.finite, self.cf, self.cell = gap, finite, cf, dx * dx
         self.tol, self.maxiter = tol, maxiter
+        self.solve = contact_solver(model, layer.thickness)  # the layer model's solver (linear or large-compression)
         self.iterations, self.converged = 0, True
         self.p, self.pflat = None, None
         if warm_start is not None and warm_start.field is not None and warm_start.field.domain == "flat" \
@@ -248,8 +250,8 @@ class _FlatSolver:
             self.p = (warm_start.field.pressure * afac)[self.win]
 
     def __call__(self, d: float) -> float:
-        sol = elastic.solve_pk(_normal_gap(self.gap, self.finite, self.cf, d)[self.win], self.op, self.cell,
-                               approach=0.0, p0=self.p, tol=self.tol, maxiter=self.maxiter, conv32=self.op32)
+        sol = self.solve(_normal_gap(self.gap, self.finite, self.cf, d)[self.win], self.op, self.cell,
+                         approach=0.0, p0=self.p, tol=self.tol, maxiter=self.maxiter, conv32=self.op32)
         self.iterations += sol.iterations
         self.converged = self.converged and sol.converged
         p = np.zeros_like(self.gap)

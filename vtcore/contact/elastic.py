@@ -8,6 +8,8 @@ Models (``model=``):
 * ``"halfspace"`` -- Boussinesq-Cerruti elastic half-space, influence
   coefficients of Love (1929) for uniform pressure on a rectangular cell
   (Johnson, *Contact Mechanics*, 1985, eq. 3.25); ignores the rigid base.
+* ``"hyperelastic"`` -- the finite layer's kernel solved in a Seth-Hill strain of the local
+  compression, for compressions past the linear range (:mod:`vtcore.contact.hyperelastic`).
 * ``"finite_layer"`` (default) -- a layer of thickness h perfectly bonded to a
   rigid base, frictionless top. Its surface Green's function in Fourier space is
   ``w(k) = 2 C(kh) / (E* k) p(k)`` with
@@ -49,7 +51,10 @@ import numpy as np
 from ..errors import InputError
 from .fft import Convolver, one_blas_thread
 
-MODELS = ("local", "halfspace", "finite_layer")
+MODELS = ("local", "halfspace", "finite_layer", "hyperelastic")
+#: the compliance kernel each model solves with: the large-compression model (vtcore.contact.hyperelastic)
+#: is the finite layer's kernel solved in a Seth-Hill strain
+KERNELS = {"halfspace": "halfspace", "finite_layer": "finite_layer", "hyperelastic": "finite_layer"}
 _RHO_MAX = 40.0  # layer kernel cut-off, in layer thicknesses
 
 
@@ -337,6 +342,7 @@ def compliance_operator(shape, dx, dy, layer, model, truncation=0.0, dtype=np.fl
     The operator reports what it dropped (``.truncation``) and its transform size (``.fft_shape``).
     """
     tr = float(truncation)
+    model = KERNELS.get(model, model)
     if not (tr >= 0 and np.isfinite(tr)):
         raise InputError(f"kernel truncation must be >= 0, got {truncation}", key="truncation")
     return _cached_convolver(model, tuple(int(s) for s in shape), float(dx), float(dy),

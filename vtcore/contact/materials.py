@@ -7,6 +7,13 @@ Young's modulus, the usual engineering approximation for these soft
 silicones (their stress-strain curve is nearly linear up to 100 %). Poisson's
 ratio of filled silicone rubbers is 0.49-0.4999 (nearly incompressible); we use
 0.49 by default, which keeps the layer's confined (oedometric) modulus finite.
+
+Large compression (issue 35). The finite-element reference and the ``hyperelastic`` layer model use
+a compressible neo-Hookean solid whose shear and bulk moduli are these small-strain values
+(:attr:`SoftLayer.shear_modulus`; lambda = E nu / ((1 + nu)(1 - 2 nu))), so every model agrees
+at small strain and differs only by its nonlinearity. No Yeoh or Ogden fit of a published Ecoflex
+test is used: none was at hand whose coefficients could be quoted with confidence, and the
+manufacturers' 100 % modulus is one point of a tension curve, not a compression one.
 """
 
 from __future__ import annotations
@@ -100,6 +107,12 @@ class SoftLayer:
         return self.young_modulus / (1.0 - self.poisson**2)
 
     @property
+    def shear_modulus(self) -> float:
+        """mu = E / (2 (1 + nu)), pascals: the neo-Hookean constant of the large-compression models
+        (:mod:`vtcore.contact.fem_reference`), the same small-strain stiffness as the linear ones."""
+        return self.young_modulus / (2 * (1 + self.poisson))
+
+    @property
     def confined_modulus(self) -> float:
         """Oedometric modulus E (1 - nu) / ((1 + nu)(1 - 2 nu)), pascals: a thin layer's stiffness x h."""
         nu = self.poisson
@@ -112,18 +125,31 @@ class LargeDeformationWarning(UserWarning):
 
 #: largest compression of a layer (share of its thickness) that linear elasticity describes fairly:
 #: silicones stiffen and Poisson's ratio stops being constant well before, and the papers' and this
-#: project's model are linear (docs/contact.md, 'Large deformation')
+#: project's model are linear (docs/contact.md, 'Large compression')
 LARGE_COMPRESSION = 0.30
 
 
-def compression_note(max_compression: float, thickness: float, what: str = "the press") -> str | None:
+#: largest compression (share of the thickness) over which the ``hyperelastic`` layer model was
+#: fitted to its finite-element reference (vtcore.contact.hyperelastic, docs/contact.md 'Large compression')
+FITTED_COMPRESSION = 0.60
+
+
+def compression_note(max_compression: float, thickness: float, what: str = "the press",
+                     model: str = "finite_layer") -> str | None:
     """A one-line warning when ``max_compression`` (m) exceeds :data:`LARGE_COMPRESSION` of
-    ``thickness`` (m), else None: the result then leaves linear elasticity behind."""
+    ``thickness`` (m), else None: the result then leaves linear elasticity behind. For
+    ``model="hyperelastic"`` the limit is :data:`FITTED_COMPRESSION`, the range it was fitted over."""
     if not thickness > 0:
         return None
     ratio = float(max_compression) / float(thickness)
+    if model == "hyperelastic":
+        if ratio <= FITTED_COMPRESSION:
+            return None
+        return (f"{what} compresses the {thickness * 1e3:.3g} mm layer by {ratio:.0%} of its thickness, past the "
+                f"{FITTED_COMPRESSION:.0%} the hyperelastic model was fitted to its finite-element reference over "
+                "(docs/contact.md, 'Large compression'): read the stresses as qualitative")
     if ratio <= LARGE_COMPRESSION:
         return None
     return (f"{what} compresses the {thickness * 1e3:.3g} mm layer by {ratio:.0%} of its thickness (more than "
             f"{LARGE_COMPRESSION:.0%}): outside linear elasticity, where real silicone stiffens; read the "
-            "stresses as qualitative (docs/contact.md, 'Large deformation')")
+            "stresses as qualitative (docs/contact.md, 'Large compression')")

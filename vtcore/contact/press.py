@@ -33,6 +33,7 @@ from .finish import (PressResult, check_compression, finish_press, footprint, mo
                      travel_and_indentation)
 from .fft import one_blas_thread
 from .grid import TAXEL_RADIUS, ContactField, ContactGrid, digest, grid_cells
+from .hyperelastic import contact_solver
 from .materials import SoftLayer
 from .proximity import envelope_posed, prepared_mesh
 
@@ -283,8 +284,8 @@ def press(layout, mesh, pose, layer: SoftLayer, *, force=None, indentation=None,
             op, op32 = elastic.compliance_operators(sub.shape, dx, dx, layer, model,
                                                  tol if truncation is None else truncation, precision)
             p0 = p0_full[i0:i1, j0:j1] if p0_full is not None else None
-            sol = elastic.solve_pk(sub, op, area, force=force, approach=target_d, p0=p0, tol=tol, maxiter=maxiter,
-                                   conv32=op32)
+            sol = contact_solver(model, h)(sub, op, area, force=force, approach=target_d, p0=p0, tol=tol,
+                                           maxiter=maxiter, conv32=op32)
             iters += sol.iterations
             trunc = sol.truncation
             conv_ok = sol.converged

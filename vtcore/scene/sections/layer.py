@@ -31,7 +31,8 @@ LAYER = Section({
     "base": Field("str", default=None, choices=BASES,
                   doc="the layer's interface with the end-effector: glued (the default), or a pad that slides"),
     "model": Field("str", default="finite_layer", choices=MODELS,
-                   doc="contact model (see docs/contact.md)"),
+                   doc="contact model: finite_layer (linear), hyperelastic (the finite layer in a Seth-Hill "
+                       "strain, for compressions past ~30 %), halfspace or local (see docs/contact.md)"),
     "grid_spacing": Field("float", default=1e-3, gt=0, le=0.01, unit="m",
                           doc="contact grid cell size (at most 1 cm: it is averaged over 4 mm taxel discs)"),
     "samples_per_taxel": Field("int", default=7, ge=1, doc="points averaged over each 4 mm taxel disc"),

@@ -438,7 +438,7 @@ def run(scene, ctx) -> TaskResult:
                        + f" | {t['resolution_runs'] - study.n_ok[i]} |")
         lines += ["", f"### Spatial resolution (Fig. 10), {t['resolution_runs']} random subsets per size", "",
                   *tab]
-    big = compression_note(max(r["compression"] for r in info) * h, h, "the firmest press")
+    big = compression_note(max(r["compression"] for r in info) * h, h, "the firmest press", src.options["model"])
     metrics["compression_max"] = float(max(r["compression"] for r in info))
     if big:
         lines += ["", f"**Warning:** {big}."]

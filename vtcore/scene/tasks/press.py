@@ -339,7 +339,8 @@ def run(scene, ctx) -> TaskResult:
              f"(E = {layer.young_modulus / 1e3:.1f} kPa, nu = {layer.poisson}; {layer.source}). "
              f"Mode: {mode}, {len(frames)} frames."]
     notes += _resolution_notes(area, opts["grid"].spacing, mesh, k, obj["kind"])
-    big = compression_note(max(r.max_compression for r in results), layer.thickness, f"pressing {obj['name']}")
+    big = compression_note(max(r.max_compression for r in results), layer.thickness, f"pressing {obj['name']}",
+                           opts["model"])
     if big:
         notes.append(f"**Warning:** {big}.")
         warnings.warn(big, LargeDeformationWarning, stacklevel=2)
