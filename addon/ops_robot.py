@@ -66,9 +66,10 @@ class VTSKIN_OT_import_robot(Op, bpy.types.Operator):
         s.robot_file = str(robot.path)
         missing = [f"{p.name}: {p.note}" for p in robot.links if p.note and p.note != "no geometry"
                    and not len(p.faces)]
-        self.report({"WARNING"} if missing else {"INFO"},
+        self.report({"WARNING"} if missing or robot.notes else {"INFO"},
                     f"{robot.name}: {len(robot.links)} links" + (f"; without a mesh: {'; '.join(missing)}"
-                                                                 if missing else ""))
+                                                                 if missing else "")
+                    + "".join(f"; {n}" for n in robot.notes))
         return {"FINISHED"}
 
 

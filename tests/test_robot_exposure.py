@@ -284,3 +284,24 @@ def test_g1_wrist_fill_clears_the_elbow_in_its_exported_urdf(tmp_path):
             assert stats["taxels"] >= 30 and stats["near"] == 0 and stats["min_mm"] > 2.0, stats
         else:
             assert stats["near"] >= 10 and stats["nearest"] == "left_elbow_link", stats
+
+
+def test_import_robot_without_open3d_imports_the_robot_and_says_why_no_exposure(tmp_path, monkeypatch):
+    """The Blender extension bundles no open3d: Import Robot still imports every link (its meshes
+    and poses), without exposure colours, and its notes say what is missing (the bundle check of
+    scripts/build_extension.py imports the UR10 so)."""
+    import importlib.util
+
+    from vtcore.robot.samples import humanoid_arm
+    from vtcore.scene.interactive import import_robot
+
+    path = humanoid_arm(tmp_path)
+    find_spec = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: None if name == "open3d" else find_spec(name, *a))
+    rob = import_robot(path)
+    assert rob.links and all(p.exposure is None for p in rob.links)
+    assert any(len(p.faces) for p in rob.links)
+    assert len(rob.notes) == 1 and "open3d" in rob.notes[0]
+    monkeypatch.setattr(importlib.util, "find_spec", find_spec)
+    with_o3d = import_robot(path)
+    assert not with_o3d.notes and any(p.exposure is not None for p in with_o3d.links)

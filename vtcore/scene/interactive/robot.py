@@ -46,6 +46,7 @@ class RobotImport:
     geometry: str
     links: list = field(default_factory=list)
     joints: dict = field(default_factory=dict)
+    notes: list = field(default_factory=list)
 
 
 def parse_joint_values(text: str) -> dict:
@@ -81,7 +82,10 @@ def import_robot(path, *, geometry: str = "visual", joints: dict | None = None,
     and its pose at ``joints`` (name -> value; default the zero pose). A link whose mesh cannot be
     read is imported without it and says why in ``note``; a missing robot file is an InputError.
     exposure : give each link its exposed surface at the zero pose (``LinkPart.exposure``, ``legend``:
-    faces covered by another link or out of an 8 mm probe's reach, issue 33)."""
+    faces covered by another link or out of an 8 mm probe's reach). The exposure's distance queries
+    need open3d, which the Blender extension does not bundle: without it the links come without
+    exposure and ``notes`` says so (the robot itself imports the same)."""
+    import importlib.util
     from ...robot import link_mesh, load_robot
     from ...robot.exposure import RobotSurfaces, exposed_faces, legend
     from ...robot.model import GEOMETRY_KINDS
@@ -92,6 +96,10 @@ def import_robot(path, *, geometry: str = "visual", joints: dict | None = None,
     poses = robot.link_poses(joints or {})
     parent_of = {j.child: j.parent for j in robot.joints}
     out = RobotImport(robot.name, robot.path, robot.format, geometry, joints=dict(joints or {}))
+    if exposure and importlib.util.find_spec("open3d") is None:
+        exposure = False
+        out.notes.append("the exposed surface is not shown: it needs open3d (pip install open3d into "
+                         "Blender's Python, or use vtcore robot info)")
     surfaces = {k: RobotSurfaces(robot, k) for k in GEOMETRY_KINDS}
     zero = [robot.link_poses({})]
     for name, link in robot.links.items():
