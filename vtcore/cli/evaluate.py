@@ -19,9 +19,10 @@ from pathlib import Path
 IN_PROCESS_DESIGNS = 8
 
 
-def _base_scene(args, out: Path) -> Path:
+def _base_scene(args, out: Path, name: str | None = None) -> Path:
     """Write ``out/evaluate.toml``: the evaluate task on the mesh and the first layout, with the
-    ``[layer]`` (and, for an evaluate scene, ``[task]``) of ``--scene``."""
+    ``[layer]`` (and, for an evaluate scene, ``[task]``) of ``--scene``. name : the scene's name
+    (default: ``out``'s)."""
     from ..errors import InputError
     from ..sweep.spec import toml_literal
 
@@ -44,7 +45,7 @@ def _base_scene(args, out: Path) -> Path:
     if "end_effector" not in keep:
         raise InputError("give the robot's mesh (--mesh MESH) or a --scene with an [end_effector]", key="--mesh")
     lines = ["# written by vtcore evaluate: the base scene of every design in this folder",
-             "[scene]", f"name = {toml_literal(out.name or 'evaluate')}", 'task = "evaluate"',
+             "[scene]", f"name = {toml_literal(name or out.name or 'evaluate')}", 'task = "evaluate"',
              f"seed = {int(tables.get('scene', {}).get('seed', 0))}"]
     for name, table in keep.items():
         lines += ["", f"[{name}]"] + [f"{k} = {toml_literal(v)}" for k, v in table.items()]
@@ -70,31 +71,69 @@ def _grid(args) -> tuple[list[str], list[str]]:
     return grid, sets
 
 
+def _stage_inputs(args, stage: Path, grid: list[str], name: str) -> tuple[list[str], Path]:
+    """Copy the layouts (several) and write the base scene into ``stage``, after reading every layout
+    (a refused layout is one error before anything is written); (the grid, the staged scene)."""
+    import warnings
+
+    from ..layout import load
+
+    with warnings.catch_warnings():  # each design's run reports the layout's warnings in its result
+        warnings.simplefilter("ignore")
+        for f in args.layouts:
+            load(f)
+    if len(args.layouts) > 1:
+        # the layouts travel with the results: the folder names and the scene stay short and valid;
+        # paths relative to the scene, which is beside them in the staging folder as in the output
+        (stage / "layouts").mkdir()
+        rel = []
+        for i, f in enumerate(args.layouts):
+            dst = stage / "layouts" / f"{i + 1}_{Path(f).name}"
+            shutil.copyfile(f, dst)
+            rel.append(str(dst.relative_to(stage)))
+        grid = [f"layout.file={','.join(rel)}"] + grid
+        args.layouts = [rel[0]]
+    elif args.layouts:
+        args.layouts = [str(Path(args.layouts[0]).resolve())]
+    return grid, _base_scene(args, stage, name)
+
+
+def _remove_inputs(out: Path, made: bool) -> None:
+    """Remove the base scene and copied layouts :func:`_stage_inputs` put into ``out`` (and ``out``,
+    when this command made it and nothing else is there)."""
+    import contextlib
+
+    (out / "evaluate.toml").unlink(missing_ok=True)
+    shutil.rmtree(out / "layouts", ignore_errors=True)
+    if made:
+        with contextlib.suppress(OSError):
+            out.rmdir()
+
+
 def cmd_evaluate(args) -> int:
+    from .._io import staged_into
     from .._progress import progress
+    from ..inputs import check_output_dir
     from ..evaluate.compare import write_comparison
     from ..scene import load_scene, run_scene
     from ..sweep import plan_sweep, run_sweep
 
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    out = check_output_dir(args.out)
+    made = not out.exists()
     grid, sets = _grid(args)
-    if len(args.layouts) > 1:
-        # the layouts travel with the results: the folder names and the scene stay short and valid
-        (out / "layouts").mkdir(exist_ok=True)
-        rel = []
-        for i, f in enumerate(args.layouts):
-            dst = out / "layouts" / f"{i + 1}_{Path(f).name}"
-            shutil.copyfile(f, dst)
-            rel.append(str(dst.relative_to(out)))
-        grid = [f"layout.file={','.join(rel)}"] + grid
-        args.layouts = [str((out / rel[0]).resolve())]
-    elif args.layouts:
-        args.layouts = [str(Path(args.layouts[0]).resolve())]
-    scene = _base_scene(args, out)
-    plan = plan_sweep(scene, grid, args.seeds, sets)  # every design validated before anything runs
+    # The base scene and the copied layouts are staged, and land only once every design has been
+    # validated and every layout read: a refused input leaves no half-made output folder.
+    with staged_into(out, prefix=".vtcore-evaluate-") as stage:
+        grid, base = _stage_inputs(args, stage, grid, out.resolve().name)
+        plan_sweep(base, grid, args.seeds, sets)  # every design validated before anything lands
+    scene = out / base.name
+    plan = plan_sweep(scene, grid, args.seeds, sets)
     if len(plan.points) == 1 and not plan.keys:
-        res = run_scene(load_scene(scene, plan.points[0].overrides), out)
+        try:
+            res = run_scene(load_scene(scene, plan.points[0].overrides), out)
+        except BaseException:  # the one design refused (or stopped): take back what this command put in
+            _remove_inputs(out, made)
+            raise
         m = res["metrics"]
         print(f"evaluate: {m['samples']} points, threshold median {m['threshold_covered_median_n']:.3g} N, "
               f"localisation median {m['localisation_covered_median_mm']:.3g} mm, blind "

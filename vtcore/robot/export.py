@@ -30,7 +30,7 @@ from ..layout import Layout
 from ..layout.io import mjcf as mjcf_io
 from ..layout.io import urdf as urdf_io
 from ..layout.io.common import read_robot_xml
-from .model import Robot
+from .model import Robot, read_xml
 from .reach import contact_reach
 
 FORMATS = ("urdf", "mjcf")
@@ -44,15 +44,9 @@ def robot_format(path) -> str:
     path = Path(path)
     if not path.is_file():
         raise InputError("robot file not found", file=path)
-    try:
-        for _, el in ET.iterparse(path, events=("start",)):
-            if el.tag == "robot":
-                return "urdf"
-            if el.tag == "mujoco":
-                return "mjcf"
-            break
-    except ET.ParseError as exc:
-        raise FormatError(f"not valid XML: {exc}", file=path, line=exc.position[0]) from None
+    tag = read_xml(path).getroot().tag  # UTF-8 and its declaration checked (model.read_xml)
+    if tag in ("robot", "mujoco"):
+        return "urdf" if tag == "robot" else "mjcf"
     raise FormatError("not a robot file: the root element is neither <robot> (URDF) nor <mujoco> (MJCF)", file=path)
 
 
@@ -94,6 +88,7 @@ def urdf_as_mjcf(robot_path, out, packages: dict | None = None) -> ET.ElementTre
     import mujoco
     import trimesh
 
+    from .mjcf import mujoco_error, mujoco_messages, warn_messages
     from .urdf import resolve
 
     robot_path, out = Path(robot_path), Path(out)
@@ -123,17 +118,18 @@ def urdf_as_mjcf(robot_path, out, packages: dict | None = None) -> ET.ElementTre
     repair_inertias(root, robot_path, packages)
     ext = ET.SubElement(root, "mujoco")
     ET.SubElement(ext, "compiler", fusestatic="false", discardvisual="true", balanceinertia="true")
-    with tempfile.TemporaryDirectory() as tmp:
+    with tempfile.TemporaryDirectory() as tmp, mujoco_messages() as said:
         p = Path(tmp) / "robot.urdf"
         tree.write(p, encoding="unicode")
         try:
             spec = mujoco.MjSpec.from_file(str(p))
         except ValueError as exc:
-            raise FormatError(f"MuJoCo cannot import it: {str(exc).strip().splitlines()[0]}", file=robot_path) from None
+            raise mujoco_error(exc, "import", robot_path, said) from None
         try:
             xml = spec.to_xml()  # compiles: the copied meshes are referenced by absolute paths until here
         except ValueError as exc:
-            raise FormatError(f"MuJoCo cannot compile it: {' '.join(str(exc).split())}", file=robot_path) from None
+            raise mujoco_error(exc, "compile", robot_path, said) from None
+    warn_messages(said, robot_path)
     root = ET.fromstring(xml)
     compiler = root.find("compiler")
     if compiler is None:
@@ -214,10 +210,30 @@ def export_skinned(robot_path, layouts, out, *, format: str | None = None, prefi
     prefixes : one name prefix per layout (None: ``<link>_vtskin_``). mjcf_options : ``footprint``,
     ``pad``, ``site_radius``, ``pad_thickness`` of :func:`vtcore.layout.io.mjcf.write`.
     Returns one record per layout: ``link``, ``taxels``, ``names`` (first and last).
-    """
-    from .._io import atomic_write  # noqa: F401  (the writers below write atomically)
 
-    robot_path, out = Path(robot_path), Path(out)
+    The file and its ``<out stem>_meshes/`` folder (a URDF robot as MJCF) are written into a staging
+    folder beside ``out`` and moved in together at the end (:func:`vtcore._io.staged_into`): a robot
+    that MuJoCo or vtcore refuses leaves nothing behind.
+    """
+    from .._io import staged_into
+    from ..inputs import check_output_file
+
+    out = check_output_file(out)
+    with staged_into(out.parent, prefix=".vtcore-export-") as stage:
+        records = _export_skinned(robot_path, layouts, out, stage / out.name, format=format, prefixes=prefixes,
+                                  packages=packages, **mjcf_options)
+        try:  # the consumer judges before anything lands: our reader (MuJoCo's compiler for MJCF) reads it back
+            load_robot(stage / out.name, packages)
+        except InputError as exc:
+            raise FormatError(f"the exported robot would not read back: {exc.reason}", file=out) from None
+    return records
+
+
+def _export_skinned(robot_path, layouts, out, staged, *, format: str | None = None, prefixes=None,
+                    packages: dict | None = None, **mjcf_options) -> list[dict]:
+    """:func:`export_skinned`, its files written to ``staged`` (``out``'s name in the staging folder);
+    paths inside them are relative to ``out``'s folder, where they land."""
+    robot_path, out, staged = Path(robot_path), Path(out), Path(staged)
     layouts = [layouts] if isinstance(layouts, Layout) else list(layouts)
     if not layouts:
         raise InputError("give at least one layout", key="layouts")
@@ -235,6 +251,7 @@ def export_skinned(robot_path, layouts, out, *, format: str | None = None, prefi
                          key="--format")
     records = []
     if fmt == "urdf":
+        load_robot(robot_path, packages)  # a robot our reader refuses is refused, not exported
         tree = read_robot_xml(robot_path, "robot")
         links = [e.get("name") for e in tree.getroot().findall("link")]
         for lay, prefix in zip(layouts, prefixes):
@@ -242,10 +259,10 @@ def export_skinned(robot_path, layouts, out, *, format: str | None = None, prefi
             names = urdf_io.merge_into_tree(lay, tree, link, prefix=prefix, model=robot_path)
             records.append({"link": link, "taxels": len(lay), "names": [names[0], names[-1]] if names else []})
         _rebase_urdf(tree.getroot(), robot_path.parent, out.parent)
-        urdf_io.write_tree(tree, out)
+        urdf_io.write_tree(tree, staged)
         return records
     if source == "urdf":
-        tree = urdf_as_mjcf(robot_path, out, packages)
+        tree = urdf_as_mjcf(robot_path, staged, packages)  # its meshes: relative to the staged file, as to out
         model_dir = out.parent
     else:
         tree, model_dir = read_robot_xml(robot_path, "mujoco"), robot_path.parent
@@ -262,7 +279,7 @@ def export_skinned(robot_path, layouts, out, *, format: str | None = None, prefi
                                         **{"pad": False, **mjcf_options})
         records.append({"link": link, "taxels": len(lay), "names": [names[0], names[-1]] if names else []})
     mjcf_io.rebase(tree.getroot(), model_dir, out.parent)
-    mjcf_io.write_tree(tree, out)
+    mjcf_io.write_tree(tree, staged)
     return records
 
 
