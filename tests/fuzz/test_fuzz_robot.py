@@ -44,8 +44,9 @@ URDF_PRIMITIVES = """<?xml version="1.0"?>
     <axis xyz="0 0 1"/></joint>
   <joint name="finger" type="prismatic"><parent link="hand"/><child link="tip"/><origin xyz="0 0 0.03"/>
     <axis xyz="0 0 1"/><limit lower="0" upper="0.02" effort="1" velocity="1"/><mimic joint="wrist" multiplier="0.01"/></joint>
-  <link name="hand"><visual><geometry><sphere radius="0.025"/></geometry></visual></link>
-  <link name="tip"/>
+  <link name="hand"><visual><geometry><sphere radius="0.025"/></geometry></visual>
+    <inertial><mass value="0.1"/><inertia ixx="0.00003" ixy="0" ixz="0" iyy="0.00003" iyz="0" izz="0.00003"/></inertial></link>
+  <link name="tip"><inertial><mass value="0.01"/><inertia ixx="1e-6" ixy="0" ixz="0" iyy="1e-6" iyz="0" izz="1e-6"/></inertial></link>
 </robot>
 """
 MJCF_PRIMITIVES = """<mujoco model="prims">

@@ -222,11 +222,27 @@ def export_skinned(robot_path, layouts, out, *, format: str | None = None, prefi
     with staged_into(out.parent, prefix=".vtcore-export-") as stage:
         records = _export_skinned(robot_path, layouts, out, stage / out.name, format=format, prefixes=prefixes,
                                   packages=packages, **mjcf_options)
-        try:  # the consumer judges before anything lands: our reader (MuJoCo's compiler for MJCF) reads it back
-            load_robot(stage / out.name, packages)
-        except InputError as exc:
-            raise FormatError(f"the exported robot would not read back: {exc.reason}", file=out) from None
+        _read_back(stage, out, packages)
     return records
+
+
+def _read_back(stage: Path, out: Path, packages: dict | None) -> None:
+    """The consumer judges before anything lands: our reader (MuJoCo's compiler for MJCF) reads the
+    staged export back. Where the staging folder holds only the file, its relative paths (meshes of
+    the robot's own folder, rebased) hold from ``out``'s folder: a hidden copy is read there; with its
+    ``_meshes/`` folder staged beside it, it is read where it is."""
+    staged = stage / out.name
+    probe = staged if any(p.name != out.name for p in stage.iterdir()) else \
+        out.parent / f".{out.stem}.vtcore-check-{os.getpid()}{out.suffix}"
+    try:
+        if probe != staged:
+            shutil.copyfile(staged, probe)
+        load_robot(probe, packages)
+    except InputError as exc:
+        raise FormatError(f"the exported robot would not read back: {exc.reason}", file=out) from None
+    finally:
+        if probe != staged:
+            probe.unlink(missing_ok=True)
 
 
 def _export_skinned(robot_path, layouts, out, staged, *, format: str | None = None, prefixes=None,
