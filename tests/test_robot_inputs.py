@@ -182,6 +182,7 @@ def _profile_doc():
     (None, "taxels", [], ("taxels", "must be a table")),
     (None, "noise", 3, ("noise", "must be a table")),
     ("taxels", "uid", {"a": 1}, ("taxels.uid",)),
+    ("taxels", "uid", 5, ("taxels.uid", "shape")),  # found by the profile fuzz: len() of a 0-d array
     ("taxels", "extra", [1], ("taxels.extra", "unknown key")),
 ])
 def test_a_profile_value_of_the_wrong_type_is_one_error(tmp_path, table, key, value, words):

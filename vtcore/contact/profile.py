@@ -190,7 +190,7 @@ TABLES = {"profile": True, "noise": True, "detection": True, "response": False, 
 
 def _taxels(tab, path) -> dict:
     """The ``[taxels]`` arrays, equal lengths, UIDs as integers, values finite or NaN-free."""
-    spec = {"uid": Spec("ints", dtype=np.int64, lo=0, hi=2**32 - 1),
+    spec = {"uid": Spec("ints", dtype=np.int64, lo=0, hi=2**32 - 1, shape=(None,)),
             "sigma_counts": Spec("floats", required=False, default=None),
             "offset_counts": Spec("floats", required=False, default=None),
             "drift_counts_per_s": Spec("floats", required=False, default=None)}
