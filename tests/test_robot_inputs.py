@@ -164,6 +164,16 @@ def test_a_refused_export_leaves_no_meshes_folder(tmp_path):
     assert mujoco.MjModel.from_xml_path(str(out)).nsensor == 1
 
 
+def test_a_layout_on_no_link_of_an_mjcf_with_an_unnamed_body_is_one_error(tmp_path):
+    """Found by the export fuzz: the refusal listed the links with ``', '.join`` and an MJCF body without
+    a name was a TypeError (None among them)."""
+    robot = tmp_path / "r.xml"
+    robot.write_text(MJCF.format(name="g", pos="0 0 0").replace('<body name="hand" ', "<body "))
+    rc, _, err = run(["robot", "export", robot, one_taxel(tmp_path / "t.json", "hand"), "--out", tmp_path / "o.xml"])
+    one_error(rc, err, "'hand'", "links: arm")
+    assert not (tmp_path / "o.xml").exists()
+
+
 # ----------------------------------------------------------------------------- sensor profiles
 def _profile_doc():
     from vtcore.contact.profile import PROFILES_DIR

@@ -507,6 +507,15 @@ def run_cli_fd(reader: str, argv: list[str]) -> tuple[int, str, str]:
     return rc, out, err
 
 
+def warm_up(argv: list) -> None:
+    """Run ``vtcore ARGV`` once, uncounted and with no alarm: the first call imports open3d, MuJoCo,
+    geometry-central..., which on a loaded machine can take most of the 60 s a fuzz input is given."""
+    from vtcore.cli import main
+
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+        main([str(a) for a in argv])
+
+
 def finite_json_text(text: str):
     """``json.loads`` that refuses NaN and Infinity (Python's own reader accepts them)."""
     def bad(token):

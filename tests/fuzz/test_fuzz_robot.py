@@ -27,7 +27,7 @@ import numpy as np
 import pytest
 from hypothesis import strategies as st
 
-from fuzzing import assert_clean_exit, finite_json_text, fuzz, listing, mutated_xml, run_cli_fd
+from fuzzing import assert_clean_exit, finite_json_text, fuzz, listing, mutated_xml, run_cli_fd, warm_up
 
 URDF_PRIMITIVES = """<?xml version="1.0"?>
 <robot name="prims">
@@ -159,6 +159,8 @@ def test_fuzz_robot_place_and_fill(fmt, robots, tmp_path, monkeypatch, pytestcon
     monkeypatch.chdir(tmp_path)
     seeds = [s for s in robots[fmt] if s[3] != "link1"]  # the pendulum's links are long: slow fills
     out = tmp_path / "o" / "placed.json"
+    warm_up(["layout", "place", _write(seeds[0], seeds[0][2]), "--link", seeds[0][3], "--patch", "fill", "--radius",
+             "0.015", "--geometry", "collision", "--out", tmp_path / "warm.json"])
 
     def check(example):
         (i, data), fill = example
@@ -242,6 +244,7 @@ def test_fuzz_robot_export_of_mutated_robots(fmt, robots, skins, tmp_path, monke
     monkeypatch.chdir(tmp_path)
     seeds = robots[fmt]
     out_dir = tmp_path / "o"
+    warm_up(["robot", "export", _write(seeds[0], seeds[0][2]), skins[seeds[0][3]], "--out", tmp_path / "warm.xml"])
 
     def check(example):
         (i, data), to = example

@@ -26,7 +26,7 @@ import pytest
 from hypothesis import strategies as st
 
 from fuzzing import (OUTCOMES, assert_clean_exit, finite_json_text, fuzz, listing, mutated, mutated_doc,
-                     mutated_toml, run_cli)
+                     mutated_toml, run_cli, warm_up)
 
 ROOT = Path(__file__).resolve().parents[2]
 HEX = ROOT / "scenes" / "layouts" / "seed001_hexagon.cyskin.json"
@@ -102,6 +102,13 @@ def _run_validate(folder: Path, reader: str) -> None:
     _check_result(out)
 
 
+def _run_validate_warm(folder: Path) -> None:
+    (folder / "v.toml").write_text(SCENE.format(layout=HEX.as_posix(), profile=(folder / "p.toml").as_posix()),
+                                   encoding="utf-8")
+    warm_up(["run", folder / "v.toml", "--out", folder / "warm"])
+    shutil.rmtree(folder / "warm", ignore_errors=True)
+
+
 @pytest.fixture()
 def quiet(monkeypatch):
     monkeypatch.setenv("VTCORE_MEMORY_BUDGET", "512M")
@@ -116,6 +123,8 @@ def test_fuzz_validate_recordings(validate_case, tmp_path, quiet, pytestconfig):
     work = tmp_path / "case"
     shutil.copytree(folder, work)
     (work / "p.toml").write_text(toml_text(doc), encoding="utf-8")
+
+    _run_validate_warm(work)
 
     def check(data):
         (work / "rec.txt").write_bytes(data)
@@ -134,9 +143,14 @@ def _profile_names():
 
 def test_fuzz_validate_profiles(validate_case, tmp_path, quiet, pytestconfig):
     """The validate scene with its sensor profile edited field by field or byte by byte."""
+    from fuzzing import toml_text
+
     folder, _, doc = validate_case
     work = tmp_path / "case"
     shutil.copytree(folder, work)
+
+    (work / "p.toml").write_text(toml_text(doc), encoding="utf-8")
+    _run_validate_warm(work)
 
     def check(data):
         (work / "p.toml").write_bytes(data)
@@ -162,6 +176,11 @@ def evaluate_case(tmp_path_factory):
     return d, json.loads((d / "t.json").read_text()), (d / "t.txt").read_bytes()
 
 
+#: a coarse probe grid, few noise draws, no two-point map, no plots: about a second a design
+SETS = ["--set", "task.spacing=0.01", "--set", "task.draws=4", "--set", "task.two_point=false",
+        "--set", "task.table_forces=3", "--set", "output.plots=false"]
+
+
 def test_fuzz_evaluate_layouts(evaluate_case, tmp_path, quiet, pytestconfig):
     """``vtcore evaluate LAYOUT --mesh box.stl --out DIR`` with a mutated layout (a coarse probe grid)."""
     from test_fuzz_writers import _names
@@ -169,16 +188,14 @@ def test_fuzz_evaluate_layouts(evaluate_case, tmp_path, quiet, pytestconfig):
     folder, doc, icub = evaluate_case
     out = tmp_path / "out"
     names = _names()
+    warm_up(["evaluate", folder / "t.json", "--mesh", folder / "box.stl", "--out", tmp_path / "warm", *SETS])
 
     def check(example):
         kind, data = example
         src = tmp_path / ("in.txt" if kind == "icub" else "in.json")
         src.write_bytes(data if isinstance(data, bytes) else json.dumps(data, indent=1).encode())
         shutil.rmtree(out, ignore_errors=True)
-        rc, so, se = run_cli("evaluate layout", ["evaluate", src, "--mesh", folder / "box.stl", "--out", out,
-                                                 "--set", "task.spacing=0.01", "--set", "task.draws=4",
-                                                 "--set", "task.two_point=false", "--set", "task.table_forces=3",
-                                                 "--set", "output.plots=false"])
+        rc, so, se = run_cli("evaluate layout", ["evaluate", src, "--mesh", folder / "box.stl", "--out", out, *SETS])
         assert_clean_exit(rc, so, se)
         if rc == 2:
             assert listing(out) == [] and not out.exists(), listing(out)

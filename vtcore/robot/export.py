@@ -60,6 +60,7 @@ def load_robot(path, packages: dict | None = None) -> Robot:
 def skin_link(layout: Layout, links) -> str:
     """The link a layout hangs from: its ``parent``, else (no transform) its ``frame``."""
     link = layout.parent or layout.frame
+    links = [n for n in links if n]  # an MJCF body may have no name
     if link not in links:
         raise InputError(f"the layout is in frame {layout.frame!r}"
                          + (f" placed in {layout.parent!r}" if layout.parent else "")

@@ -7,6 +7,11 @@ bodies are links, hinge and slide joints are joints (ball and free joints are he
 model's reference pose), geoms are geometry: colliding ones (``contype`` or ``conaffinity``
 non-zero) collision, the rest visual. Mesh vertices come as MuJoCo compiled them, already in
 metres and in the geom's frame. Joint values are MuJoCo's ``qpos`` minus the reference ``qpos0``.
+
+Bad input is one error (docs/inputs.md): the file is read as UTF-8 first (:func:`.model.read_xml`),
+names are decoded safely (an ``<include>``d file MuJoCo reads itself), every number taken from the
+compiled model is finite and within +-1 km, and MuJoCo's own warnings are collected
+(:func:`mujoco_messages`), never printed by C onto the terminal.
 """
 
 from __future__ import annotations

@@ -11,6 +11,10 @@ folders of ``ROS_PACKAGE_PATH`` (a folder NAME inside one, or one named NAME), t
 ancestors (one named NAME, one holding NAME/rest, or one holding rest: a package installed under
 another folder name, as example-robot-data is); ``file://`` paths are absolute; anything else is
 relative to the URDF's folder.
+
+Bad input is one error (docs/inputs.md): the file is read as UTF-8 (:func:`.model.read_xml`: an
+unknown declared encoding or a byte that is not UTF-8 is named), and every number is checked where
+it is read: finite, coordinates and sizes within +-1 km.
 """
 
 from __future__ import annotations
