@@ -126,6 +126,15 @@ def test_an_mjcf_geom_pos_that_is_not_finite_is_one_error(tmp_path, capfd, monke
     assert not (tmp_path / "MUJOCO_LOG.TXT").exists()
 
 
+def test_an_mjcf_quaternion_that_overflows_is_one_error(tmp_path):
+    """Found by the robot info fuzz: ``quat="0.98 1e308 0 0.2"`` compiled (MuJoCo's normalisation made it
+    all zeros) and scipy refused the zero quaternion in a traceback."""
+    robot = tmp_path / "r.xml"
+    robot.write_text(MJCF.format(name="shell", pos="0 0 0").replace('pos="0 0 0"/>', 'pos="0 0 0" quat="0.98 1e308 0 0.2"/>'))
+    rc, _, err = run(["robot", "info", robot, "--json"])
+    one_error(rc, err, "geom 'shell'", "quat", "not a rotation")
+
+
 @pytest.mark.parametrize("edit", [('xyz="0 0 0.1"/><axis', 'xyz="0 0 1e5"/><axis'),
                                   ('radius="0.04"', 'radius="1e308"'), ('size="0.1 0.1 0.1"', 'size="0.1 -1 0.1"')])
 def test_urdf_coordinates_and_sizes_beyond_a_km_are_one_error(tmp_path, edit):
