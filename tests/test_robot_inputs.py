@@ -183,6 +183,15 @@ def test_a_layout_on_no_link_of_an_mjcf_with_an_unnamed_body_is_one_error(tmp_pa
     assert not (tmp_path / "o.xml").exists()
 
 
+def test_a_blank_contype_exports_as_mujoco_reads_it(tmp_path):
+    """Found by the export fuzz: ``contype=""`` (MuJoCo reads it as the default 1) was a ValueError
+    traceback in the exporter's count of a body's colliding geoms."""
+    robot = tmp_path / "r.xml"
+    robot.write_text(MJCF.format(name="g", pos="0 0 0").replace('pos="0 0 0"/>', 'pos="0 0 0" contype=""/>'))
+    rc, _, err = run(["robot", "export", robot, one_taxel(tmp_path / "t.json", "arm"), "--out", tmp_path / "o.xml"])
+    assert rc == 0, err
+
+
 # ----------------------------------------------------------------------------- sensor profiles
 def _profile_doc():
     from vtcore.contact.profile import PROFILES_DIR
