@@ -135,6 +135,24 @@ def test_an_mjcf_quaternion_that_overflows_is_one_error(tmp_path):
     one_error(rc, err, "geom 'shell'", "quat", "not a rotation")
 
 
+def test_an_mjcf_joint_axis_that_overflows_is_one_error(tmp_path):
+    """Found by the robot info fuzz's long run: ``axis="1e308 0 0"`` compiled (normalised to zeros) and
+    the reader divided by its zero norm (a RuntimeWarning, then NaN)."""
+    robot = tmp_path / "r.xml"
+    robot.write_text(MJCF.format(name="g", pos="0 0 0").replace('axis="0 1 0"', 'axis="1e308 0 0"'))
+    rc, _, err = run(["robot", "info", robot, "--json"])
+    one_error(rc, err, "joint 'j'", "axis", "not a direction")
+
+
+def test_a_urdf_sphere_of_1e_320_is_one_error(tmp_path):
+    """Found by the robot info fuzz's long run: ``<sphere radius="1e-320"/>`` meshed to NaN normals and
+    ``robot info --json`` printed ``"size_m": NaN``."""
+    robot = tmp_path / "r.urdf"
+    robot.write_text(URDF.replace('<cylinder radius="0.04" length="0.2"/>', '<sphere radius="1e-320"/>'))
+    rc, out, err = run(["robot", "info", robot, "--json"])
+    one_error(rc, err, "radius", "at least 1e-09 m")
+
+
 @pytest.mark.parametrize("edit", [('xyz="0 0 0.1"/><axis', 'xyz="0 0 1e5"/><axis'),
                                   ('radius="0.04"', 'radius="1e308"'), ('size="0.1 0.1 0.1"', 'size="0.1 -1 0.1"')])
 def test_urdf_coordinates_and_sizes_beyond_a_km_are_one_error(tmp_path, edit):

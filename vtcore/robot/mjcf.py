@@ -116,7 +116,7 @@ def check_finite(m, names: dict, path) -> None:
             continue
         a = a.reshape(len(a), -1)
         bad = ~(np.isfinite(a) & (np.abs(a) <= MAX_EXTENT_M)).all(axis=1)
-        if attr == "quat":  # MuJoCo normalises a quaternion; one of 1e308 overflows to all zeros
+        if attr in ("quat", "axis"):  # MuJoCo normalises them; a 1e308 overflows the norm: all zeros
             bad |= ~(np.abs(np.linalg.norm(np.where(bad[:, None], 0.0, a), axis=1) - 1.0) < 1e-6)
         if not bad.any():
             continue
@@ -125,7 +125,8 @@ def check_finite(m, names: dict, path) -> None:
             i = int(np.searchsorted(np.asarray(m.mesh_vertadr), i, "right")) - 1
             raise FormatError(f"mesh {names['mesh'][i] or i!r}: a vertex is not finite or beyond "
                               f"+-{MAX_EXTENT_M:g} m (its scale?)", file=path, key="mesh.scale")
-        what = "is not a rotation" if attr == "quat" and np.isfinite(a[i]).all() else \
+        what = {"quat": "is not a rotation", "axis": "is not a direction"}[attr] \
+            if attr in ("quat", "axis") and np.isfinite(a[i]).all() else \
             f"is not finite or beyond +-{MAX_EXTENT_M:g} m"
         raise FormatError(f"{kind} {names[kind][i] or i!r}: {attr} {clean_numbers(a[i])} {what} (as MuJoCo compiled it)",
                           file=path, key=f"{kind}.{attr}")

@@ -21,6 +21,8 @@ GEOMETRY_KINDS = ("visual", "collision")
 MOVING = ("revolute", "continuous", "prismatic")
 #: m: the largest coordinate or size a robot file may give (the layout readers' bound: a unit error beyond)
 MAX_EXTENT_M = 1e3
+#: m (or a mesh scale): the smallest size other than 0 (below it a primitive's mesh has NaN normals)
+MIN_SIZE_M = 1e-9
 #: the encodings a robot file may declare: UTF-8 (MuJoCo's XML parser reads nothing else) and its subset
 UTF8_NAMES = ("utf-8", "utf8", "us-ascii", "ascii")
 _DECLARATION = re.compile(rb"""^(?:\xef\xbb\xbf)?<\?xml[^>]*?\bencoding\s*=\s*["']([^"']*)["']""")
@@ -205,6 +207,8 @@ def check_extent(values, what: str, *, file=None, key=None, size: bool = False) 
     if a.size and (a.min() < lo or a.max() > MAX_EXTENT_M):
         raise FormatError(f"{what} must be within {lo:g} .. {MAX_EXTENT_M:g} m, got {clean_numbers(a)}",
                           file=file, key=key)
+    if size and ((a != 0) & (np.abs(a) < MIN_SIZE_M)).any():  # a 1e-320 m sphere meshes to NaN normals
+        raise FormatError(f"{what} must be 0 or at least {MIN_SIZE_M:g} m, got {clean_numbers(a)}", file=file, key=key)
     return a
 
 

@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import FormatError, InputError
-from .model import Geometry, Joint, Link, Robot, check_extent, pose, read_xml
+from .model import MIN_SIZE_M, Geometry, Joint, Link, Robot, check_extent, pose, read_xml
 
 NAME = "urdf"
 JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed", "floating", "planar")
@@ -49,6 +49,8 @@ def _numbers(el, attr: str, n: int, path, default=None, extent: str | None = Non
         raise FormatError(f"{attr}={text!r} is not {n} finite numbers", file=path, key=f"{el.tag}.{attr}")
     if extent is not None:
         check_extent(vals, f"{attr}={text!r}", file=path, key=f"{el.tag}.{attr}", size=extent == "size")
+    if attr == "scale" and ((np.asarray(vals) != 0) & (np.abs(vals) < MIN_SIZE_M)).any():
+        raise FormatError(f"scale={text!r} must be 0 or at least {MIN_SIZE_M:g} in size", file=path, key="mesh.scale")
     return vals
 
 
