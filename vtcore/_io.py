@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import io
 import os
+import shutil
 import signal
 import tempfile
 import threading
@@ -74,6 +75,54 @@ def check_terminated() -> None:
     """Raise :class:`Terminated` if SIGTERM arrived under :func:`sigterm_raises`."""
     if _TERMINATED.is_set():
         raise Terminated()
+
+
+@contextlib.contextmanager
+def staged_into(final: str | os.PathLike, prefix: str = ".vtcore-", key: str = "--out"):
+    """Write several files as one set: yield a new staging folder inside the folder ``final``; when
+    the block ends without an exception, move every entry of it (files and folders) into ``final``,
+    replacing what is there; on any exception (bad input, Ctrl-C, SIGTERM) remove it, and ``final``
+    too if this call made it and nothing landed there. A refusal leaves nothing behind.
+
+    The move is all or nothing with respect to SIGTERM (:func:`sigterm_held`): one that arrives
+    before it stops it, one that arrives during it is raised once every entry is in.
+    """
+    from pathlib import Path
+
+    from .inputs import check_output_dir, os_error
+
+    final = check_output_dir(final, key=key)
+    made = not final.exists()
+    try:
+        final.mkdir(parents=True, exist_ok=True)
+        with sigterm_held():  # a SIGTERM between mkdtemp's mkdir and its return would orphan the folder
+            stage = Path(tempfile.mkdtemp(prefix=prefix, dir=final))
+    except OSError as exc:
+        raise os_error(exc, final, key=key) from None
+    try:
+        yield stage
+        with sigterm_held():
+            check_terminated()
+            try:
+                for f in sorted(stage.iterdir()):
+                    _move_in(f, final / f.name, stage)
+            except OSError as exc:
+                raise os_error(exc, final, key=key) from None
+    except BaseException:
+        shutil.rmtree(stage, ignore_errors=True)
+        if made:
+            with contextlib.suppress(OSError):
+                final.rmdir()  # only if empty: a folder this call made and nothing landed in
+        raise
+    shutil.rmtree(stage, ignore_errors=True)
+
+
+def _move_in(src, dst, stage) -> None:
+    """Rename ``src`` onto ``dst``; a folder already at ``dst`` is first moved aside into ``stage``
+    (``os.replace`` cannot replace a folder that holds files) and removed with it."""
+    if src.is_dir() and dst.is_dir() and not dst.is_symlink():
+        os.replace(dst, stage / f".old-{dst.name}")
+    os.replace(src, dst)
 
 
 # A fixed timestamp inside .npz members so that the same arrays give the same bytes.

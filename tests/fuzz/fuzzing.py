@@ -40,7 +40,10 @@ from helpers import wall_clock_limit
 
 DEFAULT_EXAMPLES = 25
 LONG_EXAMPLES = 10_000
-HANG_SECONDS = 60
+#: s of wall clock an input may take before it counts as a hang; ``VTCORE_FUZZ_HANG_SECONDS`` raises it for
+#: long runs at a low priority on a shared machine (at a load of 20 under ``nice -n 15``, a 1.5 s
+#: validate run took over 60 s of wall clock)
+HANG_SECONDS = int(os.environ.get("VTCORE_FUZZ_HANG_SECONDS", "60"))
 
 COUNTS: Counter = Counter()
 OUTCOMES: defaultdict = defaultdict(Counter)  # reader -> outcome (exit 0, exit 2, traceback, hang) -> inputs
@@ -321,3 +324,210 @@ def mutated_doc(draw, seeds: list[dict], names=()) -> dict:
     for _ in range(draw(st.integers(1, 3))):
         draw(doc_mutation(doc, names))
     return doc
+
+
+# ----------------------------------------------------------------------------- robot XML (URDF, MJCF)
+#: element and attribute names of URDF and MJCF, for renames and additions
+XML_TAGS = ["robot", "link", "joint", "visual", "collision", "geometry", "mesh", "box", "cylinder", "sphere", "capsule",
+            "origin", "parent", "child", "axis", "limit", "mimic", "inertial", "mass", "inertia", "mujoco",
+            "worldbody", "body", "geom", "site", "asset", "default", "compiler", "include", "freejoint", "x"]
+XML_ATTRS = ["name", "type", "pos", "size", "quat", "euler", "axisangle", "zaxis", "fromto", "range", "axis", "xyz",
+             "rpy", "filename", "scale", "file", "mesh", "class", "childclass", "link", "joint", "multiplier",
+             "offset", "lower", "upper", "radius", "length", "mass", "value", "contype", "conaffinity", "meshdir",
+             "angle", "limited", "ixx", "x"]
+XML_ENCODINGS = ["utf-nan", "latin-1", "ISO-8859-1", "utf-16", "ascii", "UTF-8", "cp1252", "x", ""]
+
+
+def _xml_value(draw, value: str) -> str:
+    """An attribute value edited: one token a nasty number, a token added or dropped, or all replaced."""
+    toks = value.split()
+    how = draw(st.sampled_from(["token", "token", "all", "add", "drop", "scale"]))
+    if how == "token" and toks:
+        toks[draw(st.integers(0, len(toks) - 1))] = draw(st.sampled_from(NASTY_NUMBERS))
+    elif how == "add":
+        toks.insert(draw(st.integers(0, len(toks))), draw(st.sampled_from(NASTY_NUMBERS)))
+    elif how == "drop" and toks:
+        del toks[draw(st.integers(0, len(toks) - 1))]
+    elif how == "scale" and toks:
+        mult = draw(st.sampled_from([1e3, 1e-3, -1.0, 1e6, 0.0]))
+        toks = [repr(float(t) * mult) if re.fullmatch(r"-?\d+(\.\d*)?([eE][-+]?\d+)?", t) else t for t in toks]
+    else:
+        return draw(st.sampled_from(NASTY_NUMBERS + ["0 0 0", "1 0 0 0", "", "a b c", "x\x01y", "1 2 3 4 5 6 7"]))
+    return " ".join(toks)
+
+
+def _edit_tree(draw, root) -> None:
+    """One structural edit of the element tree ``root`` (in place)."""
+    elements = list(root.iter())
+    parents = {c: p for p in elements for c in p}
+    el = elements[draw(st.integers(0, len(elements) - 1))]
+    kind = draw(st.sampled_from(["attr", "attr", "attr", "attr", "delete", "dup", "rename", "attr_name", "add_attr"]))
+    if kind == "attr" and el.attrib:
+        k = draw(st.sampled_from(sorted(el.attrib)))
+        el.set(k, _xml_value(draw, el.get(k)))
+    elif kind in ("delete", "dup") and el in parents:
+        parent = parents[el]
+        if kind == "delete":
+            parent.remove(el)
+        else:
+            import copy as _copy
+
+            parent.insert(list(parent).index(el) + 1, _copy.deepcopy(el))
+    elif kind == "rename":
+        el.tag = draw(st.sampled_from(XML_TAGS))
+    elif kind == "attr_name" and el.attrib:
+        k = draw(st.sampled_from(sorted(el.attrib)))
+        v = el.attrib.pop(k)
+        new = draw(st.sampled_from(XML_ATTRS + [None]))
+        if new is not None:
+            el.set(new, v)
+    elif kind == "add_attr":
+        el.set(draw(st.sampled_from(XML_ATTRS)), draw(st.sampled_from(NASTY_NUMBERS + ["0 0 0", "1 1 1"])))
+
+
+_DECL = re.compile(rb"^(\xef\xbb\xbf)?<\?xml[^>]*\?>\s*")
+
+
+@st.composite
+def xml_mutation(draw, data: bytes) -> bytes:
+    """One mutation of a robot file: an attribute value (a token made NaN, inf, 1e308, a word...), an
+    element deleted, duplicated or renamed, an attribute renamed, removed or added; a declared
+    encoding (unknown, Latin-1, UTF-16...), a name holding bytes that are not UTF-8; or a byte-level
+    mutation of :func:`mutation`."""
+    import xml.etree.ElementTree as ET
+
+    kind = draw(st.sampled_from(["tree", "tree", "tree", "tree", "encoding", "bytes"]))
+    if kind == "bytes":
+        return draw(mutation(data))
+    if kind == "encoding":
+        how = draw(st.sampled_from(["declare", "name_bytes", "utf16", "bom"]))
+        body = _DECL.sub(b"", data)
+        if how == "declare":
+            enc = draw(st.sampled_from(XML_ENCODINGS)).encode()
+            return b'<?xml version="1.0" encoding="' + enc + b'"?>\n' + body
+        if how == "name_bytes":
+            at = [m.end() for m in re.finditer(rb'name="', data)]
+            if not at:
+                return data
+            i = at[draw(st.integers(0, len(at) - 1))]
+            return data[:i] + draw(st.sampled_from([b"\xe9", b"\xff\xfe", b"\xc3", b"\x80abc", b"\xed\xa0\x80"])) + data[i:]
+        if how == "utf16":
+            return body.decode("utf-8", "replace").encode("utf-16")
+        return b"\xef\xbb\xbf" + data
+    try:
+        root = ET.fromstring(data)
+    except (ET.ParseError, LookupError, ValueError):  # already broken (or an unknown declared encoding)
+        return draw(mutation(data))
+    _edit_tree(draw, root)
+    return ET.tostring(root, encoding="utf-8", xml_declaration=draw(st.booleans()))
+
+
+@st.composite
+def mutated_xml(draw, seeds: list[bytes]) -> tuple[int, bytes]:
+    """(which seed, the seed after one to three :func:`xml_mutation`)."""
+    i = draw(st.integers(0, len(seeds) - 1))
+    data = seeds[i]
+    for _ in range(draw(st.integers(1, 3))):
+        data = draw(xml_mutation(data))
+    return i, data
+
+
+# ----------------------------------------------------------------------------- TOML documents
+def toml_text(doc: dict) -> str:
+    """TOML of a decoded document edited by :func:`doc_mutation` (None values left out, as TOML has no
+    null; NaN and infinity as TOML's nan and inf; a table edited into a list of tables written inline)."""
+    import math
+
+    def value(v):
+        if isinstance(v, bool):
+            return "true" if v else "false"
+        if isinstance(v, int):
+            return str(v)
+        if isinstance(v, float):
+            return "nan" if math.isnan(v) else ("inf" if v > 0 else "-inf") if math.isinf(v) else repr(v)
+        if isinstance(v, str):
+            return json.dumps(v)
+        if isinstance(v, list):
+            return "[" + ", ".join(value(x) for x in v if x is not None) + "]"
+        if isinstance(v, dict):
+            return "{ " + ", ".join(f"{json.dumps(k)} = {value(x)}" for k, x in v.items() if x is not None) + " }"
+        raise TypeError(type(v))
+
+    top, tables = [], []
+    for k, v in doc.items():
+        if isinstance(v, dict):
+            tables.append(f"[{json.dumps(k)}]")
+            tables += [f"{json.dumps(kk)} = {value(x)}" for kk, x in v.items() if x is not None]
+            tables.append("")
+        elif v is not None:
+            top.append(f"{json.dumps(k)} = {value(v)}")
+    return "\n".join(top + [""] + tables) + "\n"
+
+
+@st.composite
+def mutated_toml(draw, seeds: list[dict], names=()) -> bytes:
+    """A TOML file from one of ``seeds`` (decoded documents): edited field by field
+    (:func:`mutated_doc`), or its text then mutated byte by byte (:func:`mutation`)."""
+    doc = draw(mutated_doc(seeds, names))
+    data = toml_text(doc).encode("utf-8")
+    if draw(st.integers(0, 3)) == 0:
+        data = draw(mutation(data))
+    return data
+
+
+# ----------------------------------------------------------------------------- output at the C level
+@contextlib.contextmanager
+def fd_output():
+    """Collect what is written to file descriptors 1 and 2 in the block (a C library's printf, which
+    ``redirect_stdout`` does not see: MuJoCo's "WARNING: XML contains a 'NaN'"); yields a list that
+    holds the text once the block ends."""
+    import sys
+    import tempfile
+
+    got: list[str] = []
+    sys.stdout.flush()
+    sys.stderr.flush()
+    saved = [os.dup(1), os.dup(2)]
+    with tempfile.TemporaryFile() as tmp:
+        os.dup2(tmp.fileno(), 1)
+        os.dup2(tmp.fileno(), 2)
+        try:
+            yield got
+        finally:
+            os.dup2(saved[0], 1)
+            os.dup2(saved[1], 2)
+            for fd in saved:
+                os.close(fd)
+            tmp.seek(0)
+            got.append(tmp.read().decode("utf-8", "replace"))
+
+
+def run_cli_fd(reader: str, argv: list[str]) -> tuple[int, str, str]:
+    """:func:`run_cli`, and nothing written past Python to the terminal (file descriptors 1 and 2)."""
+    with fd_output() as raw:
+        rc, out, err = run_cli(reader, argv)
+    assert not raw[0].strip(), f"printed at the C level, past vtcore's messages: {raw[0][:500]!r}"
+    return rc, out, err
+
+
+def warm_up(argv: list) -> None:
+    """Run ``vtcore ARGV`` once, uncounted and with no alarm: the first call imports open3d, MuJoCo,
+    geometry-central..., which on a loaded machine can take most of the 60 s a fuzz input is given."""
+    from vtcore.cli import main
+
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+        main([str(a) for a in argv])
+
+
+def finite_json_text(text: str):
+    """``json.loads`` that refuses NaN and Infinity (Python's own reader accepts them)."""
+    def bad(token):
+        raise AssertionError(f"non-finite number {token} in JSON output")
+
+    return json.loads(text, parse_constant=bad)
+
+
+def listing(folder: Path) -> list[str]:
+    """Every path under ``folder`` (hidden ones too), sorted; [] when it does not exist."""
+    folder = Path(folder)
+    return sorted(str(p.relative_to(folder)) for p in folder.rglob("*")) if folder.exists() else []

@@ -19,9 +19,11 @@ from pathlib import Path
 IN_PROCESS_DESIGNS = 8
 
 
-def _base_scene(args, out: Path) -> Path:
-    """Write ``out/evaluate.toml``: the evaluate task on the mesh and the first layout, with the
-    ``[layer]`` (and, for an evaluate scene, ``[task]``) of ``--scene``."""
+def _base_scene(args, out: Path, name: str | None = None, layout=None) -> Path:
+    """Write ``out/evaluate.toml``: the evaluate task on the mesh and the first layout (``layout``,
+    already read), with the ``[layer]`` (and, for an evaluate scene, ``[task]``) of ``--scene``; a
+    robot layout's link surface beside it (:func:`link_surface`). name : the scene's name (default:
+    ``out``'s)."""
     from ..errors import InputError
     from ..sweep.spec import toml_literal
 
@@ -37,20 +39,20 @@ def _base_scene(args, out: Path) -> Path:
     for t in ("end_effector", "layout"):
         if t in tables and args.scene and not (args.mesh if t == "end_effector" else args.layouts):
             keep[t] = tables[t]
-    layout = _first_layout(args)
     if args.mesh:
         if layout is not None:
             lies_on(layout, args.mesh, args.scale)
         keep["end_effector"] = {"shape": "mesh", "mesh": str(Path(args.mesh).resolve()), "scale": args.scale}
     elif "end_effector" not in keep and layout is not None and layout.meta.get("robot"):
-        keep["end_effector"] = {"shape": "mesh", "mesh": str(link_surface(layout, args, out).resolve()), "scale": 1.0}
+        # relative to the scene beside it: both are written in a staging folder and moved in together
+        keep["end_effector"] = {"shape": "mesh", "mesh": link_surface(layout, args, out).name, "scale": 1.0}
     if args.layouts:
         keep["layout"] = {"file": args.layouts[0]}
     if "end_effector" not in keep:
         raise InputError("give the robot's mesh (--mesh MESH) or a --scene with an [end_effector] (a layout laid "
                          "on a robot link with vtcore layout place ROBOT --link NAME needs neither)", key="--mesh")
     lines = ["# written by vtcore evaluate: the base scene of every design in this folder",
-             "[scene]", f"name = {toml_literal(out.name or 'evaluate')}", 'task = "evaluate"',
+             "[scene]", f"name = {toml_literal(name or out.name or 'evaluate')}", 'task = "evaluate"',
              f"seed = {int(tables.get('scene', {}).get('seed', 0))}"]
     for name, table in keep.items():
         lines += ["", f"[{name}]"] + [f"{k} = {toml_literal(v)}" for k, v in table.items()]
@@ -64,12 +66,6 @@ def _base_scene(args, out: Path) -> Path:
 
 #: metres and degrees: a layout farther than this from the --mesh it is evaluated on does not lie on it
 LIES_ON_MM, LIES_ON_DEG = 0.5, 30.0
-
-
-def _first_layout(args):
-    from ..layout import load
-
-    return load(args.layouts[0]) if args.layouts else None
 
 
 def lies_on(layout, mesh_path, scale: float = 1.0) -> None:
@@ -171,45 +167,75 @@ def _said_of_the_input(exc, out: Path):
     return InputError(text.replace(f"{scene}: ", "").replace(scene, "the --set values"))
 
 
-def _plan(args, out: Path):
-    """``(base scene path, sweep plan, grid)`` of the command's designs, every one validated before any runs."""
-    from ..sweep import plan_sweep
+def _stage_inputs(args, stage: Path, grid: list[str], name: str) -> tuple[list[str], Path]:
+    """Copy the layouts (several) and write the base scene into ``stage``, after reading every layout
+    (a refused layout is one error before anything is written); (the grid, the staged scene)."""
+    import warnings
 
-    grid, sets = _grid(args)
+    from ..layout import load
+
+    with warnings.catch_warnings():  # each design's run reports the layout's warnings in its result
+        warnings.simplefilter("ignore")
+        first = [load(f) for f in args.layouts][:1]
     if len(args.layouts) > 1:
-        # the layouts travel with the results: the folder names and the scene stay short and valid
-        (out / "layouts").mkdir(exist_ok=True)
+        # the layouts travel with the results: the folder names and the scene stay short and valid;
+        # paths relative to the scene, which is beside them in the staging folder as in the output
+        (stage / "layouts").mkdir()
         rel = []
         for i, f in enumerate(args.layouts):
-            dst = out / "layouts" / f"{i + 1}_{Path(f).name}"
+            dst = stage / "layouts" / f"{i + 1}_{Path(f).name}"
             shutil.copyfile(f, dst)
-            rel.append(str(dst.relative_to(out)))
+            rel.append(str(dst.relative_to(stage)))
         grid = [f"layout.file={','.join(rel)}"] + grid
-        args.layouts = [str((out / rel[0]).resolve())]
+        args.layouts = [rel[0]]
     elif args.layouts:
         args.layouts = [str(Path(args.layouts[0]).resolve())]
-    scene = _base_scene(args, out)
-    plan = plan_sweep(scene, grid, args.seeds, sets)  # every design validated before anything runs
-    return scene, plan, grid
+    return grid, _base_scene(args, stage, name, first[0] if first else None)
+
+
+def _remove_inputs(out: Path, made: bool, names: list[str]) -> None:
+    """Remove the entries :func:`_stage_inputs` put into ``out`` (``names``: the base scene, copied
+    layouts, a robot link's surface), and ``out`` when this command made it and nothing else is there."""
+    import contextlib
+
+    for name in names:
+        if (out / name).is_dir():
+            shutil.rmtree(out / name, ignore_errors=True)
+        else:
+            (out / name).unlink(missing_ok=True)
+    if made:
+        with contextlib.suppress(OSError):
+            out.rmdir()
 
 
 def cmd_evaluate(args) -> int:
+    from .._io import staged_into
     from .._progress import progress
+    from ..inputs import check_output_dir
     from ..evaluate.compare import write_comparison
     from ..scene import load_scene, run_scene
-    from ..sweep import run_sweep
+    from ..sweep import plan_sweep, run_sweep
 
-    out = Path(args.out)
-    created = not out.exists()
-    out.mkdir(parents=True, exist_ok=True)
-    try:
-        scene, plan, grid = _plan(args, out)
-    except ValueError as exc:  # a refused input leaves nothing behind, and names what the user typed
-        if created:
-            shutil.rmtree(out, ignore_errors=True)
-        raise _said_of_the_input(exc, out) from None
+    out = check_output_dir(args.out)
+    made = not out.exists()
+    grid, sets = _grid(args)
+    # The base scene and the copied layouts are staged, and land only once every design has been
+    # validated and every layout read: a refused input leaves no half-made output folder.
+    with staged_into(out, prefix=".vtcore-evaluate-") as stage:
+        try:
+            grid, base = _stage_inputs(args, stage, grid, out.resolve().name)
+            plan_sweep(base, grid, args.seeds, sets)  # every design validated before anything lands
+        except ValueError as exc:  # named as what the user typed, not the generated scene
+            raise _said_of_the_input(exc, stage) from None
+        staged = sorted(f.name for f in stage.iterdir())
+    scene = out / base.name
+    plan = plan_sweep(scene, grid, args.seeds, sets)
     if len(plan.points) == 1 and not plan.keys:
-        res = run_scene(load_scene(scene, plan.points[0].overrides), out)
+        try:
+            res = run_scene(load_scene(scene, plan.points[0].overrides), out)
+        except BaseException:  # the one design refused (or stopped): take back what this command put in
+            _remove_inputs(out, made, staged)
+            raise
         m = res["metrics"]
         print(f"evaluate: {m['samples']} points, threshold median {m['threshold_covered_median_n']:.3g} N, "
               f"localisation median {m['localisation_covered_median_mm']:.3g} mm, blind "

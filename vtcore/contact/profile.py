@@ -43,7 +43,7 @@ class Response:
     assumption (force is not recorded: only force / modulus is identified). counts_per_pa : the
     transfer's slope at 0 for that modulus. p_half : Pa or None (linear), half-ceiling pressure.
     base : "bonded" or "frictionless". indenter : dict (the probe the fit used: kind, radius,
-    length, m; conform; wrap, 0-1). fields : every other key of the section as read (intervals,
+    length, m; conform; wrap, 0-1). fields : the report keys of the section as read, each checked (intervals,
     notes, the fit's quality), kept for reports.
     """
 
@@ -167,14 +167,36 @@ _RESPONSE = {
         "conform": Spec("bool", required=False),
         "wrap": Spec("float", required=False, lo=0.0, hi=1.0)}),
 }
+#: what the footprint fit saw and how well it fitted (``vtcore calibrate`` writes them; reports read
+#: them, ``vtcore validate`` the ``held_out`` recordings): typed like every other key, kept in ``fields``
+_RESPONSE_REPORT = {
+    "counts_per_pa_ci": Spec("floats", required=False, shape=(2,), lo=0.0, hi=1e6, check=_positive_pair),
+    "radius_ci_m": Spec("floats", required=False, shape=(2,), lo=0.0, hi=1.0, check=_positive_pair),
+    "length_ci_m": Spec("floats", required=False, shape=(2,), lo=0.0, hi=1.0, check=_positive_pair),
+    "wrap_ci": Spec("floats", required=False, shape=(2,), lo=0.0, hi=1.0, check=_positive_pair),
+    "p_half_ci_pa": Spec("floats", required=False, shape=(2,), lo=0.0, hi=1e13, check=_positive_pair),
+    "force_over_modulus_m2_median": Spec("float", required=False, lo=0.0, hi=1.0),
+    "force_over_modulus_m2_iqr": Spec("floats", required=False, shape=(2,), lo=0.0, hi=1.0, check=_positive_pair),
+    "implied_force_n_median": Spec("float", required=False, lo=0.0, hi=1e6),
+    "max_compression": Spec("float", required=False, lo=0.0, hi=1.0),
+    "score_per_term": Spec("float", required=False, lo=0.0, hi=1e12),
+    "frames": Spec("int", required=False, lo=0, hi=2**31),
+    "fitted": Spec("strs", required=False), "held_out": Spec("strs", required=False),
+    "identified": Spec("strs", required=False), "not_identified": Spec("strs", required=False),
+}
+#: the tables of a profile file and whether each is required
+TABLES = {"profile": True, "noise": True, "detection": True, "response": False, "taxels": False}
 
 
 def _taxels(tab, path) -> dict:
     """The ``[taxels]`` arrays, equal lengths, UIDs as integers, values finite or NaN-free."""
-    spec = {"uid": Spec("ints", dtype=np.int64, lo=0, hi=2**32 - 1),
+    spec = {"uid": Spec("ints", dtype=np.int64, lo=0, hi=2**32 - 1, shape=(None,)),
             "sigma_counts": Spec("floats", required=False, default=None),
             "offset_counts": Spec("floats", required=False, default=None),
             "drift_counts_per_s": Spec("floats", required=False, default=None)}
+    for k in tab:
+        if k not in spec:
+            raise InputError(f"unknown key; valid keys: {', '.join(spec)}", file=path, key=f"taxels.{clean(k, 40)}")
     # NaN (a taxel whose value is not identifiable) is written as the string "nan" in TOML: nan
     raw = {k: ([math.nan if (isinstance(x, float) and math.isnan(x)) else x for x in v]
                if isinstance(v, list) else v) for k, v in tab.items()}
@@ -209,24 +231,25 @@ def parse_profile(doc: dict, path="<profile>") -> SensorProfile:
     """A :class:`SensorProfile` from a decoded TOML document (checked; errors name ``path`` and key)."""
     if not isinstance(doc, dict):
         raise FormatError("a profile must be a TOML document", file=path)
-    known = {"profile", "noise", "detection", "response", "taxels"}
     for k in doc:
-        if k not in known:
-            raise InputError(f"unknown table; valid: {', '.join(sorted(known))}", file=path, key=clean(k, 40))
-    for k in ("profile", "noise", "detection"):
-        if k not in doc:
+        if k not in TABLES:
+            raise InputError(f"unknown table; valid: {', '.join(sorted(TABLES))}", file=path, key=clean(k, 40))
+    for k, required in TABLES.items():
+        if required and k not in doc:
             raise InputError("is required (a profile needs [profile], [noise] and [detection])", file=path, key=k)
+        if k in doc and not isinstance(doc[k], dict):
+            raise InputError(f"must be a table ([{k}] with its keys), got {type(doc[k]).__name__}", file=path, key=k)
     pr = validate(doc["profile"], _PROFILE, file=path, prefix="profile", extra=False)
     nz = validate(doc["noise"], _NOISE, file=path, prefix="noise", extra=False)
     dt = validate(doc["detection"], _DETECTION, file=path, prefix="detection", extra=False)
     resp = None
     if "response" in doc:
-        r = validate(doc["response"], _RESPONSE, file=path, prefix="response")
+        r = validate(doc["response"], {**_RESPONSE, **_RESPONSE_REPORT}, file=path, prefix="response", extra=False)
         ci = r["thickness_ci_m"]
         if ci is not None and not (ci[0] <= r["thickness_m"] <= ci[1]):
             raise InputError(f"thickness_m {r['thickness_m']:g} lies outside its interval {list(ci)}", file=path,
                              key="response.thickness_m")
-        extra = {k: v for k, v in doc["response"].items() if k not in _RESPONSE}
+        extra = {k: doc["response"][k] for k in _RESPONSE_REPORT if r[k] is not None}  # checked: as read
         resp = Response(thickness=r["thickness_m"], thickness_ci=tuple(ci) if ci is not None else (math.nan,) * 2,
                         young_modulus=r["young_modulus_pa"], poisson=r["poisson"], counts_per_pa=r["counts_per_pa"],
                         p_half=r["p_half_pa"], base=r["base"], material=r["material"],

@@ -34,7 +34,7 @@ from ..layout import Layout
 from ..layout.io import mjcf as mjcf_io
 from ..layout.io import urdf as urdf_io
 from ..layout.io.common import identifier, read_robot_xml
-from .model import Robot
+from .model import Robot, read_xml
 from .reach import POSES, contact_reach, unreadable_sites
 
 FORMATS = ("urdf", "mjcf")
@@ -50,15 +50,9 @@ def robot_format(path) -> str:
     path = Path(path)
     if not path.is_file():
         raise InputError("robot file not found", file=path)
-    try:
-        for _, el in ET.iterparse(path, events=("start",)):
-            if el.tag == "robot":
-                return "urdf"
-            if el.tag == "mujoco":
-                return "mjcf"
-            break
-    except ET.ParseError as exc:
-        raise FormatError(f"not valid XML: {exc}", file=path, line=exc.position[0]) from None
+    tag = read_xml(path).getroot().tag  # UTF-8 and its declaration checked (model.read_xml)
+    if tag in ("robot", "mujoco"):
+        return "urdf" if tag == "robot" else "mjcf"
     raise FormatError("not a robot file: the root element is neither <robot> (URDF) nor <mujoco> (MJCF)", file=path)
 
 
@@ -72,6 +66,7 @@ def load_robot(path, packages: dict | None = None) -> Robot:
 def skin_link(layout: Layout, links) -> str:
     """The link a layout hangs from: its ``parent``, else (no transform) its ``frame``."""
     link = layout.parent or layout.frame
+    links = [n for n in links if n]  # an MJCF body may have no name
     if link not in links:
         raise InputError(f"the layout is in frame {layout.frame!r}"
                          + (f" placed in {layout.parent!r}" if layout.parent else "")
@@ -100,6 +95,7 @@ def urdf_as_mjcf(robot_path, out, packages: dict | None = None) -> ET.ElementTre
     import mujoco
     import trimesh
 
+    from .mjcf import mujoco_error, mujoco_messages, warn_messages
     from .urdf import resolve
 
     robot_path, out = Path(robot_path), Path(out)
@@ -129,17 +125,18 @@ def urdf_as_mjcf(robot_path, out, packages: dict | None = None) -> ET.ElementTre
     repair_inertias(root, robot_path, packages)
     ext = ET.SubElement(root, "mujoco")
     ET.SubElement(ext, "compiler", fusestatic="false", discardvisual="true", balanceinertia="true")
-    with tempfile.TemporaryDirectory() as tmp:
+    with tempfile.TemporaryDirectory() as tmp, mujoco_messages() as said:
         p = Path(tmp) / "robot.urdf"
         tree.write(p, encoding="unicode")
         try:
             spec = mujoco.MjSpec.from_file(str(p))
         except ValueError as exc:
-            raise FormatError(f"MuJoCo cannot import it: {str(exc).strip().splitlines()[0]}", file=robot_path) from None
+            raise mujoco_error(exc, "import", robot_path, said) from None
         try:
             xml = spec.to_xml()  # compiles: the copied meshes are referenced by absolute paths until here
         except ValueError as exc:
-            raise FormatError(f"MuJoCo cannot compile it: {' '.join(str(exc).split())}", file=robot_path) from None
+            raise mujoco_error(exc, "compile", robot_path, said) from None
+    warn_messages(said, robot_path)
     root = ET.fromstring(xml)
     compiler = root.find("compiler")
     if compiler is None:
@@ -220,10 +217,85 @@ def export_skinned(robot_path, layouts, out, *, format: str | None = None, prefi
     prefixes : one name prefix per layout (None: ``<link>_vtskin_``). mjcf_options : ``footprint``,
     ``pad``, ``site_radius``, ``pad_thickness`` of :func:`vtcore.layout.io.mjcf.write`.
     Returns one record per layout: ``link``, ``taxels``, ``names`` (first and last).
-    """
-    from .._io import atomic_write  # noqa: F401  (the writers below write atomically)
 
-    robot_path, out = Path(robot_path), Path(out)
+    The file and its ``<out stem>_meshes/`` folder (a URDF robot as MJCF) are written into a staging
+    folder beside ``out`` and moved in together at the end (:func:`vtcore._io.staged_into`): a robot
+    that MuJoCo or vtcore refuses leaves nothing behind.
+    """
+    from .._io import staged_into
+    from ..inputs import check_output_file
+
+    out = check_output_file(out)
+    with staged_into(out.parent, prefix=".vtcore-export-") as stage:
+        records = _export_skinned(robot_path, layouts, out, stage / out.name, format=format, prefixes=prefixes,
+                                  packages=packages, **mjcf_options)
+        _read_back(stage, out, packages)
+    return records
+
+
+def _read_back(stage: Path, out: Path, packages: dict | None) -> None:
+    """The consumer judges before anything lands: our reader (MuJoCo's compiler for MJCF) reads the
+    staged export back. Where the staging folder holds only the file, its relative paths (meshes of
+    the robot's own folder, rebased) hold from ``out``'s folder: a hidden copy is read there; with its
+    ``_meshes/`` folder staged beside it, it is read where it is."""
+    probe = probe_copy(stage / out.name, out)
+    try:
+        load_robot(probe, packages)
+    except InputError as exc:
+        raise FormatError(f"the exported robot would not read back: {exc.reason}", file=out) from None
+    finally:
+        probe.unlink(missing_ok=True)
+
+
+def probe_copy(staged: Path, out: Path) -> Path:
+    """A hidden copy of the staged export beside ``out``, where it will land, that reads as ``out``
+    will: its relative paths hold from ``out``'s folder, and a file reference that will resolve into
+    what is staged beside it (``<out stem>_meshes/``) points there absolutely. The caller removes it."""
+    probe = out.parent / f".{out.stem}.vtcore-check-{os.getpid()}{out.suffix}"
+    tree = ET.parse(staged)
+    root = tree.getroot()
+    if root.tag == "mujoco":
+        compiler = root.find("compiler")
+        base = {k: (compiler.get(k) if compiler is not None else None) for k in ("meshdir", "texturedir", "assetdir")}
+        for el in root.iter():
+            f = el.get("file")
+            if not f or os.path.isabs(f) or el.tag == "include":
+                continue
+            sub = base["meshdir" if el.tag in ("mesh", "skin") else "texturedir" if el.tag == "texture" else ""] \
+                if el.tag in ("mesh", "skin", "texture") else None
+            d = sub or base["assetdir"] or ""
+            final = Path(os.path.normpath(out.parent / d / f))
+            rel = os.path.relpath(final, out.parent)
+            if not rel.startswith("..") and (staged.parent / rel).exists():
+                el.set("file", str((staged.parent / rel).resolve()))
+    else:
+        for el in root.iter("mesh"):
+            f = el.get("filename")
+            if f and "://" not in f and not os.path.isabs(f) and (staged.parent / f).exists():
+                el.set("filename", str((staged.parent / f).resolve()))
+    tree.write(probe, encoding="utf-8", xml_declaration=True)
+    return probe
+
+
+def reuse_decomposition(mesh, previous: Path, folder: Path) -> None:
+    """Copy a convex decomposition of ``mesh`` an earlier export left in ``previous`` (the final
+    ``<out stem>_meshes/``) into ``folder`` (the staged one), where :func:`.contact_geometry.convex_parts`
+    finds it: CoACD takes ~10 s a link, its result is the same for the same mesh."""
+    from .contact_geometry import cache_key
+
+    if not previous.is_dir():
+        return
+    key = cache_key(mesh)
+    for f in sorted(previous.glob(f"contact_{key}_*.stl")):
+        folder.mkdir(parents=True, exist_ok=True)
+        shutil.copyfile(f, folder / f.name)
+
+
+def _export_skinned(robot_path, layouts, out, staged, *, format: str | None = None, prefixes=None,
+                    packages: dict | None = None, **mjcf_options) -> list[dict]:
+    """:func:`export_skinned`, its files written to ``staged`` (``out``'s name in the staging folder);
+    paths inside them are relative to ``out``'s folder, where they land."""
+    robot_path, out, staged = Path(robot_path), Path(out), Path(staged)
     layouts = [layouts] if isinstance(layouts, Layout) else list(layouts)
     if not layouts:
         raise InputError("give at least one layout", key="layouts")
@@ -241,6 +313,7 @@ def export_skinned(robot_path, layouts, out, *, format: str | None = None, prefi
                          key="--format")
     records = []
     if fmt == "urdf":
+        load_robot(robot_path, packages)  # a robot our reader refuses is refused, not exported
         tree = read_robot_xml(robot_path, "robot")
         links = [e.get("name") for e in tree.getroot().findall("link")]
         for lay, prefix in zip(layouts, prefixes):
@@ -248,10 +321,10 @@ def export_skinned(robot_path, layouts, out, *, format: str | None = None, prefi
             names = urdf_io.merge_into_tree(lay, tree, link, prefix=prefix, model=robot_path)
             records.append({"link": link, "taxels": len(lay), "names": [names[0], names[-1]] if names else []})
         _rebase_urdf(tree.getroot(), robot_path.parent, out.parent)
-        urdf_io.write_tree(tree, out)
+        urdf_io.write_tree(tree, staged)
         return records
     if source == "urdf":
-        tree = urdf_as_mjcf(robot_path, out, packages)
+        tree = urdf_as_mjcf(robot_path, staged, packages)  # its meshes: relative to the staged file, as to out
         model_dir = out.parent
     else:
         tree, model_dir = read_robot_xml(robot_path, "mujoco"), robot_path.parent
@@ -271,7 +344,7 @@ def export_skinned(robot_path, layouts, out, *, format: str | None = None, prefi
             # the link's contact surface follows the surface the skin lies on (convex parts), and each
             # site reaches that surface as MuJoCo collides it
             if link not in contact:  # once per link, however many skins it carries
-                parts, geoms = link_contact(robot, link, skins.get(link, [lay]), tree, out)
+                parts, geoms = link_contact(robot, link, skins.get(link, [lay]), tree, out, staged)
                 contact[link] = (parts, bool(geoms))
                 contact_geoms += geoms
             parts, rebuilt = contact[link]
@@ -287,21 +360,26 @@ def export_skinned(robot_path, layouts, out, *, format: str | None = None, prefi
         records.append({"link": link, "taxels": len(lay), "names": [names[0], names[-1]] if names else []})
     mjcf_io.rebase(tree.getroot(), model_dir, out.parent)
     mjcf_io.relative_contact_files(tree.getroot(), contact_geoms, out.parent)
-    mjcf_io.write_tree(tree, out)
-    for rec, names in zip(records, sites):  # MuJoCo's own rays judge the written model
-        bad, some = unreadable_sites(out, names, poses=POSES)
-        rec["unreadable"] = [n for n in names if n in bad]
-        rec["unreadable_why"] = bad
-        rec["covered_at_some_poses"] = some  # read at the zero pose, not at some of POSES random ones
+    mjcf_io.write_tree(tree, staged)
+    probe = probe_copy(staged, out)
+    try:
+        for rec, names in zip(records, sites):  # MuJoCo's own rays judge the written model
+            bad, some = unreadable_sites(probe, names, poses=POSES)
+            rec["unreadable"] = [n for n in names if n in bad]
+            rec["unreadable_why"] = bad
+            rec["covered_at_some_poses"] = some  # read at the zero pose, not at some of POSES random ones
+    finally:
+        probe.unlink(missing_ok=True)
     return records
 
 
-def link_contact(robot: Robot, link: str, layouts, tree: ET.ElementTree, out: Path):
+def link_contact(robot: Robot, link: str, layouts, tree: ET.ElementTree, out: Path, staged: Path):
     """``(parts, geom names)``: the convex parts MuJoCo will collide ``link`` by in the exported
     MJCF ``tree``, and the names of the geoms added for them. The link's own colliding geometry (each
     collision element's hull) where it already hugs the skins ``layouts`` (:func:`.contact_geometry.needs_parts`);
     else a convex decomposition of the geometry the skin was laid on (``meta["geometry"]``, default
-    collision; cached in ``<out stem>_meshes/``), cut under the skin (:func:`.contact_geometry.under_skin`),
+    collision; written to the staged ``<out stem>_meshes/`` (``staged``: out's name in the staging
+    folder), a decomposition already in out's own folder reused), cut under the skin (:func:`.contact_geometry.under_skin`),
     replaces the link's colliding geoms; the parts are written there as ``<link>_contact_<k>.stl``."""
     from .contact_geometry import convex_parts, needs_parts, under_skin
     from .meshes import link_mesh
@@ -318,17 +396,19 @@ def link_contact(robot: Robot, link: str, layouts, tree: ET.ElementTree, out: Pa
         geometry = "collision" if geometry == "visual" else "visual"
     if not robot.link(link).geometry(geometry):
         return hulls, []  # no surface to follow: MuJoCo collides what the file has
-    folder = out.parent / f"{out.stem}_meshes"
+    folder = staged.parent / f"{out.stem}_meshes"
     mesh = link_mesh(robot, link, geometry)
+    reuse_decomposition(mesh, out.parent / f"{out.stem}_meshes", folder)
     u = normals / np.linalg.norm(normals, axis=1, keepdims=True)
     covered = occluded(mesh, positions + 1e-4 * u, u)  # under the link's own mesh: a pocket, left as it is
     parts = under_skin(convex_parts(mesh, folder), positions, normals, covered)
     if not parts:
         return hulls, []
-    files = []
+    files = []  # where they will be once the staged set lands in out's folder
     for k, part in enumerate(parts):
-        files.append((folder / f"{identifier(link)}_contact_{k:02d}.stl").resolve())
-        part.export(files[-1])
+        name = f"{identifier(link)}_contact_{k:02d}.stl"
+        part.export(folder / name)
+        files.append((out.parent / folder.name / name).resolve())
     body = next(b for b in tree.getroot().iter("body") if b.get("name") == link)
     names = mjcf_io.replace_contact(tree.getroot(), body, files, f"{identifier(link)}_vtcontact_")
     return parts, names

@@ -8,16 +8,24 @@ rigid transforms, metres; ``origin`` of a joint or a geometry is its pose in the
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError, did_you_mean
+from ..errors import FormatError, InputError, did_you_mean
 
 GEOMETRY_KINDS = ("visual", "collision")
 #: joint types that move (URDF names; MJCF hinge -> revolute, slide -> prismatic)
 MOVING = ("revolute", "continuous", "prismatic")
+#: m: the largest coordinate or size a robot file may give (the layout readers' bound: a unit error beyond)
+MAX_EXTENT_M = 1e3
+#: m (or a mesh scale): the smallest size other than 0 (below it a primitive's mesh has NaN normals)
+MIN_SIZE_M = 1e-9
+#: the encodings a robot file may declare: UTF-8 (MuJoCo's XML parser reads nothing else) and its subset
+UTF8_NAMES = ("utf-8", "utf8", "us-ascii", "ascii")
+_DECLARATION = re.compile(rb"""^(?:\xef\xbb\xbf)?<\?xml[^>]*?\bencoding\s*=\s*["']([^"']*)["']""")
 
 
 @dataclass
@@ -163,3 +171,50 @@ def pose(xyz=(0.0, 0.0, 0.0), rpy=(0.0, 0.0, 0.0)) -> np.ndarray:
     m[:3, :3] = Rotation.from_euler("xyz", rpy).as_matrix()
     m[:3, 3] = xyz
     return m
+
+
+def read_xml(path, what: str = "robot file", comments: bool = False):
+    """The robot file at ``path`` as an ``xml.etree.ElementTree.ElementTree``, read under the layout
+    readers' discipline (:mod:`vtcore.inputs`): a regular file, UTF-8 text (a byte-order mark
+    accepted), an XML declaration naming UTF-8 or none. One FormatError otherwise, naming the file
+    and the byte offset, the declared encoding or the XML line; never a LookupError from an unknown
+    encoding or a UnicodeDecodeError later, from a name MuJoCo copied byte for byte.
+    comments : keep comments in the tree (the exporters write them back)."""
+    import xml.etree.ElementTree as ET
+
+    from ..inputs import clean, decode, read_bytes
+
+    data = read_bytes(path, what)
+    m = _DECLARATION.match(data)
+    if m is not None and m.group(1).decode("ascii", "replace").strip().lower() not in UTF8_NAMES:
+        raise FormatError(f"the XML declaration names the encoding {clean(m.group(1).decode('latin-1'), 40)!r}; "
+                          "robot files are read as UTF-8: save it as UTF-8 (encoding=\"UTF-8\" or none)",
+                          file=clean(path, 300), key="encoding", line=1)
+    decode(data, path)  # the byte offset of the first byte that is not UTF-8, or a NUL
+    parser = ET.XMLParser(target=ET.TreeBuilder(insert_comments=comments))
+    try:
+        parser.feed(data)
+        return ET.ElementTree(parser.close())
+    except ET.ParseError as exc:
+        raise FormatError(f"not valid XML: {clean(exc, 200)}", file=clean(path, 300), line=exc.position[0]) from None
+
+
+def check_extent(values, what: str, *, file=None, key=None, size: bool = False) -> np.ndarray:
+    """``values`` as a float64 array, checked finite and within +-:data:`MAX_EXTENT_M` (``size``:
+    within 0 .. MAX_EXTENT_M): a robot's coordinate or size beyond that is a unit error, and its
+    products (a link's extent in mm, a pose) would overflow. FormatError naming ``what`` otherwise."""
+    a = np.asarray(values, dtype=np.float64)
+    if not np.isfinite(a).all():
+        raise FormatError(f"{what} is not finite: {clean_numbers(a)}", file=file, key=key)
+    lo = 0.0 if size else -MAX_EXTENT_M
+    if a.size and (a.min() < lo or a.max() > MAX_EXTENT_M):
+        raise FormatError(f"{what} must be within {lo:g} .. {MAX_EXTENT_M:g} m, got {clean_numbers(a)}",
+                          file=file, key=key)
+    if size and ((a != 0) & (np.abs(a) < MIN_SIZE_M)).any():  # a 1e-320 m sphere meshes to NaN normals
+        raise FormatError(f"{what} must be 0 or at least {MIN_SIZE_M:g} m, got {clean_numbers(a)}", file=file, key=key)
+    return a
+
+
+def clean_numbers(a) -> str:
+    """A short text of the numbers of ``a`` for a message."""
+    return " ".join(f"{v:g}" for v in np.asarray(a, dtype=np.float64).ravel()[:6])

@@ -11,24 +11,29 @@ folders of ``ROS_PACKAGE_PATH`` (a folder NAME inside one, or one named NAME), t
 ancestors (one named NAME, one holding NAME/rest, or one holding rest: a package installed under
 another folder name, as example-robot-data is); ``file://`` paths are absolute; anything else is
 relative to the URDF's folder.
+
+Bad input is one error (docs/inputs.md): the file is read as UTF-8 (:func:`.model.read_xml`: an
+unknown declared encoding or a byte that is not UTF-8 is named), and every number is checked where
+it is read: finite, coordinates and sizes within +-1 km.
 """
 
 from __future__ import annotations
 
 import os
-import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import FormatError, InputError
-from .model import Geometry, Joint, Link, Robot, pose
+from .model import MIN_SIZE_M, Geometry, Joint, Link, Robot, check_extent, pose, read_xml
 
 NAME = "urdf"
 JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed", "floating", "planar")
 
 
-def _numbers(el, attr: str, n: int, path, default=None) -> tuple:
+def _numbers(el, attr: str, n: int, path, default=None, extent: str | None = None) -> tuple:
+    """``n`` finite numbers of the attribute ``attr`` of ``el`` (``default`` when it is absent).
+    extent : "coordinate" (within +-1 km), "size" (0 .. 1 km) or None (finite only)."""
     text = el.get(attr) if el is not None else None
     if text is None:
         if default is None:
@@ -42,6 +47,10 @@ def _numbers(el, attr: str, n: int, path, default=None) -> tuple:
         vals = vals * 3  # some exporters write one uniform scale
     if len(vals) != n or not np.isfinite(vals).all():
         raise FormatError(f"{attr}={text!r} is not {n} finite numbers", file=path, key=f"{el.tag}.{attr}")
+    if extent is not None:
+        check_extent(vals, f"{attr}={text!r}", file=path, key=f"{el.tag}.{attr}", size=extent == "size")
+    if attr == "scale" and ((np.asarray(vals) != 0) & (np.abs(vals) < MIN_SIZE_M)).any():
+        raise FormatError(f"scale={text!r} must be 0 or at least {MIN_SIZE_M:g} in size", file=path, key="mesh.scale")
     return vals
 
 
@@ -50,7 +59,7 @@ def origin_of(parent, path) -> np.ndarray:
     o = parent.find("origin")
     if o is None:
         return np.eye(4)
-    return pose(_numbers(o, "xyz", 3, path, (0.0, 0.0, 0.0)), _numbers(o, "rpy", 3, path, (0.0, 0.0, 0.0)))
+    return pose(_numbers(o, "xyz", 3, path, (0.0, 0.0, 0.0), "coordinate"), _numbers(o, "rpy", 3, path, (0.0, 0.0, 0.0)))
 
 
 def resolve(filename: str, urdf: Path, packages: dict | None = None) -> Path | None:
@@ -86,14 +95,16 @@ def _geometry(el, kind: str, path: Path, packages) -> Geometry | None:
         if not filename:
             raise FormatError(f"a {kind} <mesh> without filename", file=path, key="mesh.filename")
         return Geometry(kind, origin, resolve(filename, path, packages),
-                        np.asarray(_numbers(shape, "scale", 3, path, (1.0, 1.0, 1.0))), name=name, filename=filename)
+                        np.asarray(_numbers(shape, "scale", 3, path, (1.0, 1.0, 1.0), "coordinate")), name=name, filename=filename)
     if shape.tag == "box":
-        return Geometry(kind, origin, primitive="box", size=_numbers(shape, "size", 3, path), name=name)
+        return Geometry(kind, origin, primitive="box", size=_numbers(shape, "size", 3, path, extent="size"), name=name)
     if shape.tag in ("cylinder", "capsule"):
         return Geometry(kind, origin, primitive=shape.tag, name=name,
-                        size=_numbers(shape, "radius", 1, path) + _numbers(shape, "length", 1, path))
+                        size=_numbers(shape, "radius", 1, path, extent="size")
+                        + _numbers(shape, "length", 1, path, extent="size"))
     if shape.tag == "sphere":
-        return Geometry(kind, origin, primitive="sphere", size=_numbers(shape, "radius", 1, path), name=name)
+        return Geometry(kind, origin, primitive="sphere", size=_numbers(shape, "radius", 1, path, extent="size"),
+                        name=name)
     return None  # an unknown shape (e.g. a plugin's): no surface to lay skin on
 
 
@@ -102,10 +113,7 @@ def read(path, packages: dict | None = None) -> Robot:
     path = Path(path)
     if not path.is_file():
         raise InputError("robot file not found", file=path)
-    try:
-        root = ET.parse(path).getroot()
-    except ET.ParseError as exc:
-        raise FormatError(f"not valid XML: {exc}", file=path, line=exc.position[0]) from None
+    root = read_xml(path).getroot()
     if root.tag != "robot":
         raise FormatError(f"the root element is <{root.tag}>, not <robot>", file=path)
     links = {}

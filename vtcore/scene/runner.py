@@ -11,12 +11,9 @@ effect contract"), ``effects_not_applied`` (the listed ones that changed none), 
 
 from __future__ import annotations
 
-import contextlib
 import math
 import os
 import platform
-import shutil
-import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -25,9 +22,8 @@ from typing import Any, Callable
 import numpy as np
 
 from .. import __version__
-from .._io import atomic_write, check_terminated, save_npz, sigterm_held, write_json
+from .._io import atomic_write, check_terminated, save_npz, staged_into, write_json
 from ..errors import Cancelled, VtError
-from ..inputs import check_output_dir, os_error
 from .._progress import progress
 from ..contact.grid import spread_timer
 from . import registry
@@ -166,33 +162,12 @@ def run_scene(scene: Scene | str | Path, out: str | Path, overrides: list[str] |
 
 
 def _run_staged(scene: Scene, out, notes) -> dict:
-    final = check_output_dir(out)
-    made = not final.exists()
-    try:
-        final.mkdir(parents=True, exist_ok=True)
-        # Everything is written into a staging folder inside ``out`` and moved in at the end:
-        # a run that fails or is interrupted (Ctrl-C, SIGTERM) leaves no half set of files.
-        with sigterm_held():  # a SIGTERM between mkdtemp's mkdir and its return would orphan the folder
-            stage = Path(tempfile.mkdtemp(prefix=".vtcore-run-", dir=final))
-    except OSError as exc:
-        raise os_error(exc, final, key="--out") from None
-    try:
-        result = _run(scene, stage, notes)
-        # The commit is all or nothing: a SIGTERM that arrived before it (or was swallowed by a C
-        # extension) stops it here; one that arrives during it is raised by the CLI once every
-        # file is in (exit 143, a complete set), never between two files.
-        with sigterm_held():
-            check_terminated()
-            for f in sorted(stage.iterdir()):
-                os.replace(f, final / f.name)
-    except BaseException:
-        shutil.rmtree(stage, ignore_errors=True)
-        if made:
-            with contextlib.suppress(OSError):
-                final.rmdir()  # only if empty: a folder this run made and nothing landed in
-        raise
-    shutil.rmtree(stage, ignore_errors=True)
-    return result
+    # Everything is written into a staging folder inside ``out`` and moved in at the end: a run
+    # that fails or is interrupted (Ctrl-C, SIGTERM) leaves no half set of files. The commit is
+    # all or nothing: a SIGTERM that arrived before it (or was swallowed by a C extension) stops
+    # it; one that arrives during it is raised by the CLI once every file is in (exit 143).
+    with staged_into(out, prefix=".vtcore-run-") as stage:
+        return _run(scene, stage, notes)
 
 
 def _run(scene: Scene, out: Path, notes: Notices | None = None) -> dict:

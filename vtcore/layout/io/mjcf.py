@@ -242,7 +242,8 @@ def colliding_geoms(root: ET.Element, body: ET.Element) -> int:
     for g in body.findall("geom"):
         attrs = dict(classes.get(g.get("class") or child_class or "main", {}))
         attrs.update({k: g.get(k) for k in ("contype", "conaffinity") if g.get(k) is not None})
-        n += int(attrs.get("contype", "1")) != 0 or int(attrs.get("conaffinity", "1")) != 0
+        # MuJoCo reads a blank value as the default 1 (contype="": found by the robot export fuzz)
+        n += any(int((attrs.get(k) or "1").strip() or "1") != 0 for k in ("contype", "conaffinity"))
     return n
 
 
