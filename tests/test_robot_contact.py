@@ -19,21 +19,25 @@ pytestmark = [pytest.mark.filterwarnings("ignore::UserWarning"), pytest.mark.slo
 coacd = pytest.importorskip("coacd")
 
 
-def skinned(rel, links, out):
+def skinned(rel, links, out, exposure=True):
     erd = example_robot_data()
     robot = load_robot(erd / rel, {"example-robot-data": erd.parent})
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        layouts = [lay_on_link(robot, link, "fill", geometry=geometry)[0] for link, geometry in links]
+        layouts = [lay_on_link(robot, link, "fill", geometry=geometry, exposure=exposure)[0]
+                   for link, geometry in links]
     records = export_skinned(robot.path, layouts, out, packages={"example-robot-data": erd.parent})
     q = robot.random_configuration(np.random.default_rng(1))
     return robot, records, [{}, {j.name: robot.joint_value(j, q) for j in robot.moving_joints}]
 
 
 def test_balls_on_readable_g1_taxels_read_mg_and_covered_ones_are_named(tmp_path):
+    """Filled anywhere (``exposure=False``: the behaviour before the exposed surface), the wrist's
+    taxels on the face that mates with the elbow are named by the export as covered; the readable
+    ones read m g. Filled on the exposed surface (the default), the export names none."""
     robot, records, configs = skinned("g1_description/urdf/g1_29dof_with_hand_rev_1_0.urdf",
                                       [("left_wrist_roll_link", "visual"), ("left_elbow_link", "visual")],
-                                      tmp_path / "g1.xml")
+                                      tmp_path / "g1.xml", exposure=False)
     wrist = records[0]
     assert wrist["unreadable"] and all(wrist["unreadable_why"][n] == "covered by left_elbow_link"
                                        for n in wrist["unreadable"])  # the face that mates with the elbow
@@ -46,6 +50,9 @@ def test_balls_on_readable_g1_taxels_read_mg_and_covered_ones_are_named(tmp_path
     rows = drop_many(tmp_path / "g1.xml", ["left_wrist_roll_link", "left_elbow_link"], 4, configurations=configs[:1],
                      readable=readable)
     assert all(abs(r["ratio"] - 1) <= 0.05 for r in rows), rows
+    _, exposed, _ = skinned("g1_description/urdf/g1_29dof_with_hand_rev_1_0.urdf",
+                            [("left_wrist_roll_link", "visual")], tmp_path / "g1_exposed.xml")
+    assert exposed[0]["taxels"] > 0 and exposed[0]["unreadable"] == [], exposed[0]["unreadable_why"]
 
 
 def test_balls_on_the_allegro_palm_read_mg(tmp_path):
