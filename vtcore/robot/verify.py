@@ -79,11 +79,9 @@ def _merge(stats: dict, link: str, errors) -> None:
                    "footprint_deg": max(old["footprint_deg"], float(f.max()))}
 
 
-def check_urdf(path, configs, geometry: str = "visual", packages: dict | None = None) -> dict:
-    """Per skinned link of the URDF at ``path``: ``{"taxels", "max_mm", "max_deg"}`` over every
-    configuration of ``configs`` (dicts joint -> value; yourdfpy applies mimic joints itself).
-    packages : package name -> folder, given to yourdfpy as a ROS user's package path would be."""
-    import trimesh
+def yourdfpy_robot(path, geometry: str = "visual", packages: dict | None = None):
+    """The URDF at ``path`` as yourdfpy loads it, with its ``geometry`` meshes and scene graph; a
+    ``package://NAME/`` path resolves in ``packages[NAME]`` as a ROS user's package path would."""
     import yourdfpy
 
     def handler(fname):
@@ -93,9 +91,19 @@ def check_urdf(path, configs, geometry: str = "visual", packages: dict | None = 
         return yourdfpy.filename_handler_magic(fname, dir=str(Path(path).parent))
 
     collision = geometry == "collision"
-    u = yourdfpy.URDF.load(str(path), build_scene_graph=True, load_meshes=not collision,
-                           build_collision_scene_graph=collision, load_collision_meshes=collision,
-                           filename_handler=handler)
+    return yourdfpy.URDF.load(str(path), build_scene_graph=True, load_meshes=not collision,
+                              build_collision_scene_graph=collision, load_collision_meshes=collision,
+                              filename_handler=handler)
+
+
+def check_urdf(path, configs, geometry: str = "visual", packages: dict | None = None) -> dict:
+    """Per skinned link of the URDF at ``path``: ``{"taxels", "max_mm", "max_deg"}`` over every
+    configuration of ``configs`` (dicts joint -> value; yourdfpy applies mimic joints itself).
+    packages : package name -> folder, given to yourdfpy as a ROS user's package path would be."""
+    import trimesh
+
+    u = yourdfpy_robot(path, geometry, packages)
+    collision = geometry == "collision"
     parent_of = {j.child: j.parent for j in u.joint_map.values()}
     taxels: dict = {}
     for name in u.link_map:
@@ -164,18 +172,9 @@ def clearance_urdf(path, packages: dict | None = None, q: dict | None = None, ge
     2 mm of or inside another link, and which link came nearest. Independent of
     :mod:`vtcore.robot.exposure` (which decided where the skin may go)."""
     import trimesh
-    import yourdfpy
 
-    def handler(fname):
-        for name, folder in (packages or {}).items():
-            if fname.startswith(f"package://{name}/"):
-                return str(Path(folder) / fname[len(f"package://{name}/"):])
-        return yourdfpy.filename_handler_magic(fname, dir=str(Path(path).parent))
-
+    u = yourdfpy_robot(path, geometry, packages)
     collision = geometry == "collision"
-    u = yourdfpy.URDF.load(str(path), build_scene_graph=True, load_meshes=not collision,
-                           build_collision_scene_graph=collision, load_collision_meshes=collision,
-                           filename_handler=handler)
     u.update_cfg({k: v for k, v in (q or {}).items() if k in u.actuated_joint_names})
     parent_of = {j.child: j.parent for j in u.joint_map.values()}
     taxels: dict = {}
