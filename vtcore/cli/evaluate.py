@@ -21,7 +21,8 @@ IN_PROCESS_DESIGNS = 8
 
 def _base_scene(args, out: Path, name: str | None = None, layout=None) -> Path:
     """Write ``out/evaluate.toml``: the evaluate task on the mesh and the first layout (``layout``,
-    already read), with the ``[layer]`` (and, for an evaluate scene, ``[task]``) of ``--scene``; a
+    already read), with the ``[layer]`` (and, for an evaluate scene, ``[task]`` and ``[effects]``;
+    by default ``[effects.soft_layer]``) of ``--scene``; a
     robot layout's link surface beside it (:func:`link_surface`). name : the scene's name (default:
     ``out``'s)."""
     from ..errors import InputError
@@ -56,6 +57,13 @@ def _base_scene(args, out: Path, name: str | None = None, layout=None) -> Path:
              f"seed = {int(tables.get('scene', {}).get('seed', 0))}"]
     for name, table in keep.items():
         lines += ["", f"[{name}]"] + [f"{k} = {toml_literal(v)}" for k, v in table.items()]
+    # The effects an evaluate scene of --scene lists; by default the soft layer's spreading, which
+    # the maps of the add-on and the shipped evaluate scenes simulate (the effect contract computes
+    # no effect a scene does not list, so without it the taxels would read the surface pressure).
+    effects = tables.get("effects") if "task" in keep and isinstance(tables.get("effects"), dict) \
+        else {"soft_layer": {}}
+    for name, table in effects.items():
+        lines += ["", f"[effects.{name}]"] + [f"{k} = {toml_literal(v)}" for k, v in (table or {}).items()]
     path = out / "evaluate.toml"
     from .._io import atomic_write
 
