@@ -92,13 +92,11 @@ def robots(tmp_path_factory):
     seeds = {"urdf": [(d / "prims", ".urdf", URDF_PRIMITIVES.encode(), "arm")], "mjcf": []}
     arm = humanoid_arm(d / "humanoid")
     seeds["urdf"].append((arm.parent, ".urdf", arm.read_bytes(), "l_forearm"))
-    try:
-        src = example_robot_data() / "double_pendulum_description"
-        dst = d / "erd" / "example-robot-data" / "robots" / "double_pendulum_description"
-        shutil.copytree(src, dst)
-        seeds["urdf"].append((dst / "urdf", ".urdf", (dst / "urdf" / "double_pendulum.urdf").read_bytes(), "link1"))
-    except Exception:  # noqa: BLE001  (example-robot-data is a test dependency; the other seeds still run)
-        pass
+    # a real robot with package:// meshes (example-robot-data is pinned in both lanes: a missing one fails here)
+    src = example_robot_data() / "double_pendulum_description"
+    dst = d / "erd" / "example-robot-data" / "robots" / "double_pendulum_description"
+    shutil.copytree(src, dst)
+    seeds["urdf"].append((dst / "urdf", ".urdf", (dst / "urdf" / "double_pendulum.urdf").read_bytes(), "link1"))
     (d / "mprims").mkdir()
     seeds["mjcf"].append((d / "mprims", ".xml", MJCF_PRIMITIVES.encode(), "arm"))
     (d / "mmesh" / "meshes").mkdir(parents=True)
