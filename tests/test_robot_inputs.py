@@ -210,6 +210,28 @@ def test_a_blank_contype_exports_as_mujoco_reads_it(tmp_path):
     assert rc == 0, err
 
 
+@pytest.mark.parametrize("first", ['meshdir="nowhere"', 'meshdir="meshes"'])
+def test_a_repeated_compiler_meshdir_is_read_as_mujoco_reads_it(tmp_path, first):
+    """Found by the export fuzz (py313 lane): a second ``<compiler meshdir=...>`` overrides the first in
+    MuJoCo, but the export rebased only the first, so MuJoCo's site probe of the written model raised
+    "Error opening file 'meshes/tube.stl'" as a traceback. The export must land and load from another folder."""
+    import mujoco
+    import trimesh
+
+    (tmp_path / "robot" / "meshes").mkdir(parents=True)
+    trimesh.creation.cylinder(radius=0.04, height=0.2).export(tmp_path / "robot" / "meshes" / "tube.stl")
+    robot = tmp_path / "robot" / "r.xml"
+    robot.write_text(f"""<mujoco model="m"><compiler {first}/><compiler meshdir="meshes"/>
+<asset><mesh name="tube" file="tube.stl"/></asset>
+<worldbody><body name="arm" pos="0 0 0.1"><geom type="mesh" mesh="tube"/></body></worldbody></mujoco>
+""")
+    layout = one_taxel(tmp_path / "t.json", "arm")
+    out = tmp_path / "elsewhere" / "o.xml"
+    rc, _, err = run(["robot", "export", robot, layout, "--out", out])
+    assert rc == 0, err
+    assert mujoco.MjModel.from_xml_path(str(out)).nsensor == 1
+
+
 # ----------------------------------------------------------------------------- sensor profiles
 def _profile_doc():
     from vtcore.contact.profile import PROFILES_DIR

@@ -255,8 +255,7 @@ def probe_copy(staged: Path, out: Path) -> Path:
     tree = ET.parse(staged)
     root = tree.getroot()
     if root.tag == "mujoco":
-        compiler = root.find("compiler")
-        base = {k: (compiler.get(k) if compiler is not None else None) for k in ("meshdir", "texturedir", "assetdir")}
+        base = mjcf_io.compiler_dirs(root)
         for el in root.iter():
             f = el.get("file")
             if not f or os.path.isabs(f) or el.tag == "include":

@@ -192,25 +192,34 @@ def add_skin(layout: Layout, parent: ET.Element, sensor: ET.Element, *, position
     return names
 
 
+def compiler_dirs(root: ET.Element) -> dict:
+    """The ``meshdir``, ``texturedir`` and ``assetdir`` MuJoCo compiles ``root`` with (None where unset):
+    ``<compiler>`` may repeat, and each one's attributes override the earlier ones' (a second
+    ``<compiler meshdir=...>`` was read by MuJoCo but missed here: found by the robot export fuzz)."""
+    dirs = dict.fromkeys(("meshdir", "texturedir", "assetdir"))
+    for compiler in root.findall("compiler"):
+        dirs.update({k: compiler.get(k) for k in dirs if compiler.get(k) is not None})
+    return dirs
+
+
 def rebase(root: ET.Element, src_dir: Path, out_dir: Path) -> None:
     """Keep the robot's relative file references valid from the output's folder."""
     if src_dir.resolve() == out_dir.resolve():
         return
     rel = lambda f: os.path.relpath(src_dir / f, out_dir)  # noqa: E731
-    compiler = root.find("compiler")
-    if compiler is None:
-        compiler = ET.Element("compiler")
-        root.insert(0, compiler)
-        indent_added(root, [compiler])
-    for key in ("meshdir", "texturedir"):
-        v = compiler.get(key)
-        if v is not None and not os.path.isabs(v):
-            compiler.set(key, rel(v))
-    v = compiler.get("assetdir")
-    if v is not None and not os.path.isabs(v):
-        compiler.set("assetdir", rel(v))
-    elif v is None:
-        compiler.set("assetdir", rel("."))  # files without a dir were relative to the model
+    compilers = root.findall("compiler")
+    if not compilers:
+        compilers = [ET.Element("compiler")]
+        root.insert(0, compilers[0])
+        indent_added(root, compilers)
+    unset_assetdir = compiler_dirs(root)["assetdir"] is None
+    for compiler in compilers:  # every one: a later compiler's dirs override an earlier one's
+        for key in ("meshdir", "texturedir", "assetdir"):
+            v = compiler.get(key)
+            if v is not None and not os.path.isabs(v):
+                compiler.set(key, rel(v))
+    if unset_assetdir:
+        compilers[0].set("assetdir", rel("."))  # files without a dir were relative to the model
     for inc in root.iter("include"):
         f = inc.get("file")
         if f and not os.path.isabs(f):
@@ -273,10 +282,8 @@ def replace_contact(root: ET.Element, body: ET.Element, files, prefix: str) -> l
 def relative_contact_files(root: ET.Element, names, out_dir: Path) -> None:
     """Write the ``file`` of the mesh assets ``names`` relative to where MuJoCo looks for meshes of the
     model written in ``out_dir`` (the compiler's ``meshdir``, else ``assetdir``, else the model's folder)."""
-    compiler = root.find("compiler")
-    base = ""
-    if compiler is not None:
-        base = compiler.get("meshdir") or compiler.get("assetdir") or ""
+    dirs = compiler_dirs(root)
+    base = dirs["meshdir"] or dirs["assetdir"] or ""
     base_dir = Path(base) if os.path.isabs(base) else Path(out_dir) / base
     names = set(names)
     for mesh in root.iter("mesh"):
