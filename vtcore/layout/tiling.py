@@ -10,6 +10,7 @@ kept for the benchmark, is :func:`vtcore.layout.singlechart.fill_one_chart`.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import partial
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -82,11 +83,49 @@ def fill(mesh, at, direction=None, *, module: str = "cyskin10", region=None, rad
 
     t0 = time.perf_counter()
     mod = get_module(module)
+    at = _checked_start(at, islands)
+    clean, creg, notes = _cropped_region(mesh, region, at, radius, mod)
+    parts = face_islands(clean, creg)
+    prepared = _solve_surface(clean, creg, mod, max_faces)
+    plabel = _island_labels(clean, parts, prepared)
+    samples = feature_samples(prepared.mesh, crease_angle, plabel >= 0)  # the region on the solve mesh
+    groups, skipped, widths, fdist = island_groups(prepared, plabel, parts, clean, samples, mod, at, islands)
+    tile = partial(_fill_island, prepared, samples=samples, mod=mod, max_strain=max_strain, angles=angles,
+                   refine_offsets=refine_offsets, crease_angle=crease_angle, seam=seam, progress=progress)
+    reports, avoid = [], None if existing is None or not len(existing) else np.asarray(existing.positions, float)
+    group_of = []
+    for k, (members, start, own) in enumerate(groups):
+        got, avoid = _fill_group(tile, prepared, np.isin(plabel, members), start, own, direction=direction,
+                                 radius=radius, offsets=offsets, seeds=seeds, one=islands == "one", fdist=fdist,
+                                 avoid=avoid, mod=mod, island=k, n_faces=int(sum(len(parts[i]) for i in members)))
+        reports += got
+        group_of += [k] * len(got)
+    if not any(r.n_modules for r in reports):
+        raise no_module_fits(reports, parts, skipped, widths, mod, existing, crease_angle, max_strain)
+    notes = notes + [n for r in reports for n in r.notes]
+    if len(parts) > 1:
+        notes.append(islands_note(parts, groups, reports, group_of, skipped))
+    cover = _region_coverage(prepared.surface, clean, creg, radius, reports[0].start, mod)
+    return _fill_result(reports, prepared.surface, cover, notes, max_strain, method="logmap",
+                        info=[n for r in reports for n in r.info], offset=offset, at=at, direction=direction,
+                        existing=existing, t0=t0, charts=sum(r.charts for r in reports),
+                        seam_modules=sum(r.seam for r in reports), kind="fill")
+
+
+def _checked_start(at, islands: str) -> np.ndarray:
+    """``at`` as (3,) float64 metres; InputError naming the key when it or ``islands`` is not valid."""
     if islands not in ("each", "one"):
         raise InputError(f"must be 'each' or 'one', got {islands!r}", key="islands")
     at = np.asarray(at, dtype=np.float64).reshape(-1)
     if at.shape != (3,) or not np.isfinite(at).all():
         raise InputError(f"'at' must be 3 finite numbers, got {at.tolist()}", key="at")
+    return at
+
+
+def _cropped_region(mesh, region, at, radius, mod):
+    """``(clean, creg, notes)``: the repaired mesh, the region on it ((F',) bool; every face by
+    default), cropped to ``radius`` metres (plus a module) round ``at`` snapped to the surface, and
+    the notes so far (the repairs, how far ``at`` was off the surface)."""
     clean, notes = clean_mesh(mesh)
     if region is not None:
         region = np.asarray(region, dtype=bool).reshape(-1)
@@ -103,7 +142,12 @@ def fill(mesh, at, direction=None, *, module: str = "cyskin10", region=None, rad
         creg &= crop_mask(clean, cp[0], int(f0[0]), float(radius) + 2 * mod.radius)
     if not creg.any():
         raise InputError("the region selects no face within the radius", key="region")
-    parts = face_islands(clean, creg)
+    return clean, creg, notes
+
+
+def _solve_surface(clean, creg, mod, max_faces) -> PreparedSurface:
+    """The surface the fill's log maps are solved on: the region ``creg`` (F,) bool of ``clean`` and
+    the faces within two pitches of it, simplified to ``max_faces`` (see :func:`fill`)."""
     # the log map is solved on the region and the surface round it, not on the region alone: a
     # narrow band gives the heat method no room (14 mm of error 20 mm along a 26 mm band); a wider
     # margin gives geodesics shortcuts off the region (across the cap of a cylinder whose side is
@@ -116,85 +160,93 @@ def fill(mesh, at, direction=None, *, module: str = "cyskin10", region=None, rad
         if max_faces != "auto":
             raise InputError(f"max_faces must be a number, None or 'auto', got {max_faces!r}", key="max_faces")
         max_faces = solve_faces(float(sub.area), mod.pitch)
-    prepared = PreparedSurface(sub, resolution=mod.pitch, max_faces=max_faces)
+    return PreparedSurface(sub, resolution=mod.pitch, max_faces=max_faces)
+
+
+def _island_labels(clean, parts, prepared) -> np.ndarray:
+    """(F,) int: the island (index into ``parts``) of each face of the solve mesh, -1 off the region."""
     # each face the log maps are solved on, and each face taxels land on, belongs to the clean face
     # it lies on (closest point: a CAD needle's pieces are far from its centre, nearer another's)
     label = np.full(len(clean.faces), -1, np.int64)
     for k, f in enumerate(parts):
         label[f] = k
-    plabel = label[closest_points(clean, np.asarray(prepared.mesh.triangles_center))[1]]
-    preg = plabel >= 0  # the region on the faces the log maps are solved on
-    samples = feature_samples(prepared.mesh, crease_angle, preg)
-    groups, skipped, widths, fdist = island_groups(prepared, plabel, parts, clean, samples, mod, at, islands)
-    reports, avoid = [], None if existing is None or not len(existing) else np.asarray(existing.positions, float)
-    group_of = []
-    for k, (members, start, own) in enumerate(groups):
-        mask = np.isin(plabel, members)
-        tried, room, got = [], None, False
-        for j in range(max(int(seeds), 1)):
-            # a further seed fills a room between modules: one shift per angle, then finer shifts
-            r = _fill_island(prepared, mask, samples, start, direction if own and not j else None, mod,
-                             radius if own and not j else None, max_strain, avoid, angles,
-                             offsets if not j or not got else 1,
-                             refine_offsets, crease_angle, seam, progress, island=k,
-                             n_faces=int(sum(len(parts[i]) for i in members)), seed=j, room=room)
-            reports.append(r)
-            group_of.append(k)
-            tried.append(r.start)
-            if r.n_modules:  # later seeds and islands keep clear of these modules
-                avoid = r.pos if avoid is None else np.concatenate([avoid, r.pos])
-            if not j and radius is not None and own:
-                # further seeds stay within the radius (along the surface) of the first
-                mask = mask & (r.dist0[np.asarray(prepared.mesh.faces)] <= radius).all(axis=1)
-            if islands == "one" and any(q.n_modules for q, h in zip(reports, group_of) if h == k):
-                break  # one lattice per group: a further seed would start another
-            had, got = got, got or bool(r.n_modules)
-            if j and r.n_modules < 2 and had:
-                break  # rooms left are smaller than the seeds' cost is worth (each costs a tiling search)
-            # while the island has no module, every seed is tried, with the full tiling search, a pitch
-            # (not a module's width) from the failed ones: on the G1 elbow's 40 mm patch (a ribbed CAD
-            # part) the start keeps nothing, and the one spot a module fits is 6 mm from a failed seed
-            nxt = next_seed(prepared, mask, fdist, avoid, tried, mod, modules=2 if got else 1,
-                            spacing=None if got else mod.pitch)
-            if nxt is None:
-                break
-            start, room = nxt
-    if not any(r.n_modules for r in reports):
-        raise no_module_fits(reports, parts, skipped, widths, mod, existing, crease_angle, max_strain)
-    chosen = [r for r in reports if r.n_modules]
+    return label[closest_points(clean, np.asarray(prepared.mesh.triangles_center))[1]]
+
+
+def _fill_group(tile, prepared, mask, start, own, *, direction, radius, offsets, seeds, one, fdist, avoid, mod,
+                island, n_faces):
+    """Fill one group of islands (``mask`` (F,) bool on the solve mesh) from ``start`` (3,), then from
+    further seeds (see :func:`fill`'s ``seeds``); ``tile`` is :func:`_fill_island` with the fill's
+    settings, ``own``: the group holds the island of the fill's start. Returns ``(the IslandFill of
+    each growth, avoid)``: ``avoid`` (n, 3) metres, the taxels to keep clear of, with the new ones."""
+    reports, tried, room, got = [], [], None, False
+    for j in range(max(int(seeds), 1)):
+        # a further seed fills a room between modules: one shift per angle, then finer shifts
+        r = tile(preg=mask, start=start, direction=direction if own and not j else None,
+                 radius=radius if own and not j else None, avoid=avoid, offsets=offsets if not j or not got else 1,
+                 island=island, n_faces=n_faces, seed=j, room=room)
+        reports.append(r)
+        tried.append(r.start)
+        if r.n_modules:  # later seeds and islands keep clear of these modules
+            avoid = r.pos if avoid is None else np.concatenate([avoid, r.pos])
+        if not j and radius is not None and own:
+            # further seeds stay within the radius (along the surface) of the first
+            mask = mask & (r.dist0[np.asarray(prepared.mesh.faces)] <= radius).all(axis=1)
+        if one and any(q.n_modules for q in reports):
+            break  # one lattice per group: a further seed would start another
+        had, got = got, got or bool(r.n_modules)
+        if j and r.n_modules < 2 and had:
+            break  # rooms left are smaller than the seeds' cost is worth (each costs a tiling search)
+        # while the island has no module, every seed is tried, with the full tiling search, a pitch
+        # (not a module's width) from the failed ones: on the G1 elbow's 40 mm patch (a ribbed CAD
+        # part) the start keeps nothing, and the one spot a module fits is 6 mm from a failed seed
+        nxt = next_seed(prepared, mask, fdist, avoid, tried, mod, modules=2 if got else 1,
+                        spacing=None if got else mod.pitch)
+        if nxt is None:
+            break
+        start, room = nxt
+    return reports, avoid
+
+
+def _joined_islands(chosen: list):
+    """The islands' fills side by side: ``(patch, pos, nrm, found, frames, chart_of, is_seam)``, the
+    charts numbered across islands (``chart_of`` (M,): which chart placed each module; ``is_seam``
+    (M,): which the seam pass added)."""
     # the islands' own patches side by side (re-building one from all poses would drop taxels that
     # coincide in the flat domain across islands, whose flat frames differ, and leave pos longer)
     first = np.cumsum([0] + [r.patch.n_modules for r in chosen[:-1]])
-    p = Patch(mod, np.concatenate([r.patch.poses for r in chosen]), np.concatenate([r.patch.flat for r in chosen]),
+    p = Patch(chosen[0].patch.module, np.concatenate([r.patch.poses for r in chosen]),
+              np.concatenate([r.patch.flat for r in chosen]),
               np.concatenate([r.patch.module_ids + f for r, f in zip(chosen, first)]),
               np.concatenate([r.patch.sensors for r in chosen]), np.concatenate([r.patch.roles for r in chosen]),
               "fill")
-    pos = np.concatenate([r.pos for r in chosen])
-    nrm = np.concatenate([r.nrm for r in chosen])
-    found = np.concatenate([r.found for r in chosen])
-    surf = prepared.surface
-    # coverage: the region's area (on the subdivided surface) under some module's outline
+    chart_of = np.concatenate([r.chart_of + sum(q.charts for q in chosen[:i]) for i, r in enumerate(chosen)])
+    return (p, np.concatenate([r.pos for r in chosen]), np.concatenate([r.nrm for r in chosen]),
+            np.concatenate([r.found for r in chosen]), np.concatenate([r.frames for r in chosen]), chart_of,
+            np.concatenate([r.is_seam for r in chosen]))
+
+
+def _region_coverage(surf, clean, creg, radius, start, mod):
+    """``cover(frames, angles)``: the fraction of the region's area (on the subdivided surface ``surf``;
+    within ``radius`` metres of ``start`` (3,) when given) under the modules of ``frames`` (M, 3, 3)
+    turned by ``angles`` (M,) radians (NaN for a region of no area)."""
     sc = np.asarray(surf.triangles_center)
     sel = creg[closest_points(clean, sc)[1]]
     if radius is not None:  # the disc of the radius (geodesic; measured in 3-D, a little wider)
-        sel &= np.linalg.norm(sc - reports[0].start, axis=1) <= radius
-    frames = np.concatenate([r.frames for r in chosen])
+        sel &= np.linalg.norm(sc - start, axis=1) <= radius
     cov_den = float(np.asarray(surf.area_faces)[sel].sum())
 
     def cover(frames, angles):
         return coverage_by_frames(sc[sel], np.asarray(surf.area_faces)[sel], frames, angles, mod) / cov_den \
             if cov_den > 0 else float("nan")
 
-    notes = notes + [n for r in reports for n in r.notes]
-    if len(parts) > 1:
-        notes.append(islands_note(parts, groups, reports, group_of, skipped))
-    kw = dict(method="logmap", info=[n for r in reports for n in r.info], offset=offset, at=at, direction=direction,
-              existing=existing, t0=t0, charts=sum(r.charts for r in reports),
-              seam_modules=sum(r.seam for r in reports), kind="fill")
+    return cover
+
+
+def _fill_result(reports, surf, cover, notes, max_strain, **kw) -> tuple[Layout, PlacementReport]:
+    """The fill's layout and report from the islands' fills ``reports`` (``kw``: :func:`.placement.finish`'s)."""
+    p, pos, nrm, found, frames, chart_of, is_seam = _joined_islands([r for r in reports if r.n_modules])
     layout, report = finish(p, pos, nrm, found, surf, notes=notes, coverage=cover(frames, p.poses[:, 0]), **kw)
-    # which chart placed each module (numbered across islands) and which the seam pass added
-    chart_of = np.concatenate([r.chart_of + sum(q.charts for q in chosen[:i]) for i, r in enumerate(chosen)])
-    is_seam = np.concatenate([r.is_seam for r in chosen])
     over = np.asarray(report.module_strain) > max_strain if max_strain is not None else np.zeros(p.n_modules, bool)
     if over.any() and not over.all():
         # the growth measured a module's strain in the chart that mapped it; with the taxels' final
