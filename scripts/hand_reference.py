@@ -151,10 +151,10 @@ def tiling_neighbours(mod):
 
 
 def coverage(mesh, region, layout, module="cyskin10") -> float:
-    """The region's area under the modules' outlines, as fill measures it (tiling.coverage_by_frames)."""
+    """The region's area under the modules' outlines, as fill measures it (report.coverage_by_frames)."""
     from vtcore.layout import get_module
     from vtcore.layout.repair import refine
-    from vtcore.layout.tiling import coverage_by_frames
+    from vtcore.layout.report import coverage_by_frames
 
     mod = get_module(module)
     reg = np.ones(len(mesh.faces), bool) if region is None else np.asarray(region, bool)

@@ -244,6 +244,47 @@ def points_in_outlines(points: np.ndarray, patch: Patch) -> np.ndarray:
     return out
 
 
+def coverage_by_frames(centres: np.ndarray, areas: np.ndarray, frames: np.ndarray, angles: np.ndarray,
+                       mod) -> float:
+    """Area of the faces (centres (F, 3), areas (F,)) under some module outline, each module
+    given by its frame (M, 3, 3: origin, lattice x axis, normal) and its angle (M,) to the
+    lattice x axis; a face centre is projected on a module's tangent plane (a module is small
+    against the curvature it sits on)."""
+    if not len(frames) or not len(centres):
+        return 0.0
+    o, x, n = frames[:, 0], frames[:, 1], frames[:, 2]
+    y = np.cross(n, x)
+    # the k nearest module origins within a module radius, as arrays (query_ball_point's lists of
+    # lists cost seconds on 100k face centres); modules do not overlap, so a handful are near a
+    # point: k doubles until the farthest answer is past the radius
+    tree, k = cKDTree(o), min(8, len(o))
+    while True:
+        d, ms = tree.query(centres, k=k, distance_upper_bound=mod.radius, workers=-1)  # same answer, both cores
+        d, ms = d.reshape(len(centres), -1), ms.reshape(len(centres), -1)
+        if k >= len(o) or not np.isfinite(d[:, -1]).any():
+            break
+        k = min(2 * k, len(o))
+    hit = np.isfinite(d)
+    rows = np.nonzero(hit)[0]
+    if not len(rows):
+        return 0.0
+    ms = ms[hit]
+    rel = centres[rows] - o[ms]
+    # within a module radius along the normal too: not the other side of a thin part
+    near = np.abs(np.einsum("ij,ij->i", rel, n[ms])) < 0.5 * mod.radius
+    u, v = np.einsum("ij,ij->i", rel, x[ms]), np.einsum("ij,ij->i", rel, y[ms])
+    c, s = np.cos(angles[ms]), np.sin(angles[ms])
+    local = np.column_stack([c * u + s * v, -s * u + c * v])
+    poly = mod.outline
+    edge = np.roll(poly, -1, axis=0) - poly
+    r = local[:, None, :] - poly[None]
+    cr = edge[None, :, 0] * r[..., 1] - edge[None, :, 1] * r[..., 0]
+    ins = np.all(cr >= 0, axis=1) & near
+    covered = np.zeros(len(centres), bool)
+    covered[rows[ins]] = True
+    return float(areas[covered].sum())
+
+
 def module_edge_strain(layout: Layout, module) -> tuple[np.ndarray, np.ndarray]:
     """``(per_taxel (N,), edges (E,))``: the largest |strain| of the module edges at each taxel of
     ``layout``, and the |strain| of every module edge, judged against the

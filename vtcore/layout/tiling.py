@@ -25,7 +25,7 @@ from .placement import finish
 from .regions import crop_mask, face_islands
 from .repair import clean_mesh, edge_keys, face_submesh, source_faces
 from .surface import at_notes, closest_points, snap
-from .report import OVERLAP_FRACTION, PlacementReport
+from .report import OVERLAP_FRACTION, PlacementReport, coverage_by_frames
 
 CREASE_ANGLE = 40.0  #: degrees: no module covers an edge where the faces turn more than this (a design crease)
 MAX_CANDIDATES = 2_000_000  #: lattice modules a fill may consider (each ~10 taxels): ~1 GB of work arrays
@@ -368,47 +368,6 @@ def modules_covering(points: np.ndarray, patch: Patch, modules: np.ndarray, orig
     return out
 
 
-def coverage_by_frames(centres: np.ndarray, areas: np.ndarray, frames: np.ndarray, angles: np.ndarray,
-                       mod) -> float:
-    """Area of the faces (centres (F, 3), areas (F,)) under some module outline, each module
-    given by its frame (M, 3, 3: origin, lattice x axis, normal) and its angle (M,) to the
-    lattice x axis; a face centre is projected on a module's tangent plane (a module is small
-    against the curvature it sits on)."""
-    if not len(frames) or not len(centres):
-        return 0.0
-    o, x, n = frames[:, 0], frames[:, 1], frames[:, 2]
-    y = np.cross(n, x)
-    # the k nearest module origins within a module radius, as arrays (query_ball_point's lists of
-    # lists cost seconds on 100k face centres); modules do not overlap, so a handful are near a
-    # point: k doubles until the farthest answer is past the radius
-    tree, k = cKDTree(o), min(8, len(o))
-    while True:
-        d, ms = tree.query(centres, k=k, distance_upper_bound=mod.radius, workers=-1)  # same answer, both cores
-        d, ms = d.reshape(len(centres), -1), ms.reshape(len(centres), -1)
-        if k >= len(o) or not np.isfinite(d[:, -1]).any():
-            break
-        k = min(2 * k, len(o))
-    hit = np.isfinite(d)
-    rows = np.nonzero(hit)[0]
-    if not len(rows):
-        return 0.0
-    ms = ms[hit]
-    rel = centres[rows] - o[ms]
-    # within a module radius along the normal too: not the other side of a thin part
-    near = np.abs(np.einsum("ij,ij->i", rel, n[ms])) < 0.5 * mod.radius
-    u, v = np.einsum("ij,ij->i", rel, x[ms]), np.einsum("ij,ij->i", rel, y[ms])
-    c, s = np.cos(angles[ms]), np.sin(angles[ms])
-    local = np.column_stack([c * u + s * v, -s * u + c * v])
-    poly = mod.outline
-    edge = np.roll(poly, -1, axis=0) - poly
-    r = local[:, None, :] - poly[None]
-    cr = edge[None, :, 0] * r[..., 1] - edge[None, :, 1] * r[..., 0]
-    ins = np.all(cr >= 0, axis=1) & near
-    covered = np.zeros(len(centres), bool)
-    covered[rows[ins]] = True
-    return float(areas[covered].sum())
-
-
 def lattice_patch(mod, angle: float, shift, centre, rad: float, limit: float | None = None) -> Patch:
     """The fill lattice's modules (a Patch in the lattice's flat frame) with origins within
     ``rad`` metres of ``centre`` (2,): the module type's plane tiling turned by ``angle`` and
@@ -463,98 +422,19 @@ def centred_shift(mod, angle: float) -> tuple[float, float]:
 def _fill_island(prepared, preg, samples, start, direction, mod, radius, max_strain, avoid, angles,
                  offsets, refine_offsets, crease_angle, seam, progress, island=0, n_faces=0, seed=0,
                  room=None) -> IslandFill:
+    """Fill one island (``preg`` (F,) bool on the solve mesh) from ``start`` (3,) metres: choose the
+    tiling in the first chart, grow its lattice chart by chart, close the seam (see :func:`fill`)."""
     notes = list(prepared.notes) if island == 0 and seed == 0 else []
     lm0 = LogMap(None, start, direction, prepared=prepared)
-    tag = (f"island #{island}" if island else "") + (f" seed {seed}" if seed else "")
-    tag = f"{tag.strip()}: " if tag else ""
     R0 = lm0.trusted_radius(faces=preg)
-    pairs, w, n_open, n_sharp = samples
-
-    def check(chart, patch, modules, tfaces, tmod):
-        """Taxels on region faces; no open, sharp or region-border edge under a module's taxels."""
-        on_region = np.bincount(tmod, weights=~preg[tfaces], minlength=len(modules)) == 0
-        lm = chart.logmap
-        i, j = pairs[:, 0], pairs[:, 1]
-        cons = lm.consistent()
-        ok = lm.reachable[i] & lm.reachable[j] & cons[i] & cons[j]
-        uv = (1 - w[ok, None]) * lm.uv[i[ok]] + w[ok, None] * lm.uv[j[ok]]
-        uv = uv[np.linalg.norm(uv, axis=1) <= chart.radius + mod.radius]
-        return on_region & ~modules_covering(uv, patch, modules, chart.origin)
-
-    # one lattice for the whole island: a disc larger than its farthest point, with room for
-    # curvature (charts on a non-developable surface use more lattice per area). The distance is the
-    # path along the surface (at most ~10 % over the geodesic), over the island's own vertices: the
-    # log map's own distances are garbage past the cut locus (0.48 m on a 0.14 m forearm), and
-    # other islands' are not this lattice's business
-    own = np.unique(np.asarray(prepared.mesh.faces)[preg])
-    far = lm0.edge_distance()[own]
-    far = far[np.isfinite(far)]
-    extent = 1.5 * (float(far.max()) if len(far) else 0.0) + 2 * mod.radius
-    if radius is not None:
-        extent = min(extent, float(radius) + mod.radius)
+    check = _edge_check(preg, samples, mod)
+    extent = _lattice_extent(prepared, preg, lm0, mod, radius)
     # the tiling (angle, shift) that keeps most modules in the first chart wins (ties: the first)
-    tilings, best = [], None
     r_try = min(R0, extent)
     if room is not None:  # a further seed: its tiling is chosen for the room it was started in
         r_try = min(r_try, room + 2 * mod.radius)
-    # at each angle the grid of shifts and the shift that centres a module's taxels on the start
-    # (a designer's cursor or a seed in the middle of a strip: a 24 mm band along a plate took 2
-    # modules from the grid's best shift, 3 centred); a further seed (offsets 1) takes the centred one
-    coarse = [(a, sh) for a in angles for sh in
-              ([(fu / offsets, fv / offsets) for fu, fv in np.ndindex(offsets, offsets)] if offsets > 1 else [])
-              + [centred_shift(mod, a)]]
-
-    def fine():
-        done = {(u / offsets, v / offsets) for u, v in np.ndindex(offsets, offsets)}
-        return [(best[1], (fu / refine_offsets, fv / refine_offsets))
-                for fu, fv in np.ndindex(refine_offsets, refine_offsets)
-                if (fu / refine_offsets, fv / refine_offsets) not in done] if refine_offsets > offsets else []
-
-    def first_chart(ang, sh, beat) -> tuple[int, bool]:
-        """Modules of the lattice (angle, shift) the first chart keeps, and whether that count is
-        exact. The modules are tried from the rim inwards, in chunks: the rim is where the map
-        strains and the region ends, so the rejections come first, and a try stops as soon as it
-        cannot keep more than ``beat`` modules (the best so far; ties go to the earlier try, so a
-        stopped try could not have won) and returns that upper bound."""
-        cand = lattice_patch(mod, ang, sh, np.zeros(2), r_try, radius)
-        d = np.linalg.norm(cand.poses[:, 1:], axis=1)
-        cand = cand.select_modules(d + reach <= r_try)
-        M = cand.n_modules
-        if not M:
-            return 0, True
-        d = np.linalg.norm(cand.poses[:, 1:], axis=1)
-        counts = np.bincount(cand.module_ids, minlength=M)
-        starts = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64)
-        pos, nrm = np.full((len(cand), 3), np.nan), np.full((len(cand), 3), np.nan)
-        chart = Chart(np.zeros(2), lm0.at, lm0.t1, lm0, r_try)
-        order = np.argsort(-d, kind="stable")
-        kept, done = 0, 0
-        for mods in np.split(order, [M // 4, M // 2]):  # the outer quarter, the next, the inner half
-            if not len(mods):
-                continue
-            ti = taxel_index(counts, starts, mods)
-            p_, n_, f_, ok_ = lm0.exp(cand.flat[ti], fallback=False, on_surface=False)
-            pos[ti], nrm[ti] = p_, n_
-            tm = np.repeat(np.arange(len(mods)), counts[mods])
-            keep = np.bincount(tm, weights=ok_, minlength=len(mods)) == counts[mods]
-            keep &= module_strain(cand, pos, nrm, mods) <= max_strain
-            keep &= check(chart, cand, mods, f_, tm)
-            if avoid is not None and keep.any():
-                hit = cKDTree(avoid).query_ball_point(p_, OVERLAP_FRACTION * mod.pitch, return_length=True) > 0
-                keep &= np.bincount(tm, weights=hit, minlength=len(mods)) == 0
-            kept, done = kept + int(keep.sum()), done + len(mods)
-            if beat is not None and kept + (M - done) <= beat and done < M:
-                return kept + (M - done), False
-        return kept, True
-
-    reach = float(np.linalg.norm(mod.taxels, axis=1).max()) + 0.5 * mod.pitch
-    for stage in (lambda: coarse, fine):
-        for ang, sh in stage():
-            n, exact = first_chart(ang, sh, None if best is None else best[0])
-            tilings.append({"angle_deg": float(np.degrees(ang)), "shift_cells": [float(sh[0]), float(sh[1])],
-                            "modules": n, "exact": exact, "island": island, "seed": seed})
-            if best is None or n > best[0]:
-                best = (n, ang, sh)
+    first_chart = partial(_first_chart, lm0, mod, r_try, radius, check, max_strain, avoid)
+    best, tilings = _best_tiling(first_chart, mod, angles, offsets, refine_offsets, island, seed)
     n_best, ang, sh = best
     if not n_best:
         # no tiling keeps a module in the first chart: a module on the start, which the growth
@@ -567,12 +447,7 @@ def _fill_island(prepared, preg, samples, start, direction, mod, radius, max_str
     poses, chart_of = latt.poses[kept], g.chart[kept]
     n_seam = 0
     if seam and len(kept):
-        # a chart whose map no face of the region contradicts has an infinite trusted radius (the
-        # UR10 forearm from three anchors): its seam candidates still lie in the island's lattice,
-        # within ``extent`` of the lattice origin
-        sp, sc = close_seam(g, lambda s2, c, r: lattice_patch(mod, ang, (sh[0] + s2[0], sh[1] + s2[1]), c,
-                                                              min(r, float(np.linalg.norm(c)) + extent), radius),
-                            check, max_strain, SEAM_SHIFTS, avoid=avoid)
+        sp, sc = _seam_modules(g, mod, ang, sh, extent, radius, check, max_strain, avoid)
         n_seam = len(sp)
         poses, chart_of = np.concatenate([poses, sp]), np.concatenate([chart_of, sc])
     p = patch_from_poses(mod, poses, "fill")
@@ -584,6 +459,8 @@ def _fill_island(prepared, preg, samples, start, direction, mod, radius, max_str
                           start=lm0.at, dist0=lm0.edge_distance())
     pos, nrm, face, found = map_modules(g.charts, p, chart_of)
     frames = module_frames(g.charts, p, chart_of)
+    tag = (f"island #{island}" if island else "") + (f" seed {seed}" if seed else "")
+    tag = f"{tag.strip()}: " if tag else ""
     if g.reasons.get("existing"):
         notes.append(f"{tag}{g.reasons['existing']} candidate modules left out: they would overlap modules "
                      "already on the skin")
@@ -597,3 +474,117 @@ def _fill_island(prepared, preg, samples, start, direction, mod, radius, max_str
                       tilings, info=(prepared.info if island == 0 else []) + info, frames=frames, start=lm0.at,
                       reasons=dict(g.reasons), dist0=lm0.edge_distance(),
                       chart_of=chart_of, is_seam=np.arange(p.n_modules) >= len(kept))
+
+
+def _edge_check(preg, samples, mod):
+    """The growth's ``check(chart, patch, modules, tfaces, tmod) -> (len(modules),) bool``: taxels on
+    region faces (``preg`` (F,) bool), no open, sharp or region-border edge (``samples``: the points of
+    :func:`feature_samples`) under a module's taxels."""
+    pairs, w, n_open, n_sharp = samples
+
+    def check(chart, patch, modules, tfaces, tmod):
+        """Taxels on region faces; no open, sharp or region-border edge under a module's taxels."""
+        on_region = np.bincount(tmod, weights=~preg[tfaces], minlength=len(modules)) == 0
+        lm = chart.logmap
+        i, j = pairs[:, 0], pairs[:, 1]
+        cons = lm.consistent()
+        ok = lm.reachable[i] & lm.reachable[j] & cons[i] & cons[j]
+        uv = (1 - w[ok, None]) * lm.uv[i[ok]] + w[ok, None] * lm.uv[j[ok]]
+        uv = uv[np.linalg.norm(uv, axis=1) <= chart.radius + mod.radius]
+        return on_region & ~modules_covering(uv, patch, modules, chart.origin)
+
+    return check
+
+
+def _lattice_extent(prepared, preg, lm0, mod, radius) -> float:
+    """Metres: the radius of the lattice disc for the island ``preg`` (F,) bool grown from ``lm0``."""
+    # one lattice for the whole island: a disc larger than its farthest point, with room for
+    # curvature (charts on a non-developable surface use more lattice per area). The distance is the
+    # path along the surface (at most ~10 % over the geodesic), over the island's own vertices: the
+    # log map's own distances are garbage past the cut locus (0.48 m on a 0.14 m forearm), and
+    # other islands' are not this lattice's business
+    own = np.unique(np.asarray(prepared.mesh.faces)[preg])
+    far = lm0.edge_distance()[own]
+    far = far[np.isfinite(far)]
+    extent = 1.5 * (float(far.max()) if len(far) else 0.0) + 2 * mod.radius
+    if radius is not None:
+        extent = min(extent, float(radius) + mod.radius)
+    return extent
+
+
+def _best_tiling(first_chart, mod, angles, offsets, refine_offsets, island, seed):
+    """``((modules, angle, shift), tilings)``: the tiling whose lattice keeps most modules in the first
+    chart (``first_chart(angle, shift, beat) -> (modules, exact)``; ties: the first), and every try as
+    ``layout.meta["fill_tilings"]`` lists it."""
+    tilings, best = [], None
+    # at each angle the grid of shifts and the shift that centres a module's taxels on the start
+    # (a designer's cursor or a seed in the middle of a strip: a 24 mm band along a plate took 2
+    # modules from the grid's best shift, 3 centred); a further seed (offsets 1) takes the centred one
+    coarse = [(a, sh) for a in angles for sh in
+              ([(fu / offsets, fv / offsets) for fu, fv in np.ndindex(offsets, offsets)] if offsets > 1 else [])
+              + [centred_shift(mod, a)]]
+
+    def fine():
+        done = {(u / offsets, v / offsets) for u, v in np.ndindex(offsets, offsets)}
+        return [(best[1], (fu / refine_offsets, fv / refine_offsets))
+                for fu, fv in np.ndindex(refine_offsets, refine_offsets)
+                if (fu / refine_offsets, fv / refine_offsets) not in done] if refine_offsets > offsets else []
+
+    for stage in (lambda: coarse, fine):
+        for ang, sh in stage():
+            n, exact = first_chart(ang, sh, None if best is None else best[0])
+            tilings.append({"angle_deg": float(np.degrees(ang)), "shift_cells": [float(sh[0]), float(sh[1])],
+                            "modules": n, "exact": exact, "island": island, "seed": seed})
+            if best is None or n > best[0]:
+                best = (n, ang, sh)
+    return best, tilings
+
+
+def _first_chart(lm0, mod, r_try, radius, check, max_strain, avoid, ang, sh, beat) -> tuple[int, bool]:
+    """Modules of the lattice (angle, shift) the first chart (``lm0``, ``r_try`` metres) keeps, and
+    whether that count is exact. The modules are tried from the rim inwards, in chunks: the rim is
+    where the map strains and the region ends, so the rejections come first, and a try stops as soon
+    as it cannot keep more than ``beat`` modules (the best so far; ties go to the earlier try, so a
+    stopped try could not have won) and returns that upper bound."""
+    reach = float(np.linalg.norm(mod.taxels, axis=1).max()) + 0.5 * mod.pitch
+    cand = lattice_patch(mod, ang, sh, np.zeros(2), r_try, radius)
+    d = np.linalg.norm(cand.poses[:, 1:], axis=1)
+    cand = cand.select_modules(d + reach <= r_try)
+    M = cand.n_modules
+    if not M:
+        return 0, True
+    d = np.linalg.norm(cand.poses[:, 1:], axis=1)
+    counts = np.bincount(cand.module_ids, minlength=M)
+    starts = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64)
+    pos, nrm = np.full((len(cand), 3), np.nan), np.full((len(cand), 3), np.nan)
+    chart = Chart(np.zeros(2), lm0.at, lm0.t1, lm0, r_try)
+    order = np.argsort(-d, kind="stable")
+    kept, done = 0, 0
+    for mods in np.split(order, [M // 4, M // 2]):  # the outer quarter, the next, the inner half
+        if not len(mods):
+            continue
+        ti = taxel_index(counts, starts, mods)
+        p_, n_, f_, ok_ = lm0.exp(cand.flat[ti], fallback=False, on_surface=False)
+        pos[ti], nrm[ti] = p_, n_
+        tm = np.repeat(np.arange(len(mods)), counts[mods])
+        keep = np.bincount(tm, weights=ok_, minlength=len(mods)) == counts[mods]
+        keep &= module_strain(cand, pos, nrm, mods) <= max_strain
+        keep &= check(chart, cand, mods, f_, tm)
+        if avoid is not None and keep.any():
+            hit = cKDTree(avoid).query_ball_point(p_, OVERLAP_FRACTION * mod.pitch, return_length=True) > 0
+            keep &= np.bincount(tm, weights=hit, minlength=len(mods)) == 0
+        kept, done = kept + int(keep.sum()), done + len(mods)
+        if beat is not None and kept + (M - done) <= beat and done < M:
+            return kept + (M - done), False
+    return kept, True
+
+
+def _seam_modules(g, mod, ang, sh, extent, radius, check, max_strain, avoid):
+    """``(poses (S, 3), chart (S,))``: the modules the seam pass adds where the growth ``g``'s fronts
+    meet, from the island's lattice (angle ``ang``, shift ``sh``) shifted by :data:`SEAM_SHIFTS`."""
+    # a chart whose map no face of the region contradicts has an infinite trusted radius (the
+    # UR10 forearm from three anchors): its seam candidates still lie in the island's lattice,
+    # within ``extent`` of the lattice origin
+    return close_seam(g, lambda s2, c, r: lattice_patch(mod, ang, (sh[0] + s2[0], sh[1] + s2[1]), c,
+                                                        min(r, float(np.linalg.norm(c)) + extent), radius),
+                      check, max_strain, SEAM_SHIFTS, avoid=avoid)
