@@ -49,9 +49,36 @@ def fill_one_chart(mesh, at, direction=None, *, module: str = "cyskin10", region
                 max_faces=max_faces, resolution=mod.pitch / 2)
     _, near = cKDTree(np.asarray(clean.triangles_center)).query(np.asarray(lm.mesh.triangles_center))
     lreg = creg[near]
-    span = np.abs(lm.uv).max(axis=0)
-    lim = span if radius is None else np.minimum(span, radius)
+    inside = _inside_region(lm, lreg, radius)
+    coverage = _region_coverage(lm, lreg, radius)
+    best, tried = _best_tiling(lm, inside, mod, radius, max_strain, existing, angles, offsets, refine_offsets)
+    if best is None or not best[0].n_modules:
+        raise InputError("no whole module fits in the region" + (" (beside the modules already there)"
+                         if existing is not None and len(existing) else ""), key="region")
+    p, _, n_out, n_existing, ang, shift = best
+    cov = coverage(p)
+    first = tried[0]
+    first_cov = coverage(first[3]) if first[3] is not None and first[3].n_modules else 0.0
+    p.kind = "fill"
+    layout, report = place(clean, p, lm.at, direction, offset=offset, method="logmap", logmap=lm,
+                           existing=existing)
+    report.notes = notes + report.notes + [
+        f"fill: {len(tried)} tilings tried ({len(angles)} angles x {offsets * offsets} shifts, then finer "
+        f"shifts at the best angle); best at "
+        f"{np.degrees(ang):.0f} deg, shift ({shift[0]:.2f}, {shift[1]:.2f}) cells: {p.n_modules} modules, "
+        f"coverage {cov:.3f} (unrotated, unshifted: {first[2]} modules, coverage {first_cov:.3f}); {n_out} candidate "
+        f"modules of it left out (strain > {max_strain} or overlap; {n_existing} of them overlap modules "
+        "already on the skin)"]
+    report.coverage = cov
+    layout.meta["fill_tilings"] = [{"angle_deg": float(np.degrees(a)), "shift_cells": [float(x) for x in sh],
+                                    "modules": int(n)} for a, sh, n, _ in tried]
+    layout.meta["placement"] = report.as_dict()
+    return layout, report
 
+
+def _inside_region(lm: LogMap, lreg: np.ndarray, radius: float | None):
+    """``inside(flat (n, 2)) -> (n,) bool``: which flat points of the log map ``lm`` land on the region
+    (``lreg`` (F,) bool on ``lm.mesh``), within ``radius`` metres of its origin when given."""
     uv_lo, uv_hi = lm.uv[lm.reachable].min(axis=0), lm.uv[lm.reachable].max(axis=0)
 
     def inside(flat):
@@ -65,6 +92,12 @@ def fill_one_chart(mesh, at, direction=None, *, module: str = "cyskin10", region
             ok[idx] = found & lreg[face]
         return ok
 
+    return inside
+
+
+def _region_coverage(lm: LogMap, lreg: np.ndarray, radius: float | None):
+    """``coverage(patch) -> float``: the fraction of the region's area (``lreg`` (F,) bool on
+    ``lm.mesh``, within ``radius`` metres) whose face centres lie in the patch's module outlines."""
     F = np.asarray(lm.mesh.faces)
     cent = lm.uv[F].mean(axis=1)
     sel = lreg & lm.reachable[F].all(axis=1) & (True if radius is None else (np.hypot(*cent.T) <= radius))
@@ -72,30 +105,41 @@ def fill_one_chart(mesh, at, direction=None, *, module: str = "cyskin10", region
     cand_cent, cand_area = cent[sel], area[sel]
     tot = float(cand_area.sum())
 
-    def evaluate(p):
-        """The modules of candidate tiling ``p`` kept after strain and overlap, and the coverage."""
-        pos, nrm, _, _ = lm.exp(p.flat)
-        strain = layout_strain(p.to_layout(pos, nrm), p.flat, p.module_edges)
-        ms = np.zeros(p.n_modules)
-        np.maximum.at(ms, p.module_ids[p.module_edges[:, 0]], np.abs(np.nan_to_num(strain, nan=1.0)))
-        keep = ms <= max_strain
-        # overlaps (past the cut locus the map folds back): keep the module nearer to 'at'
-        dist_src = np.hypot(*p.poses[:, 1:].T)
-        pairs = find_overlaps(pos, p.module_ids, OVERLAP_FRACTION * mod.pitch)
-        for a, b in sorted(pairs, key=lambda ab: min(dist_src[ab[0]], dist_src[ab[1]])):
-            if keep[a] and keep[b]:
-                keep[b if dist_src[b] >= dist_src[a] else a] = False
-        n_ex = 0
-        if existing is not None and len(existing):
-            clash = find_overlaps_between(existing, pos, p.module_ids, OVERLAP_FRACTION * mod.pitch)
-            hit = np.unique(np.asarray([c[1] for c in clash], np.int64))
-            n_ex = int(keep[hit].sum()) if len(hit) else 0
-            keep[hit] = False
-        return p.select_modules(keep), int((~keep).sum()), n_ex
-
     def coverage(p):
         return float(cand_area[points_in_outlines(cand_cent, p)].sum() / tot) if tot > 0 else 0.0
 
+    return coverage
+
+
+def _kept_modules(lm: LogMap, p, mod, max_strain: float, existing: Layout | None):
+    """``(kept patch, modules left out, of them overlapping existing)``: the modules of candidate tiling
+    ``p`` kept after strain and overlap."""
+    pos, nrm, _, _ = lm.exp(p.flat)
+    strain = layout_strain(p.to_layout(pos, nrm), p.flat, p.module_edges)
+    ms = np.zeros(p.n_modules)
+    np.maximum.at(ms, p.module_ids[p.module_edges[:, 0]], np.abs(np.nan_to_num(strain, nan=1.0)))
+    keep = ms <= max_strain
+    # overlaps (past the cut locus the map folds back): keep the module nearer to 'at'
+    dist_src = np.hypot(*p.poses[:, 1:].T)
+    pairs = find_overlaps(pos, p.module_ids, OVERLAP_FRACTION * mod.pitch)
+    for a, b in sorted(pairs, key=lambda ab: min(dist_src[ab[0]], dist_src[ab[1]])):
+        if keep[a] and keep[b]:
+            keep[b if dist_src[b] >= dist_src[a] else a] = False
+    n_ex = 0
+    if existing is not None and len(existing):
+        clash = find_overlaps_between(existing, pos, p.module_ids, OVERLAP_FRACTION * mod.pitch)
+        hit = np.unique(np.asarray([c[1] for c in clash], np.int64))
+        n_ex = int(keep[hit].sum()) if len(hit) else 0
+        keep[hit] = False
+    return p.select_modules(keep), int((~keep).sum()), n_ex
+
+
+def _best_tiling(lm: LogMap, inside, mod, radius, max_strain, existing, angles, offsets, refine_offsets):
+    """``(best, tried)``: the tiling keeping most modules, as ``(kept patch, None, modules left out, of
+    them overlapping existing, angle, shift)`` (None when no try has a candidate), and every try as
+    ``(angle, shift, modules kept, kept patch or None)``."""
+    span = np.abs(lm.uv).max(axis=0)
+    lim = span if radius is None else np.minimum(span, radius)
     # the plane tiling is tried at several angles and shifts within a cell; the one keeping most
     # whole modules after strain and overlap filtering wins (ties: the first, angle 0 unshifted):
     # with whole, non-overlapping modules of one type that is the best coverage, and cheaper to
@@ -120,32 +164,11 @@ def fill_one_chart(mesh, at, direction=None, *, module: str = "cyskin10", region
             if not cand.n_modules:
                 tried.append((ang, shift, 0, None))
                 continue
-            kept, n_out, n_ex = evaluate(cand)
+            kept, n_out, n_ex = _kept_modules(lm, cand, mod, max_strain, existing)
             tried.append((ang, shift, kept.n_modules, kept))
             if best is None or kept.n_modules > best[0].n_modules:
                 best = (kept, None, n_out, n_ex, ang, shift)
-    if best is None or not best[0].n_modules:
-        raise InputError("no whole module fits in the region" + (" (beside the modules already there)"
-                         if existing is not None and len(existing) else ""), key="region")
-    p, _, n_out, n_existing, ang, shift = best
-    cov = coverage(p)
-    first = tried[0]
-    first_cov = coverage(first[3]) if first[3] is not None and first[3].n_modules else 0.0
-    p.kind = "fill"
-    layout, report = place(clean, p, lm.at, direction, offset=offset, method="logmap", logmap=lm,
-                           existing=existing)
-    report.notes = notes + report.notes + [
-        f"fill: {len(tried)} tilings tried ({len(angles)} angles x {offsets * offsets} shifts, then finer "
-        f"shifts at the best angle); best at "
-        f"{np.degrees(ang):.0f} deg, shift ({shift[0]:.2f}, {shift[1]:.2f}) cells: {p.n_modules} modules, "
-        f"coverage {cov:.3f} (unrotated, unshifted: {first[2]} modules, coverage {first_cov:.3f}); {n_out} candidate "
-        f"modules of it left out (strain > {max_strain} or overlap; {n_existing} of them overlap modules "
-        "already on the skin)"]
-    report.coverage = cov
-    layout.meta["fill_tilings"] = [{"angle_deg": float(np.degrees(a)), "shift_cells": [float(x) for x in sh],
-                                    "modules": int(n)} for a, sh, n, _ in tried]
-    layout.meta["placement"] = report.as_dict()
-    return layout, report
+    return best, tried
 
 
 __all__ = ["fill_one_chart"]
