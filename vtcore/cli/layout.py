@@ -400,15 +400,58 @@ def cmd_info(args) -> int:
 
 
 def register(sub) -> None:
+    """Add ``vtcore layout`` and its actions (place, import, export, reframe, info) to ``sub``."""
     from ..layout.io import FORMATS, READ_FORMATS
     from ..layout.modules import MODULES
 
     p = sub.add_parser("layout", help="place, import, export and inspect skin layouts")
     lsub = p.add_subparsers(dest="layout_command", metavar="ACTION")
+    _add_place(lsub, FORMATS, MODULES)
+    _add_import(lsub, READ_FORMATS)
+    _add_export(lsub, FORMATS)
+    _add_reframe(lsub)
+    _add_info(lsub, READ_FORMATS)
 
+    def _help(args, parser=p):
+        parser.print_help(sys.stderr)
+        return 2
+
+    p.set_defaults(func=_help)
+
+
+def _add_place(lsub, formats, modules) -> None:
+    """``vtcore layout place``: a patch or a fill conformed to a mesh or a robot link."""
     pl = lsub.add_parser("place", help="conform a patch of modules to a mesh")
     pl.add_argument("mesh", metavar="MESH", help="end-effector mesh (STL, OBJ, PLY, ...), or with --link a robot "
                                                  "(URDF or MJCF)")
+    _add_link_options(pl)
+    pl.add_argument("--patch", type=_patch_arg, default="hexagon", help="triangle, hexagon, strip:N or fill")
+    pl.add_argument("--at", type=float, nargs=3, metavar=("X", "Y", "Z"),
+                    help="surface point the patch is centred on (metres; with --link in the link frame, default "
+                         "a flat point of the link's exposed surface near its middle)")
+    pl.add_argument("--direction", type=float, nargs=3, metavar=("DX", "DY", "DZ"),
+                    help="in-plane direction of the patch's x axis")
+    pl.add_argument("--module", default="cyskin10", choices=sorted(modules), help="module type")
+    pl.add_argument("--mirror", action="store_true",
+                    help="mirror-image modules (skinGui's mirror column: x negated in the module frame)")
+    pl.add_argument("--offset", type=float, default=0.0, metavar="METRES", help="distance along the normal")
+    pl.add_argument("--method", default="logmap", choices=("logmap", "project"), help="placement method")
+    _add_fill_options(pl)
+    pl.add_argument("--force", action="store_true",
+                    help="keep a placement with taxels off the surface, over-strained modules or --at far off "
+                         "the surface (refused by default, exit 2)")
+    pl.add_argument("--details", action="store_true",
+                    help="with an error: every warning after it, and why no module fits, island by island")
+    pl.add_argument("--scale", type=float, default=1.0, help="mesh unit to metres (0.001 for a mesh in mm)")
+    pl.add_argument("--subdivide", type=float, metavar="METRES",
+                    help="first split mesh edges longer than this (coarse CAD or collision meshes)")
+    pl.add_argument("--format", choices=formats, help="output format (default: from --out)")
+    pl.add_argument("--out", required=True, metavar="LAYOUT", help="layout file to write")
+    pl.set_defaults(func=cmd_place)
+
+
+def _add_link_options(pl) -> None:
+    """``place --link`` and the options that go with it (a robot file as MESH)."""
     pl.add_argument("--link", help="lay the skin on this link of the robot MESH: its geometry as the model places "
                                    "it, the layout born in the link's frame")
     pl.add_argument("--geometry", choices=("visual", "collision"), help="with --link: which geometry (default visual)")
@@ -421,17 +464,10 @@ def register(sub) -> None:
     pl.add_argument("--probe-radius", type=float, metavar="METRES",
                     help="with --link: the fingertip sphere that must reach a face for it to count as exposed "
                          "(default 0.008)")
-    pl.add_argument("--patch", type=_patch_arg, default="hexagon", help="triangle, hexagon, strip:N or fill")
-    pl.add_argument("--at", type=float, nargs=3, metavar=("X", "Y", "Z"),
-                    help="surface point the patch is centred on (metres; with --link in the link frame, default "
-                         "a flat point of the link's exposed surface near its middle)")
-    pl.add_argument("--direction", type=float, nargs=3, metavar=("DX", "DY", "DZ"),
-                    help="in-plane direction of the patch's x axis")
-    pl.add_argument("--module", default="cyskin10", choices=sorted(MODULES), help="module type")
-    pl.add_argument("--mirror", action="store_true",
-                    help="mirror-image modules (skinGui's mirror column: x negated in the module frame)")
-    pl.add_argument("--offset", type=float, default=0.0, metavar="METRES", help="distance along the normal")
-    pl.add_argument("--method", default="logmap", choices=("logmap", "project"), help="placement method")
+
+
+def _add_fill_options(pl) -> None:
+    """``place --patch fill``'s region and limits (--max-strain serves place too)."""
     pl.add_argument("--radius", type=float, help="fill: geodesic radius of the region round --at (metres)")
     pl.add_argument("--facing", type=float, nargs=3, metavar=("DX", "DY", "DZ"),
                     help="fill: the region is the faces whose normal is within --within degrees of this direction")
@@ -449,28 +485,23 @@ def register(sub) -> None:
     pl.add_argument("--crease-angle", type=float, default=40.0, metavar="DEG",
                     help="fill: no module crosses an edge where the faces turn more than this (a design crease; "
                          "default 40); raise it when a coarse mesh's facets are not creases of the part")
-    pl.add_argument("--force", action="store_true",
-                    help="keep a placement with taxels off the surface, over-strained modules or --at far off "
-                         "the surface (refused by default, exit 2)")
-    pl.add_argument("--details", action="store_true",
-                    help="with an error: every warning after it, and why no module fits, island by island")
-    pl.add_argument("--scale", type=float, default=1.0, help="mesh unit to metres (0.001 for a mesh in mm)")
-    pl.add_argument("--subdivide", type=float, metavar="METRES",
-                    help="first split mesh edges longer than this (coarse CAD or collision meshes)")
-    pl.add_argument("--format", choices=FORMATS, help="output format (default: from --out)")
-    pl.add_argument("--out", required=True, metavar="LAYOUT", help="layout file to write")
-    pl.set_defaults(func=cmd_place)
 
+
+def _add_import(lsub, read_formats) -> None:
+    """``vtcore layout import``."""
     im = lsub.add_parser("import", help="read a layout file and write it as our JSON (or --out's format)")
     im.add_argument("file", metavar="FILE")
-    im.add_argument("--format", choices=READ_FORMATS, help="input format (default: from name and content)")
+    im.add_argument("--format", choices=read_formats, help="input format (default: from name and content)")
     im.add_argument("--units", choices=("m", "mm"), help="declare the file's length unit")
     im.add_argument("--out", required=True, metavar="LAYOUT")
     im.set_defaults(func=cmd_import)
 
+
+def _add_export(lsub, formats) -> None:
+    """``vtcore layout export``: another format or frame, into a robot model."""
     ex = lsub.add_parser("export", help="write a layout in another format or frame")
     ex.add_argument("layout", metavar="LAYOUT")
-    ex.add_argument("--format", required=True, choices=FORMATS)
+    ex.add_argument("--format", required=True, choices=formats)
     ex.add_argument("--out", required=True, metavar="FILE")
     ex.add_argument("--transform", nargs="+", metavar="FILE_OR_16_NUMBERS",
                     help="4x4 rigid transform T (row-major; a file or 16 numbers): the pose of the layout's frame "
@@ -496,6 +527,9 @@ def register(sub) -> None:
                          "loaders keep one vertex per taxel)")
     ex.set_defaults(func=cmd_export)
 
+
+def _add_reframe(lsub) -> None:
+    """``vtcore layout reframe``."""
     rf = lsub.add_parser("reframe", help="place the layout's frame in its parent (--pose) or re-express the "
                                          "taxels in that parent (--into-parent)")
     rf.add_argument("layout", metavar="LAYOUT")
@@ -509,14 +543,11 @@ def register(sub) -> None:
     rf.add_argument("--out", required=True, metavar="LAYOUT")
     rf.set_defaults(func=cmd_reframe)
 
+
+def _add_info(lsub, read_formats) -> None:
+    """``vtcore layout info``."""
     inf = lsub.add_parser("info", help="counts, spacing, strain, overlaps, coverage, bounding box")
     inf.add_argument("layout", metavar="LAYOUT")
-    inf.add_argument("--format", choices=READ_FORMATS)
+    inf.add_argument("--format", choices=read_formats)
     inf.add_argument("--json", action="store_true", help="print a JSON object")
     inf.set_defaults(func=cmd_info)
-
-    def _help(args, parser=p):
-        parser.print_help(sys.stderr)
-        return 2
-
-    p.set_defaults(func=_help)
