@@ -127,21 +127,44 @@ def load_scene(path: str | Path, overrides: list[str] | None = None) -> Scene:
     """
     registry.discover()
     path = Path(path)
+    raw = apply_overrides(_read_toml(path), overrides, path)
+    ctx = Context(file=str(path), base=path.parent.resolve())
+    _check_tables(raw, ctx)
+    data: dict[str, Any] = {}
+    data["scene"] = SCENE_SECTION.validate(raw["scene"], ctx, prefix="scene")
+    task = registry.TASKS.get(data["scene"].get("task") or "")
+
+    data["output"] = OUTPUT_SECTION.validate(raw.get("output", {}), ctx, prefix="output")
+    data["sweep"] = raw.get("sweep", {})
+    if not isinstance(data["sweep"], dict):
+        ctx.fail("sweep", "must be a table ([sweep] with grid and seeds)")
+    _validate_sections(raw, data, task, ctx)
+    effects = _validate_effects(raw.get("effects", {}), ctx)
+    data["effects"] = effects
+
+    if ctx.errors:
+        raise SceneErrors(ctx.errors)
+    return Scene(path=path, data=data, effects=effects)
+
+
+def _read_toml(path: Path) -> dict:
+    """The scene file's tables; a SceneError naming the file (and the line) when it cannot be read or parsed."""
     try:
         text = read_text(path, "scene file", limit=MAX_SCENE_BYTES)
     except InputError as exc:
         raise SceneError(exc.reason, file=exc.file, line=exc.line) from None
     try:
-        raw = tomllib.loads(text)
+        return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         # Python 3.11's TOMLDecodeError has no lineno attribute; the message has it.
         m = re.search(r"at line (\d+)", str(exc))
         line = int(m.group(1)) if m else None
         raise SceneError(f"not valid TOML: {clean(exc, 200)}", file=path, line=line) from None
-    raw = apply_overrides(raw, overrides, path)
 
-    ctx = Context(file=str(path), base=path.parent.resolve())
-    data: dict[str, Any] = {}
+
+def _check_tables(raw: dict, ctx: Context) -> None:
+    """Every top-level table is known, [scene] is there and [scene], [output] are tables; else
+    SceneErrors listing every problem (the rest of the checks need these)."""
     top = {"scene": Field("table", section=SCENE_SECTION), "task": Field("any", default={}),
            "effects": Field("any", default={}),
            "output": Field("table", default=None, section=OUTPUT_SECTION),
@@ -158,13 +181,11 @@ def load_scene(path: str | Path, overrides: list[str] | None = None) -> Scene:
             ctx.fail(key, f"must be a table ([{key}]), got {type(raw[key]).__name__}")
     if ctx.errors:
         raise SceneErrors(ctx.errors)
-    data["scene"] = SCENE_SECTION.validate(raw["scene"], ctx, prefix="scene")
-    task = registry.TASKS.get(data["scene"].get("task") or "")
 
-    data["output"] = OUTPUT_SECTION.validate(raw.get("output", {}), ctx, prefix="output")
-    data["sweep"] = raw.get("sweep", {})
-    if not isinstance(data["sweep"], dict):
-        ctx.fail("sweep", "must be a table ([sweep] with grid and seeds)")
+
+def _validate_sections(raw: dict, data: dict, task, ctx: Context) -> None:
+    """Into ``data``: the [task] table (checked by ``task``, the scene's task, None when unknown) and
+    every registered section's table, defaults filled; the sections the task needs are required."""
     if task is not None:
         if not isinstance(raw.get("task", {}), dict):
             ctx.fail("task", "must be a table")
@@ -180,8 +201,10 @@ def load_scene(path: str | Path, overrides: list[str] | None = None) -> Scene:
             data[name] = spec.default if spec.kind != "table" or spec.default is None \
                 else spec.section.validate({}, ctx, prefix=name)
 
+
+def _validate_effects(raw_eff, ctx: Context) -> dict:
+    """The [effects.NAME] tables, each checked by its registered effect (``{}`` or ``true``: its defaults)."""
     effects = {}
-    raw_eff = raw.get("effects", {})
     if not isinstance(raw_eff, dict):
         ctx.fail("effects", "must be a table of effect tables, e.g. [effects.noise]")
         raw_eff = {}
@@ -197,11 +220,7 @@ def load_scene(path: str | Path, overrides: list[str] | None = None) -> Scene:
             ctx.fail(f"effects.{name}", "must be a table of parameters ([effects.NAME], may be empty)")
             continue
         effects[name] = spec.params.validate(params, ctx, prefix=f"effects.{name}")
-    data["effects"] = effects
-
-    if ctx.errors:
-        raise SceneErrors(ctx.errors)
-    return Scene(path=path, data=data, effects=effects)
+    return effects
 
 
 def list_scenes(folder: str | Path) -> list[tuple[Path, str, str]]:
