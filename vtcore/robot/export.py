@@ -310,18 +310,46 @@ def _export_skinned(robot_path, layouts, out, staged, *, format: str | None = No
     if fmt == "urdf" and mjcf_options:
         raise InputError(f"{', '.join('--' + k.replace('_', '-') for k in mjcf_options)}: MJCF options",
                          key="--format")
-    records = []
     if fmt == "urdf":
-        load_robot(robot_path, packages)  # a robot our reader refuses is refused, not exported
-        tree = read_robot_xml(robot_path, "robot")
-        links = [e.get("name") for e in tree.getroot().findall("link")]
-        for lay, prefix in zip(layouts, prefixes):
-            link = skin_link(lay, links)
-            names = urdf_io.merge_into_tree(lay, tree, link, prefix=prefix, model=robot_path)
-            records.append({"link": link, "taxels": len(lay), "names": [names[0], names[-1]] if names else []})
-        _rebase_urdf(tree.getroot(), robot_path.parent, out.parent)
-        urdf_io.write_tree(tree, staged)
-        return records
+        return _export_urdf(robot_path, layouts, prefixes, out, staged, packages)
+    tree, model_dir, links = _mjcf_tree(robot_path, source, out, staged, packages)
+    records, sites, contact_geoms = _merge_mjcf_skins(robot_path, layouts, prefixes, tree, links, out, staged,
+                                                      packages, mjcf_options)
+    mjcf_io.rebase(tree.getroot(), model_dir, out.parent)
+    mjcf_io.relative_contact_files(tree.getroot(), contact_geoms, out.parent)
+    mjcf_io.write_tree(tree, staged)
+    probe = probe_copy(staged, out)
+    try:
+        for rec, names in zip(records, sites):  # MuJoCo's own rays judge the written model
+            bad, some = unreadable_sites(probe, names, poses=POSES)
+            rec["unreadable"] = [n for n in names if n in bad]
+            rec["unreadable_why"] = bad
+            rec["covered_at_some_poses"] = some  # read at the zero pose, not at some of POSES random ones
+    finally:
+        probe.unlink(missing_ok=True)
+    return records
+
+
+def _export_urdf(robot_path: Path, layouts: list, prefixes: list, out: Path, staged: Path, packages) -> list[dict]:
+    """The URDF export of :func:`_export_skinned`: each layout's taxel links merged into the robot's
+    tree, its mesh paths rebased to ``out``'s folder, written to ``staged``; one record per layout."""
+    records = []
+    load_robot(robot_path, packages)  # a robot our reader refuses is refused, not exported
+    tree = read_robot_xml(robot_path, "robot")
+    links = [e.get("name") for e in tree.getroot().findall("link")]
+    for lay, prefix in zip(layouts, prefixes):
+        link = skin_link(lay, links)
+        names = urdf_io.merge_into_tree(lay, tree, link, prefix=prefix, model=robot_path)
+        records.append({"link": link, "taxels": len(lay), "names": [names[0], names[-1]] if names else []})
+    _rebase_urdf(tree.getroot(), robot_path.parent, out.parent)
+    urdf_io.write_tree(tree, staged)
+    return records
+
+
+def _mjcf_tree(robot_path: Path, source: str, out: Path, staged: Path, packages):
+    """``(tree, model_dir, links)``: the robot as an MJCF tree (a URDF converted, its meshes relative to
+    ``staged`` as to ``out``; an MJCF's includes inlined), the folder its paths are relative to, and its
+    body names."""
     if source == "urdf":
         tree = urdf_as_mjcf(robot_path, staged, packages)  # its meshes: relative to the staged file, as to out
         model_dir = out.parent
@@ -331,8 +359,15 @@ def _export_skinned(robot_path, layouts, out, staged, *, format: str | None = No
     if source == "mjcf" and tree.getroot().find(".//include") is not None:
         mjcf_io.inline_includes(tree.getroot(), robot_path.parent, robot_path)
         links = [b.get("name") for b in tree.getroot().iter("body")]
+    return tree, model_dir, links
+
+
+def _merge_mjcf_skins(robot_path: Path, layouts: list, prefixes: list, tree, links: list, out: Path, staged: Path,
+                      packages, mjcf_options: dict):
+    """Merge each layout's sites (and pads) into the MJCF ``tree``, each link's contact surface rebuilt
+    once under all its skins. Returns ``(records, site names per layout, contact geom names)``."""
     robot = load_robot(robot_path, packages)
-    contact_geoms, sites, contact = [], [], {}
+    contact_geoms, sites, contact, records = [], [], {}, []
     skins: dict = {}  # link -> every skin on it: its contact surface is cut under all of them
     for lay in layouts:
         skins.setdefault(lay.parent or lay.frame, []).append(lay)
@@ -357,19 +392,7 @@ def _export_skinned(robot_path, layouts, out, staged, *, format: str | None = No
         names = mjcf_io.merge_into_tree(lay, tree, link, robot_path, prefix=prefix, reach=reach, **opts)
         sites.append(names)
         records.append({"link": link, "taxels": len(lay), "names": [names[0], names[-1]] if names else []})
-    mjcf_io.rebase(tree.getroot(), model_dir, out.parent)
-    mjcf_io.relative_contact_files(tree.getroot(), contact_geoms, out.parent)
-    mjcf_io.write_tree(tree, staged)
-    probe = probe_copy(staged, out)
-    try:
-        for rec, names in zip(records, sites):  # MuJoCo's own rays judge the written model
-            bad, some = unreadable_sites(probe, names, poses=POSES)
-            rec["unreadable"] = [n for n in names if n in bad]
-            rec["unreadable_why"] = bad
-            rec["covered_at_some_poses"] = some  # read at the zero pose, not at some of POSES random ones
-    finally:
-        probe.unlink(missing_ok=True)
-    return records
+    return records, sites, contact_geoms
 
 
 def link_contact(robot: Robot, link: str, layouts, tree: ET.ElementTree, out: Path, staged: Path):
