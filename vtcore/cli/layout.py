@@ -269,6 +269,8 @@ def _export_options(args) -> dict:
     if wrong:
         flags = ", ".join("--" + k.replace("_", "-") for k in wrong)
         raise InputError(f"{flags}: not an option of --format {args.format}", key="--format")
+    if "body" in given and "model" not in given:  # it says where in the robot's own file: the fragment has none
+        raise InputError("--body: goes with --model ROBOT", key="--body")
     return given
 
 
@@ -279,9 +281,23 @@ def cmd_export(args) -> int:
     with _warnings_if_done():
         layout = load(args.layout)
         transform = _read_transform(args.transform) if args.transform else None
-        save(layout, args.out, args.format, transform=transform, **options)
+        if options.get("model") is not None:
+            _export_into_robot(layout, args, transform, options)
+        else:
+            save(layout, args.out, args.format, transform=transform, **options)
     print(f"{args.out}: {len(layout)} taxels as {args.format}")
     return 0
+
+
+def _export_into_robot(layout, args, transform, options: dict) -> None:
+    """``layout export --model ROBOT``: the robot's own file with the skin merged in (vtcore.robot)."""
+    from ..layout.io import in_link
+    from ..robot import mjcf_tree, urdf_tree
+
+    model = options.pop("model")
+    if transform is not None:
+        layout = in_link(layout, transform, Path(args.out).name)
+    (urdf_tree if args.format == "urdf" else mjcf_tree).write_skinned(layout, args.out, model, **options)
 
 
 def cmd_reframe(args) -> int:
