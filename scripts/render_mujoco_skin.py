@@ -2,7 +2,7 @@
 and docs/img/urdf_frames.png (the taxel frames of the URDF export, as yourdfpy reads them).
 
 A 60-taxel CySkin hexagon is conformed to the top of a forearm-like cylinder (radius 40 mm),
-exported into a one-link robot MJCF with ``vtcore layout export --model --body`` (taxel
+merged into a one-link robot MJCF with :func:`vtcore.robot.mjcf_tree.write_skinned` (taxel
 footprint, then tile footprint), and a 0.1 kg ball is dropped onto it; after 2 s the touch
 sensors are read. Run: ``.venv/bin/python scripts/render_mujoco_skin.py`` (needs mujoco).
 Prints the numbers the picture shows.
@@ -26,6 +26,7 @@ import trimesh  # noqa: E402
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 from vtcore.layout import place, save  # noqa: E402
+from vtcore.robot import mjcf_tree  # noqa: E402
 
 R, L, MASS, G = 0.04, 0.2, 0.1, 9.81
 
@@ -46,7 +47,7 @@ def drop(lay, folder: Path, footprint: str, xy) -> np.ndarray:
 <body name="ball" pos="0 0 1"><joint type="slide" axis="0 0 1" damping="0.5"/>
 <geom type="sphere" size="0.01" mass="{MASS}" rgba="0.8 0.3 0.2 1"/></body></worldbody></mujoco>""")
     out = folder / f"skinned_{footprint}.xml"
-    save(lay, out, "mjcf", model=robot, body="forearm", footprint=footprint)
+    mjcf_tree.write_skinned(lay, out, robot, body="forearm", footprint=footprint)
     m = mujoco.MjModel.from_xml_path(str(out))
     m.body_pos[m.body("ball").id] = [xy[0], xy[1] * (R + 0.01) / R, 0.5 + R + 0.03]
     d = mujoco.MjData(m)

@@ -25,9 +25,11 @@ import numpy as np  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
-from vtcore.layout import place, save  # noqa: E402
+from vtcore.layout import place  # noqa: E402
+from vtcore.layout.io import in_link  # noqa: E402
 from vtcore.layout.io.urdf import taxel_poses  # noqa: E402,F401  (the writer's own frames)
 from vtcore.robot import export_skinned, lay_on_link, link_mesh, load_robot  # noqa: E402
+from vtcore.robot import urdf_tree  # noqa: E402
 from vtcore.robot.model import pose  # noqa: E402
 from vtcore.robot.samples import FOREARM_VISUAL_ORIGIN, humanoid_arm  # noqa: E402
 from vtcore.robot.verify import surface_errors  # noqa: E402
@@ -55,8 +57,8 @@ def main():
         loose, _ = place(cad, "hexagon", (0.0, -0.036, -0.04), (0, 0, 1))  # in the CAD frame
         loose.frame = "forearm_cad"
         t = pose(*FOREARM_VISUAL_ORIGIN)
-        save(loose, tmp / "wrong.urdf", "urdf", model=urdf, parent="l_forearm")  # the frame's pose not given
-        save(loose, tmp / "right.urdf", "urdf", model=urdf, parent="l_forearm", transform=t)
+        urdf_tree.write_skinned(loose, tmp / "wrong.urdf", urdf, parent="l_forearm")  # the frame's pose not given
+        urdf_tree.write_skinned(in_link(loose, t), tmp / "right.urdf", urdf, parent="l_forearm")
         born, _ = lay_on_link(robot, "l_forearm", "fill", (pose(*FOREARM_VISUAL_ORIGIN) @ [0, -0.036, -0.04, 1])[:3])
         export_skinned(urdf, [born], tmp / "born.urdf")
         panels = [("exported without the frame's pose", frames_in_link(tmp / "wrong.urdf")),

@@ -9,6 +9,7 @@ import pytest
 
 from vtcore.errors import InputError
 from vtcore.layout import make_patch, place, save
+from vtcore.robot import mjcf_tree, urdf_tree
 
 G = 9.81
 BALL_MASS = 0.1  # kg
@@ -84,7 +85,7 @@ def test_model_sites_exact_and_frame_applied(tmp_path, forearm_skin):
 
     on_link, patch = forearm_skin
     robot = robot_xml(tmp_path / "robot.xml", CYLINDER, SLIDE)
-    save(patch, tmp_path / "skinned.xml", "mjcf", model=robot, body="forearm")
+    mjcf_tree.write_skinned(patch, tmp_path / "skinned.xml", robot, body="forearm")
     m = mujoco.MjModel.from_xml_path(str(tmp_path / "skinned.xml"))
     d = mujoco.MjData(m)
     mujoco.mj_forward(m, d)
@@ -115,7 +116,7 @@ def test_ball_on_a_taxel_reads_its_weight(tmp_path, forearm_skin, which):
     near_top = near_top[np.argsort(on_link.positions[near_top, 0])]
     k = near_top[{"first": 0, "middle": len(near_top) // 2, "last": -1}[which]]
     robot = robot_xml(tmp_path / "robot.xml", CYLINDER, SLIDE)
-    save(patch, tmp_path / "skinned.xml", "mjcf", model=robot, body="forearm")
+    mjcf_tree.write_skinned(patch, tmp_path / "skinned.xml", robot, body="forearm")
     # the ball falls along z and touches the cylinder on the radial line through its centre:
     # put that line through the taxel
     x, y = on_link.positions[k, :2]
@@ -140,10 +141,10 @@ def test_between_taxels_reads_nothing_unless_tiled(tmp_path, forearm_skin):
     robot = robot_xml(tmp_path / "robot.xml", CYLINDER, SLIDE)
     mid = (on_link.positions[30] + on_link.positions[31]) / 2
     start = np.array([mid[0], mid[1], 0.5 + R_LINK + 0.03])
-    save(patch, tmp_path / "taxel.xml", "mjcf", model=robot, body="forearm")
+    mjcf_tree.write_skinned(patch, tmp_path / "taxel.xml", robot, body="forearm")
     _, d = settle(tmp_path / "taxel.xml", start)
     assert d.ncon >= 1 and np.all(d.sensordata == 0)
-    save(patch, tmp_path / "tile.xml", "mjcf", model=robot, body="forearm", footprint="tile")
+    mjcf_tree.write_skinned(patch, tmp_path / "tile.xml", robot, body="forearm", footprint="tile")
     m, d = settle(tmp_path / "tile.xml", start)
     s = d.sensordata
     # The point sits on the border of two tiles; on the curved link the neighbouring pads are tilted
@@ -171,7 +172,7 @@ def test_free_ball_on_a_tiled_flat_link_anywhere(tmp_path):
     lay = make_patch("hexagon").flat_layout()
     link = '<geom name="plate" type="box" size="0.05 0.05 0.005" pos="0 0 -0.005"/>'
     robot = robot_xml(tmp_path / "robot.xml", link, "<freejoint/>")
-    save(lay, tmp_path / "tile.xml", "mjcf", model=robot, body="forearm", footprint="tile")
+    mjcf_tree.write_skinned(lay, tmp_path / "tile.xml", robot, body="forearm", footprint="tile")
     rng = np.random.default_rng(3)
     for xy in rng.uniform(-0.02, 0.02, (3, 2)):
         m, d = settle(tmp_path / "tile.xml", [xy[0], xy[1], 0.53], seconds=1.5)
@@ -226,10 +227,10 @@ def test_visual_only_link_is_told_and_padded(tmp_path, forearm_skin):
   <body name="ball" pos="0 0 1">{SLIDE}<geom type="sphere" size="0.01" mass="{BALL_MASS}"/></body>
   </worldbody></mujoco>""")
     with pytest.warns(LayoutWarning, match="no colliding geom"):
-        save(patch, tmp_path / "bare.xml", "mjcf", model=robot, body="forearm")
+        mjcf_tree.write_skinned(patch, tmp_path / "bare.xml", robot, body="forearm")
     with warnings.catch_warnings():
         warnings.simplefilter("error", LayoutWarning)
-        save(patch, tmp_path / "padded.xml", "mjcf", model=robot, body="forearm", pad=True)
+        mjcf_tree.write_skinned(patch, tmp_path / "padded.xml", robot, body="forearm", pad=True)
     x, y = on_link.positions[30, :2]
     start = [x, y * (R_LINK + 0.01) / R_LINK, 0.5 + R_LINK + 0.03]
     _, d = settle(tmp_path / "bare.xml", start)
@@ -242,13 +243,13 @@ def test_model_errors(tmp_path, forearm_skin):
     _, patch = forearm_skin
     robot = robot_xml(tmp_path / "robot.xml", CYLINDER, SLIDE)
     with pytest.raises(InputError, match="no body named 'hand'.*forearm"):
-        save(patch, tmp_path / "o.xml", "mjcf", model=robot, body="hand")
+        mjcf_tree.write_skinned(patch, tmp_path / "o.xml", robot, body="hand")
     with pytest.raises(InputError, match="--body"):
-        save(patch, tmp_path / "o.xml", "mjcf", model=robot)
+        mjcf_tree.write_skinned(patch, tmp_path / "o.xml", robot)
     assert not (tmp_path / "o.xml").exists()
-    save(patch, tmp_path / "once.xml", "mjcf", model=robot, body="forearm")
+    mjcf_tree.write_skinned(patch, tmp_path / "once.xml", robot, body="forearm")
     with pytest.raises(InputError, match="already has elements named forearm_vtskin_"):
-        save(patch, tmp_path / "o.xml", "mjcf", model=tmp_path / "once.xml", body="forearm")
+        mjcf_tree.write_skinned(patch, tmp_path / "o.xml", tmp_path / "once.xml", body="forearm")
     assert not (tmp_path / "o.xml").exists()
 
 
@@ -263,7 +264,7 @@ def test_mesh_paths_still_resolve_from_another_folder(tmp_path):
                      '<worldbody><body name="link"><geom type="mesh" mesh="plate"/></body></worldbody></mujoco>')
     lay = make_patch("triangle").flat_layout()
     lay.positions[:, 2] += 0.005
-    save(lay, tmp_path / "out" / "skinned.xml", "mjcf", model=robot, body="link")
+    mjcf_tree.write_skinned(lay, tmp_path / "out" / "skinned.xml", robot, body="link")
     m = mujoco.MjModel.from_xml_path(str(tmp_path / "out" / "skinned.xml"))
     assert m.nsensor == len(lay) and m.nmesh == 1
 
@@ -305,14 +306,14 @@ def test_urdf_merged_into_a_robot(tmp_path, forearm_skin):
     <origin xyz="0 0 0.3" rpy="0 0.3 0"/><axis xyz="0 1 0"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
 </robot>
 """)
-    save(patch, tmp_path / "arm_skin.urdf", "urdf", parent="l_forearm", model=robot)
+    urdf_tree.write_skinned(patch, tmp_path / "arm_skin.urdf", robot, parent="l_forearm")
     urdf, frames = frames_of(tmp_path / "arm_skin.urdf", "l_forearm")
     assert "elbow" in urdf.joint_map and len(urdf.actuated_joints) == 1  # skin joints are fixed
     check_frames(frames, "l_forearm", on_link)
     with pytest.raises(InputError, match="no link named 'r_forearm'"):
-        save(patch, tmp_path / "x.urdf", "urdf", parent="r_forearm", model=robot)
+        urdf_tree.write_skinned(patch, tmp_path / "x.urdf", robot, parent="r_forearm")
     with pytest.raises(InputError, match="already has"):
-        save(patch, tmp_path / "x.urdf", "urdf", parent="l_forearm", model=tmp_path / "arm_skin.urdf")
+        urdf_tree.write_skinned(patch, tmp_path / "x.urdf", tmp_path / "arm_skin.urdf", parent="l_forearm")
 
 
 def test_urdf_vertical_and_flipped_normals(tmp_path):

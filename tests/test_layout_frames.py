@@ -15,6 +15,8 @@ from vtcore.cli import main
 from vtcore.errors import InputError
 from vtcore.layout import Layout, LayoutWarning, load, place, save
 from vtcore.layout.cadmeshes import cad_link
+from vtcore.layout.io import in_link
+from vtcore.robot import mjcf_tree, urdf_tree
 
 # the visual origin of the forearm's CAD mesh in its link (a rotation about an oblique axis and 0.2 m)
 RPY, XYZ = (0.3, -1.1, 0.7), (0.02, -0.05, 0.2)
@@ -107,7 +109,7 @@ def test_mjcf_export_honours_the_transform(cad_forearm, tmp_path):
     t = origin_matrix()
     (tmp_path / "robot.xml").write_text('<mujoco><worldbody><body name="l_forearm" pos="0.1 0 0">'
                                         '<geom type="box" size="0.01 0.01 0.01"/></body></worldbody></mujoco>')
-    save(lay, tmp_path / "skinned.xml", "mjcf", transform=t, model=tmp_path / "robot.xml", body="l_forearm")
+    mjcf_tree.write_skinned(in_link(lay, t), tmp_path / "skinned.xml", tmp_path / "robot.xml", body="l_forearm")
     m = mujoco.MjModel.from_xml_path(str(tmp_path / "skinned.xml"))
     data = mujoco.MjData(m)
     mujoco.mj_kinematics(m, data)
@@ -184,14 +186,14 @@ def test_frame_parent_and_transform_survive_every_format_that_has_them(cad_forea
 def test_a_robot_with_skin_frames_takes_a_second_skin_and_a_clash_names_the_option(cad_forearm, tmp_path):
     d, lay, _ = cad_forearm
     posed = lay.posed(origin_matrix(), "l_forearm")
-    save(posed, tmp_path / "once.urdf", "urdf", model=d / "robot.urdf")
+    urdf_tree.write_skinned(posed, tmp_path / "once.urdf", d / "robot.urdf")
     with pytest.raises(InputError, match=r"links or joints named l_forearm_vtskin_\d+.*--prefix"):
-        save(posed, tmp_path / "twice.urdf", "urdf", model=tmp_path / "once.urdf")
-    save(posed, tmp_path / "twice.urdf", "urdf", model=tmp_path / "once.urdf", prefix="l_forearm_palm_")
+        urdf_tree.write_skinned(posed, tmp_path / "twice.urdf", tmp_path / "once.urdf")
+    urdf_tree.write_skinned(posed, tmp_path / "twice.urdf", tmp_path / "once.urdf", prefix="l_forearm_palm_")
     with pytest.raises(InputError, match=r"l_forearm_skin_1[0-9]?, .*and \d+ more.*--prefix"):
-        save(posed, tmp_path / "x.urdf", "urdf", model=d / "robot.urdf", prefix="l_forearm_skin_")
+        urdf_tree.write_skinned(posed, tmp_path / "x.urdf", d / "robot.urdf", prefix="l_forearm_skin_")
     with pytest.raises(InputError, match="not a valid name prefix"):
-        save(posed, tmp_path / "x.urdf", "urdf", model=d / "robot.urdf", prefix="my skin/")
+        urdf_tree.write_skinned(posed, tmp_path / "x.urdf", d / "robot.urdf", prefix="my skin/")
     assert not (tmp_path / "x.urdf").exists()
 
 

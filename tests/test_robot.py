@@ -408,7 +408,7 @@ def test_mjcf_reader_agrees_with_mujoco(robots, tmp_path):
     import mujoco
 
     from vtcore.robot.export import urdf_as_mjcf
-    from vtcore.layout.io.mjcf import write_tree
+    from vtcore.robot.mjcf_tree import write_tree
 
     write_tree(urdf_as_mjcf(robots["ur10"], tmp_path / "ur10.xml"), tmp_path / "ur10.xml")
     robot = load_robot(tmp_path / "ur10.xml")

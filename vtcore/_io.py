@@ -196,3 +196,13 @@ def write_json(path: str | os.PathLike, obj, indent: int | None = 2) -> None:
     text = json.dumps(obj, indent=indent, allow_nan=False)
     with atomic_write(path, "w", encoding="utf-8") as fh:
         fh.write(text + "\n")
+
+
+def write_xml(tree, path: str | os.PathLike, declaration: str = "") -> None:
+    """Write the ElementTree ``tree`` as UTF-8 text (``declaration`` first, LF line ends, a final
+    newline) atomically: the one serialiser of the URDF and MJCF files vtcore writes, fragments and
+    robots alike, so the same tree is the same bytes whichever writes it."""
+    with atomic_write(path, "w", encoding="utf-8", newline="\n") as fh:
+        fh.write(declaration)
+        tree.write(fh, encoding="unicode", xml_declaration=False)
+        fh.write("\n")

@@ -106,7 +106,7 @@ def robots(tmp_path_factory):
     seeds["mjcf"].append((d / "mmesh", ".xml", MJCF_MESH.encode(), "arm"))
     # the humanoid arm as MuJoCo's URDF import writes it, its meshes beside it
     from vtcore.robot.export import urdf_as_mjcf
-    from vtcore.layout.io.mjcf import write_tree
+    from vtcore.robot.mjcf_tree import write_tree
 
     (d / "mjarm").mkdir()
     write_tree(urdf_as_mjcf(arm, d / "mjarm" / "arm.xml"), d / "mjarm" / "arm.xml")

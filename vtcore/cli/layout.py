@@ -6,7 +6,9 @@
 - ``vtcore layout import FILE [--format icub|cyskin|csv|json|ply] --out LAYOUT``
 - ``vtcore layout export LAYOUT --format icub|cyskin|csv|json|ply|mjcf|urdf --out FILE [--transform FILE_OR_16_NUMBERS]``
   MJCF: ``[--model ROBOT.xml --body BODY] [--footprint taxel|tile] [--pad|--no-pad] [--site-radius M]``;
-  URDF: ``--parent LINK [--model ROBOT.urdf]``; both: ``[--prefix NAME_]``; iCub, CySkin: ``[--estimate-normals]``; PLY: ``[--mesh]``.
+  URDF: ``--parent LINK [--model ROBOT.urdf]``; both: ``[--prefix NAME_] [--package NAME=FOLDER]``; iCub, CySkin:
+  ``[--estimate-normals]``; PLY: ``[--mesh]``. With ``--model`` it is ``vtcore robot export`` of this one layout
+  (:func:`vtcore.robot.export_skinned`): the same inputs write the same file.
 - ``vtcore layout reframe LAYOUT (--pose FILE_OR_16_NUMBERS [--parent NAME] | --into-parent) [--frame NAME] --out LAYOUT``
 - ``vtcore layout info LAYOUT [--json]``
 
@@ -260,15 +262,18 @@ def _export_options(args) -> dict:
         if getattr(args, k) is not None:
             to_float(getattr(args, k), lo=MJCF_SIZE_M[0], hi=MJCF_SIZE_M[1], key="--" + k.replace("_", "-"))
     given = {k: getattr(args, k) for k in ("model", "body", "parent", "footprint", "pad", "site_radius",
-                                           "pad_thickness", "prefix") if getattr(args, k) is not None}
+                                           "pad_thickness", "prefix", "package") if getattr(args, k) is not None}
     given.update({k: True for k in ("estimate_normals", "mesh") if getattr(args, k)})  # store_true flags
-    takes = {"mjcf": {"model", "body", "footprint", "pad", "site_radius", "pad_thickness", "prefix"},
-             "urdf": {"model", "parent", "prefix"}, "icub": {"estimate_normals"}, "cyskin": {"estimate_normals"},
-             "ply": {"mesh"}}.get(args.format, set())
+    takes = {"mjcf": {"model", "body", "footprint", "pad", "site_radius", "pad_thickness", "prefix", "package"},
+             "urdf": {"model", "parent", "prefix", "package"}, "icub": {"estimate_normals"},
+             "cyskin": {"estimate_normals"}, "ply": {"mesh"}}.get(args.format, set())
     wrong = sorted(set(given) - takes)
     if wrong:
         flags = ", ".join("--" + k.replace("_", "-") for k in wrong)
         raise InputError(f"{flags}: not an option of --format {args.format}", key="--format")
+    alone = sorted({"body", "package"} & set(given)) if "model" not in given else []
+    if alone:  # they say where in the robot's own file: the fragment has none
+        raise InputError("goes with --model ROBOT", key=f"--{alone[0]}")
     return given
 
 
@@ -276,12 +281,40 @@ def cmd_export(args) -> int:
     from ..layout import load, save
 
     options = _export_options(args)
+    records = None
     with _warnings_if_done():
         layout = load(args.layout)
         transform = _read_transform(args.transform) if args.transform else None
-        save(layout, args.out, args.format, transform=transform, **options)
+        if options.get("model") is not None:  # the robot's own file: what robot export writes
+            records = _export_into_robot(layout, args, transform, options)
+        else:
+            save(layout, args.out, args.format, transform=transform, **options)
+    if records is not None:
+        from .robot import print_export
+
+        print_export(args.out, records)
+        return 0
     print(f"{args.out}: {len(layout)} taxels as {args.format}")
     return 0
+
+
+def _export_into_robot(layout, args, transform, options: dict) -> list[dict]:
+    """``layout export --model ROBOT``: :func:`vtcore.robot.export_skinned`, the export ``robot export``
+    runs, for this one layout: the link is ``--body`` (MJCF) or ``--parent`` (URDF), else the layout's
+    parent or frame; ``--transform`` is the layout frame's pose in that link (:func:`~vtcore.layout.io.in_link`).
+    Returns export_skinned's records."""
+    from ..layout.io import in_link
+    from ..robot import export_skinned
+    from .robot import packages
+
+    model, prefix = options.pop("model"), options.pop("prefix", None)
+    link = options.pop("body", None) or options.pop("parent", None)  # MJCF's and URDF's name for it
+    pkgs = packages(options.pop("package", None))
+    if transform is not None:
+        layout = in_link(layout, transform, Path(args.out).name)
+    if link is not None:
+        layout = layout.posed(layout.transform, link)
+    return export_skinned(model, [layout], args.out, format=args.format, prefixes=[prefix], packages=pkgs, **options)
 
 
 def cmd_reframe(args) -> int:
@@ -507,7 +540,10 @@ def _add_export(lsub, formats) -> None:
                     help="4x4 rigid transform T (row-major; a file or 16 numbers): the pose of the layout's frame "
                          "in the frame the file is written in (urdf, mjcf --model: in the link), taxels written "
                          "as T p")
-    ex.add_argument("--model", metavar="ROBOT", help="mjcf/urdf: the robot file to add the skin to")
+    ex.add_argument("--model", metavar="ROBOT", help="mjcf/urdf: the robot file to add the skin to (the export "
+                                                     "vtcore robot export writes)")
+    ex.add_argument("--package", action="append", metavar="NAME=FOLDER",
+                    help="mjcf/urdf with --model: where a package:// package of the robot is")
     ex.add_argument("--body", help="mjcf with --model: the robot body the skin is on (default: the layout's "
                                    "parent, else its frame)")
     ex.add_argument("--parent", help="urdf: the link the taxel links hang from (default: the layout's parent, "
@@ -517,7 +553,8 @@ def _add_export(lsub, formats) -> None:
     ex.add_argument("--footprint", choices=("taxel", "tile"),
                     help="mjcf: sites of the taxel's size (default) or pads and sites tiling the skin")
     ex.add_argument("--pad", action=argparse.BooleanOptionalAction, default=None,
-                    help="mjcf: give the skin its own contact pads (default: on in a fragment, off with --model)")
+                    help="mjcf: give the skin its own contact pads (default: on in a fragment; with --model "
+                         "on where robot export rebuilds the link's contact surface)")
     ex.add_argument("--site-radius", type=float, metavar="METRES", help="mjcf: taxel site radius")
     ex.add_argument("--pad-thickness", type=float, metavar="METRES", help="mjcf: pad thickness (default 1 mm)")
     ex.add_argument("--estimate-normals", action="store_true",

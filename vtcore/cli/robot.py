@@ -103,8 +103,15 @@ def cmd_export(args) -> int:
         records = export_skinned(args.robot, layouts, args.out, format=args.format, prefixes=args.prefix,
                                  packages=packages(args.package), **opts)
     _warnings(caught)
+    print_export(args.out, records)
+    return 0
+
+
+def print_export(out, records) -> None:
+    """The lines ``robot export`` (and ``layout export --model``) print: per skin its taxels and link, and
+    the taxels the export's contact check found unable to read (MuJoCo's rays)."""
     for r in records:
-        print(f"{args.out}: {r['taxels']} taxels on {r['link']!r} ({r['names'][0]} .. {r['names'][-1]})")
+        print(f"{out}: {r['taxels']} taxels on {r['link']!r} ({r['names'][0]} .. {r['names'][-1]})")
         bad = r.get("unreadable") or []
         if bad:  # the export's contact check (MuJoCo's rays at the zero pose): these taxels cannot sense
             why = r["unreadable_why"]
@@ -115,7 +122,6 @@ def cmd_export(args) -> int:
             first = next(iter(some))
             print(f"  {len(some)} more read at the zero pose but not at some joint configurations ({first}: "
                   f"{some[first]})")
-    return 0
 
 
 def cmd_skin(args) -> int:

@@ -1,7 +1,7 @@
 """Export a skinned robot: the robot's own file with the skin's taxel frames or sensors added.
 
-- URDF robot -> URDF: one fixed link per taxel under the layout's link (``vtcore.layout.io.urdf``).
-- MJCF robot -> MJCF: sites and touch sensors in the link's body (``vtcore.layout.io.mjcf``),
+- URDF robot -> URDF: one fixed link per taxel under the layout's link (:mod:`.urdf_tree`).
+- MJCF robot -> MJCF: sites and touch sensors in the link's body (:mod:`.mjcf_tree`),
   pads as the layout export has them; a body defined in an ``<include>``d file is written inline.
 - In MJCF, a skinned link whose colliding geometry does not hug its skin (a mesh's convex hull 8 mm
   over a UR10 forearm's, the Allegro palm's box around its visual mesh) collides by convex parts that
@@ -31,11 +31,12 @@ import numpy as np
 
 from ..errors import FormatError, InputError
 from ..layout import Layout
-from ..layout.io import mjcf as mjcf_io
-from ..layout.io import urdf as urdf_io
-from ..layout.io.common import identifier, read_robot_xml
+from ..layout.io.common import identifier
+from ..layout.io.mjcf import taxel_radius
+from . import mjcf_tree, urdf_tree
 from .model import Robot, read_xml
 from .reach import POSES, contact_reach, unreadable_sites
+from .robot_xml import read_robot_xml
 
 FORMATS = ("urdf", "mjcf")
 #: kg m^2: MuJoCo's compiler refuses an inertia with an eigenvalue under this (mjMINVAL; iCub's
@@ -74,15 +75,6 @@ def skin_link(layout: Layout, links) -> str:
                          "(vtcore layout place ROBOT --link NAME) or say where its frame sits "
                          "(vtcore layout reframe --pose T --parent LINK)", key="layout")
     return link
-
-
-def _rebase_urdf(root: ET.Element, src_dir: Path, out_dir: Path) -> None:
-    if src_dir.resolve() == out_dir.resolve():
-        return
-    for mesh in root.iter("mesh"):
-        f = mesh.get("filename") or ""
-        if f and "://" not in f and not os.path.isabs(f):
-            mesh.set("filename", os.path.relpath(src_dir / f, out_dir))
 
 
 def urdf_as_mjcf(robot_path, out, packages: dict | None = None) -> ET.ElementTree:
@@ -215,7 +207,7 @@ def export_skinned(robot_path, layouts, out, *, format: str | None = None, prefi
 
     format : "urdf" or "mjcf" (default: from ``out``'s suffix, ``.urdf`` or ``.xml``/``.mjcf``).
     prefixes : one name prefix per layout (None: ``<link>_vtskin_``). mjcf_options : ``footprint``,
-    ``pad``, ``site_radius``, ``pad_thickness`` of :func:`vtcore.layout.io.mjcf.write`.
+    ``pad``, ``site_radius``, ``pad_thickness`` of :func:`vtcore.layout.io.mjcf.add_skin`.
     Returns one record per layout: ``link``, ``taxels``, ``names`` (first and last).
 
     The file and its ``<out stem>_meshes/`` folder (a URDF robot as MJCF) are written into a staging
@@ -255,7 +247,7 @@ def probe_copy(staged: Path, out: Path) -> Path:
     tree = ET.parse(staged)
     root = tree.getroot()
     if root.tag == "mujoco":
-        base = mjcf_io.compiler_dirs(root)
+        base = mjcf_tree.compiler_dirs(root)
         for el in root.iter():
             f = el.get("file")
             if not f or os.path.isabs(f) or el.tag == "include":
@@ -315,9 +307,9 @@ def _export_skinned(robot_path, layouts, out, staged, *, format: str | None = No
     tree, model_dir, links = _mjcf_tree(robot_path, source, out, staged, packages)
     records, sites, contact_geoms = _merge_mjcf_skins(robot_path, layouts, prefixes, tree, links, out, staged,
                                                       packages, mjcf_options)
-    mjcf_io.rebase(tree.getroot(), model_dir, out.parent)
-    mjcf_io.relative_contact_files(tree.getroot(), contact_geoms, out.parent)
-    mjcf_io.write_tree(tree, staged)
+    mjcf_tree.rebase(tree.getroot(), model_dir, out.parent)
+    mjcf_tree.relative_contact_files(tree.getroot(), contact_geoms, out.parent)
+    mjcf_tree.write_tree(tree, staged)
     probe = probe_copy(staged, out)
     try:
         for rec, names in zip(records, sites):  # MuJoCo's own rays judge the written model
@@ -339,10 +331,10 @@ def _export_urdf(robot_path: Path, layouts: list, prefixes: list, out: Path, sta
     links = [e.get("name") for e in tree.getroot().findall("link")]
     for lay, prefix in zip(layouts, prefixes):
         link = skin_link(lay, links)
-        names = urdf_io.merge_into_tree(lay, tree, link, prefix=prefix, model=robot_path)
+        names = urdf_tree.merge_into_tree(lay, tree, link, prefix=prefix, model=robot_path)
         records.append({"link": link, "taxels": len(lay), "names": [names[0], names[-1]] if names else []})
-    _rebase_urdf(tree.getroot(), robot_path.parent, out.parent)
-    urdf_io.write_tree(tree, staged)
+    urdf_tree.rebase(tree.getroot(), robot_path.parent, out.parent)
+    urdf_tree.write_tree(tree, staged)
     return records
 
 
@@ -357,7 +349,7 @@ def _mjcf_tree(robot_path: Path, source: str, out: Path, staged: Path, packages)
         tree, model_dir = read_robot_xml(robot_path, "mujoco"), robot_path.parent
     links = [b.get("name") for b in tree.getroot().iter("body")]
     if source == "mjcf" and tree.getroot().find(".//include") is not None:
-        mjcf_io.inline_includes(tree.getroot(), robot_path.parent, robot_path)
+        mjcf_tree.inline_includes(tree.getroot(), robot_path.parent, robot_path)
         links = [b.get("name") for b in tree.getroot().iter("body")]
     return tree, model_dir, links
 
@@ -388,8 +380,8 @@ def _merge_mjcf_skins(robot_path: Path, layouts: list, prefixes: list, tree, lin
         opts = {**mjcf_options, "pad": mjcf_options.get("pad") if mjcf_options.get("pad") is not None
                 else bool(reach is not None and rebuilt)}
         if opts["pad"] and reach is not None and rebuilt:
-            opts.setdefault("pad_radius", mjcf_io.taxel_radius(lay) + PAD_RIM)
-        names = mjcf_io.merge_into_tree(lay, tree, link, robot_path, prefix=prefix, reach=reach, **opts)
+            opts.setdefault("pad_radius", taxel_radius(lay) + PAD_RIM)
+        names = mjcf_tree.merge_into_tree(lay, tree, link, robot_path, prefix=prefix, reach=reach, **opts)
         sites.append(names)
         records.append({"link": link, "taxels": len(lay), "names": [names[0], names[-1]] if names else []})
     return records, sites, contact_geoms
@@ -432,7 +424,7 @@ def link_contact(robot: Robot, link: str, layouts, tree: ET.ElementTree, out: Pa
         part.export(folder / name)
         files.append((out.parent / folder.name / name).resolve())
     body = next(b for b in tree.getroot().iter("body") if b.get("name") == link)
-    names = mjcf_io.replace_contact(tree.getroot(), body, files, f"{identifier(link)}_vtcontact_")
+    names = mjcf_tree.replace_contact(tree.getroot(), body, files, f"{identifier(link)}_vtcontact_")
     return parts, names
 
 

@@ -20,8 +20,9 @@ Formats (``format=`` names):
 - ``ply``: vertices with per-taxel attributes, faces of the skin mesh (ASCII written;
   ASCII and binary read).
 - ``mjcf``: export only: one MuJoCo site per taxel and a ``touch`` sensor on each, as a
-  fragment or merged into a robot's MJCF (see :mod:`.mjcf`).
-- ``urdf``: export only: one fixed link ``<parent>_skin_<n>`` per taxel (see :mod:`.urdf`).
+  fragment (see :mod:`.mjcf`; merged into a robot's own MJCF: :mod:`vtcore.robot.mjcf_tree`).
+- ``urdf``: export only: one fixed link ``<parent>_vtskin_<n>`` per taxel (see :mod:`.urdf`; merged into
+  a robot's own URDF: :mod:`vtcore.robot.urdf_tree`).
 
 Readers are lenient about what real files do (mixed tabs and spaces, CRLF,
 scientific notation, non-unit or placeholder normals, repeated positions,
@@ -115,14 +116,38 @@ def load(path, format: str | None = None, *, units: str | None = None) -> Layout
     return layout
 
 
-#: formats written in the parent (the robot link or body the skin hangs from), not in the layout's frame
-IN_PARENT = ("urdf", "mjcf")
+#: formats written in the parent (the robot link the skin hangs from), not in the layout's frame
+IN_PARENT = ("urdf",)
 
 
 def writes_in_parent(fmt: str, options: dict) -> bool:
     """Whether format ``fmt`` with these writer options writes taxel positions in the layout's
-    parent (a URDF, or an MJCF merged into a robot model) rather than in a frame of its own."""
-    return fmt == "urdf" or (fmt == "mjcf" and options.get("model") is not None)
+    parent (a URDF) rather than in a frame of its own."""
+    return fmt in IN_PARENT
+
+
+def in_link(layout: Layout, transform, name: str = "") -> Layout:
+    """``layout`` with its taxels at ``transform`` in the link it hangs from: ``transform`` (4, 4),
+    the pose of the layout's frame in that link, is applied to the taxels (``T p``) and the result's
+    own transform is the identity. It takes the place of the layout's own transform (warned about,
+    naming the file ``name``, when the two differ). A URDF and a robot export are written so."""
+    t = rigid_transform(transform, "transform", MAX_COORDINATE_M)
+    own = layout.transform
+    layout = layout.transformed(t)
+    if not np.allclose(own, np.eye(4), atol=1e-9) and not np.allclose(own, t, atol=1e-9):
+        warnings.warn(f"{name}: the given transform replaces the layout's own (the pose of "
+                      f"{layout.frame!r} in {layout.parent or 'its parent'!r}): the taxels are written "
+                      "at the given pose in the link", LayoutWarning, stacklevel=3)
+    layout.transform = np.eye(4)  # T p is already in the link
+    check_in_reach(layout)
+    return layout
+
+
+def check_in_reach(layout: Layout) -> None:
+    """An InputError when a transform moved the taxels beyond what every layout reader accepts."""
+    if len(layout) and np.abs(layout.positions).max() > MAX_COORDINATE_M:
+        raise InputError(f"moves taxels {np.abs(layout.positions).max():.3g} m from the origin, beyond the "
+                         f"+-{MAX_COORDINATE_M:g} m every layout reader accepts", key="transform")
 
 
 def save(layout: Layout, path, format: str | None = None, *, transform=None, **options) -> None:
@@ -134,10 +159,11 @@ def save(layout: Layout, path, format: str | None = None, *, transform=None, **o
         frame the file is written in, so the file's taxels are ``T p`` (``p_file = R p + t``).
         Formats that carry a frame (json, csv, ply, cyskin, the MJCF fragment) also write that
         file frame's pose in the layout's parent (``transform @ inv(T)``), so the skin keeps its
-        place there. URDF and an MJCF merged into a model are written in the parent link itself:
-        there ``T`` is the pose of the layout's frame in that link and takes the place of the
-        layout's own ``transform`` (warned about when they differ).
-    options : passed to the format's ``write`` (see each format module).
+        place there. A URDF is written in the parent link itself: there ``T`` is the pose of the
+        layout's frame in that link and takes the place of the layout's own ``transform``
+        (:func:`in_link`).
+    options : passed to the format's ``write`` (see each format module). A skin merged into a
+        robot's own URDF or MJCF (``model=``) is :func:`vtcore.robot.export_skinned`'s.
     """
     path = Path(path)
     fmt = format
@@ -148,25 +174,21 @@ def save(layout: Layout, path, format: str | None = None, *, transform=None, **o
                              f"{', '.join(FORMATS)}", file=path)
     if fmt not in FORMAT_MODULES:
         raise InputError(f"unknown format {fmt!r}; use one of {', '.join(FORMATS)}", file=path, key="format")
+    if "model" in options:
+        raise InputError("a layout file has no robot model: a skin goes into a robot's URDF or MJCF through "
+                         "vtcore.robot.export_skinned (vtcore robot export, vtcore layout export --model)",
+                         file=path, key="model")
     if transform is not None:
-        t = rigid_transform(transform, "transform", MAX_COORDINATE_M)
-        own = layout.transform
-        layout = layout.transformed(t)
         if writes_in_parent(fmt, options):
-            if not np.allclose(own, np.eye(4), atol=1e-9) and not np.allclose(own, t, atol=1e-9):
-                warnings.warn(f"{path.name}: the given transform replaces the layout's own (the pose of "
-                              f"{layout.frame!r} in {layout.parent or 'its parent'!r}): the taxels are written "
-                              "at the given pose in the link", LayoutWarning, stacklevel=2)
-            layout.transform = np.eye(4)  # T p is already in the link
+            layout = in_link(layout, transform, path.name)
         else:  # the frame's pose in its parent moves the other way: it must stay a transform a reader accepts
+            layout = layout.transformed(rigid_transform(transform, "transform", MAX_COORDINATE_M))
             try:
                 rigid_transform(layout.transform, "transform", MAX_COORDINATE_M)
             except InputError as exc:
                 raise InputError(f"would make the layout's own transform {exc.reason}", key="transform") from None
-        if len(layout) and np.abs(layout.positions).max() > MAX_COORDINATE_M:
-            raise InputError(f"moves taxels {np.abs(layout.positions).max():.3g} m from the origin, beyond the "
-                             f"+-{MAX_COORDINATE_M:g} m every layout reader accepts", key="transform")
+            check_in_reach(layout)
     FORMAT_MODULES[fmt].write(layout, path, **options)
 
 
-__all__ = ["IN_PARENT", "writes_in_parent", "FORMATS", "READ_FORMATS", "FORMAT_MODULES", "SUFFIX_FORMATS", "detect_format", "load", "save"]
+__all__ = ["IN_PARENT", "writes_in_parent", "in_link", "FORMATS", "READ_FORMATS", "FORMAT_MODULES", "SUFFIX_FORMATS", "detect_format", "load", "save"]

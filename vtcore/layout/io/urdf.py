@@ -15,10 +15,11 @@ normal); robot software finds taxels through those frames. We write the same:
   ``R = Rz(y) Ry(p) Rx(r)``).
 
 ``n`` is the taxel id when ids are unique and non-negative, else the taxel row.
-Without ``model`` the file is a small robot holding an empty ``parent`` link and the
-taxel links (valid URDF on its own; copy its joints and links into a robot, or use
-``model``). With ``model=ROBOT.urdf`` the robot's URDF comes back with the taxel links
-added under ``parent``.
+The file is a small robot holding an empty ``parent`` link and the taxel links (valid URDF
+on its own; copy its joints and links into a robot). The robot's own URDF with the taxel
+links added under ``parent`` is :func:`vtcore.robot.export_skinned`'s (``vtcore robot export``,
+``vtcore layout export --model``; :mod:`vtcore.robot.urdf_tree` merges them with
+:func:`add_skin`'s elements).
 """
 
 from __future__ import annotations
@@ -27,11 +28,11 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
-from ..._io import atomic_write
+from ..._io import write_xml
 from ...errors import InputError
 from ...tolerances import ZERO_NORMAL
 from ..model import Layout
-from .common import identifier, indent_added, read_robot_xml, refuse_clash, skin_prefix, taxel_labels
+from .common import identifier, skin_prefix, taxel_labels
 
 NAME = "urdf"
 SUFFIXES = (".urdf",)
@@ -83,51 +84,24 @@ def add_skin(layout: Layout, robot: ET.Element, parent: str, prefix: str | None 
     return names
 
 
-def merge_into_tree(layout: Layout, tree: ET.ElementTree, parent: str, *, prefix: str | None = None,
-                    model=None) -> list[str]:
-    """Add the skin's taxel frames under link ``parent`` of the robot ``tree`` (the robot's own
-    elements untouched); an unknown link or a name the robot already has is an InputError."""
-    robot = tree.getroot()
-    links = [e.get("name") for e in robot.findall("link")]
-    if parent not in links:
-        raise InputError(f"no link named {parent!r}; links: {', '.join(links[:40]) or 'none'}",
-                         file=model, key="--parent")
-    taken = set(links) | {e.get("name") for e in robot.findall("joint")}
-    prefix = skin_prefix(parent, prefix)
-    labels = taxel_labels(layout)
-    names = [f"{prefix}{lab}" for lab in labels]
-    refuse_clash(taken, names + [f"{n}_joint" for n in names], model, "links or joints", prefix)
-    start = len(robot)
-    out = add_skin(layout, robot, parent, prefix)
-    indent_added(robot, list(robot)[start:])
-    return out
-
-
-def write(layout: Layout, path, *, parent: str | None = None, model=None, prefix: str | None = None) -> None:
-    """Write the taxel frames as URDF.
+def write(layout: Layout, path, *, parent: str | None = None, prefix: str | None = None) -> None:
+    """Write the taxel frames as a URDF of their own: a robot holding an empty ``parent`` link and
+    the taxel links (a skin merged into a robot's URDF: :func:`vtcore.robot.export_skinned`).
 
     parent : the link the taxel frames hang from (default: the layout's ``parent``, else its
         ``frame``); the layout's ``transform`` is the pose of its frame in that link.
-    model : path of the robot's URDF to merge into (it must have the link ``parent``).
     prefix : start of the taxel frame names (default ``<parent>_vtskin_``).
     """
     parent = parent or layout.parent or layout.frame
-    if model is not None:
-        tree = read_robot_xml(model, "robot")
-    else:
-        robot = ET.Element("robot", name=identifier(layout.meta.get("name") or f"{parent}_skin"))
-        robot.append(ET.Comment(f" written by vtcore (metres, radians): one fixed link per taxel under "
-                                f"{parent!r}, origin at the taxel, z along its normal "))
-        ET.SubElement(robot, "link", name=parent)
-        ET.indent(robot, space="  ")
-        tree = ET.ElementTree(robot)
-    merge_into_tree(layout, tree, parent, prefix=prefix, model=model)
-    write_tree(tree, path)
-
-
-def write_tree(tree: ET.ElementTree, path) -> None:
-    """Write a URDF tree (written to a temporary file, then renamed)."""
-    with atomic_write(path, "w", encoding="utf-8", newline="\n") as fh:
-        fh.write('<?xml version="1.0"?>\n')
-        tree.write(fh, encoding="unicode", xml_declaration=False)
-        fh.write("\n")
+    prefix = skin_prefix(parent, prefix)
+    names = [f"{prefix}{lab}" for lab in taxel_labels(layout)]
+    if parent in names + [f"{n}_joint" for n in names]:
+        raise InputError(f"the skin's names start with {prefix!r}: one would be the link {parent!r}; "
+                         "pass another --prefix", key="--prefix")
+    robot = ET.Element("robot", name=identifier(layout.meta.get("name") or f"{parent}_skin"))
+    robot.append(ET.Comment(f" written by vtcore (metres, radians): one fixed link per taxel under "
+                            f"{parent!r}, origin at the taxel, z along its normal "))
+    ET.SubElement(robot, "link", name=parent)
+    add_skin(layout, robot, parent, prefix)
+    ET.indent(robot, space="  ")
+    write_xml(ET.ElementTree(robot), path, '<?xml version="1.0"?>\n')
