@@ -94,7 +94,7 @@ def test_text_lines_across_blocks(tmp_path, block):
 
 
 def test_text_lines_refuse_a_line_without_end(tmp_path, monkeypatch):
-    monkeypatch.setattr(inputs, "MAX_LINE_BYTES", 100)
+    monkeypatch.setattr(inputs.text, "MAX_LINE_BYTES", 100)  # read where TextLines lives
     p = tmp_path / "b.log"
     p.write_bytes(b"x" * 1000)
     with pytest.raises(FormatError, match="longer than"):

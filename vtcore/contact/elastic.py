@@ -416,41 +416,14 @@ def solve_local(gap, stiffness, cell_area, *, force=None, approach=None):
     return ContactSolution(p, np.where(p > 0, p / stiffness, 0.0), float(approach), 1, True, 0.0)
 
 
-def solve_pk(gap, conv, cell_area, *, force=None, approach=None, p0=None, tol=1e-7, maxiter=1000, conv32=None,
-             tol32=1e-5):
-    """Polonsky-Keer constrained conjugate gradient for a rigid object on an elastic surface.
+def _pk_start(h, mask, cell_area, force, approach, p0):
+    """Starting pressure (mx, my) Pa of :func:`solve_pk`: the warm start ``p0`` where it has contact, else
+    the cells that touch first (load control, scaled to ``force``) or the rigid overlap (displacement
+    control, ``approach`` m); None when nothing overlaps under displacement control.
 
-    gap : (mx, my) metres, initial separation of the object from the undeformed
-        surface along the press direction (``inf`` where the object is absent).
-    conv : callable, ``u = conv(p)`` surface displacement (m) from pressure (Pa), (mx, my).
-    cell_area : m^2. force : N (load control) or approach : m (displacement
-    control: the object advanced by ``approach`` beyond the gap's zero).
-    p0 : (mx, my) Pa, warm start. tol : relative change of the pressure per iteration.
-    conv32 : optional single-precision twin of ``conv``: the iterations run with it down to
-        ``max(tol, tol32)``, then continue with ``conv`` from there until ``tol``, so the answer
-        is checked (and finished) in double precision.
-
-    Returns ContactSolution with p >= 0, ``gap + u - approach >= 0`` and = 0 where p > 0,
-    and ``sum(p) cell_area = force`` under load control.
+    h : (mx, my) m, the gap with 0 where nothing can touch; mask : (mx, my) bool, where it can.
     """
-    if conv32 is not None:
-        first = solve_pk(gap, conv32, cell_area, force=force, approach=approach, p0=p0, tol=max(tol, tol32),
-                         maxiter=maxiter)
-        p1 = first.pressure.astype(float) if first.pressure.any() else p0
-        sol = solve_pk(gap, conv, cell_area, force=force, approach=approach, p0=p1, tol=tol, maxiter=maxiter)
-        sol.iterations += first.iterations
-        sol.iterations_float32 = first.iterations
-        return sol
-    trunc = float(getattr(conv, "truncation", 0.0))
-    g0 = np.asarray(gap, float)
-    mask = np.isfinite(g0)
-    h = np.where(mask, g0, 0.0)
-    if (force is None) == (approach is None):
-        raise InputError("give exactly one of force and approach", key="force")
     load = force is not None
-    if load and (force <= 0 or not mask.any()):
-        z = np.zeros_like(h)
-        return ContactSolution(z, z.copy(), float(h[mask].min()) if mask.any() else 0.0, 0, True, 0.0, trunc)
     if p0 is not None and np.shape(p0) == h.shape and np.any(p0 > 0):
         p = np.where(mask, np.clip(p0, 0, None), 0.0)
     elif load:
@@ -460,10 +433,18 @@ def solve_pk(gap, conv, cell_area, *, force=None, approach=None, p0=None, tol=1e
     else:
         p = np.where(mask & (h < approach), approach - h, 0.0)
         if not p.any():
-            z = np.zeros_like(h)
-            return ContactSolution(z, z.copy(), float(approach), 0, True, 0.0, trunc)
+            return None
     if load:
         p *= force / (p.sum() * cell_area)
+    return p
+
+
+def _pk_iterate(conv, h, mask, p, cell_area, force, approach, tol, maxiter):
+    """The Polonsky-Keer iterations of :func:`solve_pk` from the starting pressure ``p`` (mx, my) Pa.
+
+    Returns (pressure, flat (mx * my,) Pa, iterations run, last relative change).
+    """
+    load = force is not None
     # The iteration works on flat index sets of the contact cells: only the displacement and the
     # search for penetrating cells need the whole grid, so the non-FFT work per iteration is a few
     # passes over the grid instead of ~30 (it was a third of the solve once the transforms shrank).
@@ -517,7 +498,50 @@ def solve_pk(gap, conv, cell_area, *, force=None, approach=None, p0=None, tol=1e
             eps = np.abs(p - p_old).sum() / ref
         if eps < tol:
             break
-    p = p.reshape(shape)
+    return p, it, eps
+
+
+def solve_pk(gap, conv, cell_area, *, force=None, approach=None, p0=None, tol=1e-7, maxiter=1000, conv32=None,
+             tol32=1e-5):
+    """Polonsky-Keer constrained conjugate gradient for a rigid object on an elastic surface.
+
+    gap : (mx, my) metres, initial separation of the object from the undeformed
+        surface along the press direction (``inf`` where the object is absent).
+    conv : callable, ``u = conv(p)`` surface displacement (m) from pressure (Pa), (mx, my).
+    cell_area : m^2. force : N (load control) or approach : m (displacement
+    control: the object advanced by ``approach`` beyond the gap's zero).
+    p0 : (mx, my) Pa, warm start. tol : relative change of the pressure per iteration.
+    conv32 : optional single-precision twin of ``conv``: the iterations run with it down to
+        ``max(tol, tol32)``, then continue with ``conv`` from there until ``tol``, so the answer
+        is checked (and finished) in double precision.
+
+    Returns ContactSolution with p >= 0, ``gap + u - approach >= 0`` and = 0 where p > 0,
+    and ``sum(p) cell_area = force`` under load control.
+    """
+    if conv32 is not None:
+        first = solve_pk(gap, conv32, cell_area, force=force, approach=approach, p0=p0, tol=max(tol, tol32),
+                         maxiter=maxiter)
+        p1 = first.pressure.astype(float) if first.pressure.any() else p0
+        sol = solve_pk(gap, conv, cell_area, force=force, approach=approach, p0=p1, tol=tol, maxiter=maxiter)
+        sol.iterations += first.iterations
+        sol.iterations_float32 = first.iterations
+        return sol
+    trunc = float(getattr(conv, "truncation", 0.0))
+    g0 = np.asarray(gap, float)
+    mask = np.isfinite(g0)
+    h = np.where(mask, g0, 0.0)
+    if (force is None) == (approach is None):
+        raise InputError("give exactly one of force and approach", key="force")
+    load = force is not None
+    if load and (force <= 0 or not mask.any()):
+        z = np.zeros_like(h)
+        return ContactSolution(z, z.copy(), float(h[mask].min()) if mask.any() else 0.0, 0, True, 0.0, trunc)
+    p = _pk_start(h, mask, cell_area, force, approach, p0)
+    if p is None:  # displacement control and nothing touches
+        z = np.zeros_like(h)
+        return ContactSolution(z, z.copy(), float(approach), 0, True, 0.0, trunc)
+    p, it, eps = _pk_iterate(conv, h, mask, p, cell_area, force, approach, tol, maxiter)
+    p = p.reshape(h.shape)
     u = np.array(conv(p), dtype=float)
     ic = p > 0
     d = float((h + u)[ic].mean()) if (load and ic.any()) else float(approach if not load else 0.0)

@@ -152,6 +152,128 @@ def _skin_values(layout, h, layer_extent, direction, grid, taxel_radius):
             "skin": skin, "pts": pts}
 
 
+def _check_press_args(force, indentation, layer, pose, spreading, model, geometry, precision) -> np.ndarray:
+    """Raise InputError (naming the key and what is valid) for a bad argument of :func:`press`;
+    returns the pose as a (4, 4) float array."""
+    if spreading not in elastic.SPREADINGS:
+        raise InputError(f"spreading must be one of {', '.join(elastic.SPREADINGS)}, got {spreading!r}",
+                         key="spreading")
+    if model not in elastic.MODELS:
+        raise InputError(f"model must be one of {', '.join(elastic.MODELS)}, got {model!r}", key="model")
+    if force is not None and indentation is not None:
+        raise InputError("give force or indentation, not both", key="force")
+    if force is not None and not (np.isfinite(force) and 0 <= force <= MAX_FORCE_N):
+        # past ~1e12 N the solve's products overflow and it reported force 0 (issue 13)
+        raise InputError(f"must be a force in [0, {MAX_FORCE_N:g}] N, got {force}", key="force")
+    if indentation is not None and not (np.isfinite(indentation) and indentation >= 0):
+        raise InputError(f"must be >= 0 m, got {indentation}", key="indentation")
+    if not isinstance(layer, SoftLayer):
+        raise InputError("layer must be a vtcore.contact.SoftLayer", key="layer")
+    if layer.thickness <= 0:
+        raise InputError("press needs a soft layer of thickness > 0", key="layer.thickness")
+    pose = np.asarray(pose, float).reshape(4, 4)
+    if not np.all(np.isfinite(pose)):
+        raise InputError("pose has non-finite entries", key="pose")
+    if geometry not in GEOMETRIES:
+        raise InputError(f"geometry must be one of {', '.join(GEOMETRIES)}, got {geometry!r}", key="geometry")
+    if precision not in elastic.PRECISIONS:
+        raise InputError(f"precision must be one of {', '.join(elastic.PRECISIONS)}, got {precision!r}",
+                         key="precision")
+    return pose
+
+
+def _object_gap(sk, local, scene, pose, backend, dx) -> np.ndarray:
+    """Gap (mx, my), m, along ``-u`` from each cell of the skin grid ``sk`` to the posed object; inf
+    where the object is not above the cell."""
+    xs, ys, S, n = sk["x"], sk["y"], sk["S"], sk["n"]
+    gap = np.full(S.shape, np.inf)
+    # only cells under the object's footprint can meet it: cast rays there alone (a window of
+    # the regular grid, found by bisection rather than comparing every cell)
+    bx, by = footprint(local, pose, sk["e1"], sk["e2"], sk["origin"])
+    wx = slice(int(np.searchsorted(xs, bx.min() - dx, side="left")),
+               int(np.searchsorted(xs, bx.max() + dx, side="right")))
+    wy = slice(int(np.searchsorted(ys, by.min() - dx, side="left")),
+               int(np.searchsorted(ys, by.max() + dx, side="right")))
+    win = sk["skin"][wx, wy]
+    if win.any():
+        sub = np.full(win.shape, np.inf)
+        sub[win] = envelope_posed(sk["pts"][wx, wy][win], n, local, scene, pose, backend)
+        gap[wx, wy] = sub
+    return gap
+
+
+def _contact_box(sel, shape) -> tuple[int, int, int, int]:
+    """Index box (i0, i1, j0, j1) around the cells ``sel`` (2 cells of padding), rounded up to
+    multiples of 8 cells so trajectories reuse cached kernels."""
+    mx, my = shape
+    ii, jj = np.nonzero(sel)
+    pad = 2
+    i0, i1 = max(ii.min() - pad, 0), min(ii.max() + pad + 1, mx)
+    j0, j1 = max(jj.min() - pad, 0), min(jj.max() + pad + 1, my)
+    bi, bj = -(-(i1 - i0) // 8) * 8, -(-(j1 - j0) // 8) * 8
+    i1, j1 = min(i0 + bi, mx), min(j0 + bj, my)
+    i0, j0 = max(i1 - bi, 0), max(j1 - bj, 0)
+    return i0, i1, j0, j1
+
+
+def _solve_cropped(gap, finite, gmin, layer, model, dx, *, force, target_d, warm_start, tol, maxiter,
+                   truncation, precision):
+    """Elastic contact solve on the smallest box of cells that can touch, grown until every cell
+    outside it stays clear of the object.
+
+    gap : (mx, my) m, inf off the object; finite : its finite cells; gmin : its smallest value, m.
+    Returns (pressure (mx, my) Pa, approach m, iterations, converged, kernel truncation).
+    """
+    h, area = layer.thickness, dx * dx
+    iters, conv_ok, trunc = 0, True, 0.0
+    # crop to the cells that can touch: contact cells have gap <= approach
+    est = elastic.solve_local(gap, layer.e_star / h, area, force=force, approach=target_d).approach
+    thresh = max(est, gmin) + 2 * dx + 0.5 * max(est - gmin, 0.0)
+    p0_full = warm_start.field.pressure if (warm_start is not None and warm_start.field is not None and
+                                            warm_start.field.pressure.shape == gap.shape) else None
+    for _ in range(8):
+        sel = finite & (gap <= thresh)
+        if p0_full is not None:
+            sel |= p0_full > 0
+        if not sel.any():
+            p, d = np.zeros_like(gap), (target_d or 0.0)
+            break
+        i0, i1, j0, j1 = _contact_box(sel, gap.shape)
+        sub = gap[i0:i1, j0:j1]
+        op, op32 = elastic.compliance_operators(sub.shape, dx, dx, layer, model,
+                                                tol if truncation is None else truncation, precision)
+        p0 = p0_full[i0:i1, j0:j1] if p0_full is not None else None
+        sol = contact_solver(model, h)(sub, op, area, force=force, approach=target_d, p0=p0, tol=tol,
+                                       maxiter=maxiter, conv32=op32)
+        iters += sol.iterations
+        trunc = sol.truncation
+        conv_ok = sol.converged
+        p = np.zeros_like(gap)
+        p[i0:i1, j0:j1] = sol.pressure
+        d = sol.approach
+        # every cell outside the box must stay clear of the object
+        outside = finite.copy()
+        outside[i0:i1, j0:j1] = False
+        if not (outside & (gap < d)).any():
+            break
+        thresh = d + 2 * dx + (d - gmin)
+    return p, d, iters, conv_ok, trunc
+
+
+def _solve_contact(gap, finite, gmin, layer, model, dx, *, force, indentation, **solve):
+    """Pressure on the grid for a target force, an indentation or the pose as it is.
+
+    Returns (pressure (mx, my) Pa, approach m, iterations, converged, kernel truncation)."""
+    h, area = layer.thickness, dx * dx
+    if not finite.any() or (force is not None and force == 0) or (indentation is not None and indentation == 0):
+        return np.zeros_like(gap), (gmin if np.isfinite(gmin) else 0.0), 0, True, 0.0
+    target_d = None if force is not None else (gmin + indentation if indentation is not None else 0.0)
+    if model == "local":
+        sol = elastic.solve_local(gap, layer.e_star / h, area, force=force, approach=target_d)
+        return sol.pressure, sol.approach, 0, True, 0.0
+    return _solve_cropped(gap, finite, gmin, layer, model, dx, force=force, target_d=target_d, **solve)
+
+
 def press(layout, mesh, pose, layer: SoftLayer, *, force=None, indentation=None, direction=None,
           model: str = "finite_layer", compliance=None, grid: ContactGrid | None = None,
           spread: bool = True, spreading: str = "layer", samples_per_taxel: int = 7, taxel_radius: float = TAXEL_RADIUS,
@@ -190,32 +312,9 @@ def press(layout, mesh, pose, layer: SoftLayer, *, force=None, indentation=None,
     Raises UnreachableTargetError when the force cannot be reached: the object
     misses the skin, or the layer would be compressed through its whole thickness.
     """
-    if spreading not in elastic.SPREADINGS:
-        raise InputError(f"spreading must be one of {', '.join(elastic.SPREADINGS)}, got {spreading!r}",
-                         key="spreading")
-    if model not in elastic.MODELS:
-        raise InputError(f"model must be one of {', '.join(elastic.MODELS)}, got {model!r}", key="model")
-    if force is not None and indentation is not None:
-        raise InputError("give force or indentation, not both", key="force")
-    if force is not None and not (np.isfinite(force) and 0 <= force <= MAX_FORCE_N):
-        # past ~1e12 N the solve's products overflow and it reported force 0 (issue 13)
-        raise InputError(f"must be a force in [0, {MAX_FORCE_N:g}] N, got {force}", key="force")
-    if indentation is not None and not (np.isfinite(indentation) and indentation >= 0):
-        raise InputError(f"must be >= 0 m, got {indentation}", key="indentation")
-    if not isinstance(layer, SoftLayer):
-        raise InputError("layer must be a vtcore.contact.SoftLayer", key="layer")
+    pose = _check_press_args(force, indentation, layer, pose, spreading, model, geometry, precision)
     h = layer.thickness
-    if h <= 0:
-        raise InputError("press needs a soft layer of thickness > 0", key="layer.thickness")
     grid = grid or ContactGrid()
-    pose = np.asarray(pose, float).reshape(4, 4)
-    if not np.all(np.isfinite(pose)):
-        raise InputError("pose has non-finite entries", key="pose")
-    if geometry not in GEOMETRIES:
-        raise InputError(f"geometry must be one of {', '.join(GEOMETRIES)}, got {geometry!r}", key="geometry")
-    if precision not in elastic.PRECISIONS:
-        raise InputError(f"precision must be one of {', '.join(elastic.PRECISIONS)}, got {precision!r}",
-                         key="precision")
     local, scene = prepared_mesh(mesh, open_mesh)
     if geometry == "unrolled":
         return press_unrolled(layout, local, scene, pose, layer, force=force, indentation=indentation,
@@ -224,80 +323,17 @@ def press(layout, mesh, pose, layer: SoftLayer, *, force=None, indentation=None,
                               backend=backend, warm_start=warm_start, tol=tol, maxiter=maxiter,
                               truncation=truncation, precision=precision)
     sk = _skin_grid(layout, h, layer.extent, direction, grid, taxel_radius)
-    u, n, e1, e2, origin = sk["u"], sk["n"], sk["e1"], sk["e2"], sk["origin"]
-    xs, ys, S, dx = sk["x"], sk["y"], sk["S"], grid.spacing
-    gap = np.full(S.shape, np.inf)
-    # only cells under the object's footprint can meet it: cast rays there alone (a window of
-    # the regular grid, found by bisection rather than comparing every cell)
-    bx, by = footprint(local, pose, e1, e2, origin)
-    wx = slice(int(np.searchsorted(xs, bx.min() - dx, side="left")),
-               int(np.searchsorted(xs, bx.max() + dx, side="right")))
-    wy = slice(int(np.searchsorted(ys, by.min() - dx, side="left")),
-               int(np.searchsorted(ys, by.max() + dx, side="right")))
-    win = sk["skin"][wx, wy]
-    if win.any():
-        sub = np.full(win.shape, np.inf)
-        sub[win] = envelope_posed(sk["pts"][wx, wy][win], n, local, scene, pose, backend)
-        gap[wx, wy] = sub
+    u, dx = sk["u"], grid.spacing
+    gap = _object_gap(sk, local, scene, pose, backend, dx)
     finite = np.isfinite(gap)
     area = dx * dx
-    mx, my = gap.shape
-
-    fld = ContactField(xs, ys, origin, e1, e2, n, S, gap, np.zeros_like(gap), thickness=h)
+    fld = ContactField(sk["x"], sk["y"], sk["origin"], sk["e1"], sk["e2"], sk["n"], sk["S"], gap, np.zeros_like(gap),
+                       thickness=h)
     gmin = float(gap[finite].min()) if finite.any() else np.inf
     require_contact(finite, force, u)
-
-    # --- contact solve -----------------------------------------------------------
-    iters, conv_ok, trunc = 0, True, 0.0
-    if not finite.any() or (force is not None and force == 0) or (indentation is not None and indentation == 0):
-        p = np.zeros_like(gap)
-        d = gmin if np.isfinite(gmin) else 0.0
-    elif model == "local":
-        k = layer.e_star / h
-        sol = elastic.solve_local(gap, k, area, force=force,
-                                  approach=None if force is not None else
-                                  (gmin + indentation if indentation is not None else 0.0))
-        p, d = sol.pressure, sol.approach
-    else:
-        target_d = None if force is not None else (gmin + indentation if indentation is not None else 0.0)
-        # crop to the cells that can touch: contact cells have gap <= approach
-        est = elastic.solve_local(gap, layer.e_star / h, area, force=force, approach=target_d).approach
-        thresh = max(est, gmin) + 2 * dx + 0.5 * max(est - gmin, 0.0)
-        p0_full = warm_start.field.pressure if (warm_start is not None and warm_start.field is not None and
-                                                warm_start.field.pressure.shape == gap.shape) else None
-        for _ in range(8):
-            sel = finite & (gap <= thresh)
-            if p0_full is not None:
-                sel |= p0_full > 0
-            if not sel.any():
-                p, d = np.zeros_like(gap), (target_d or 0.0)
-                break
-            ii, jj = np.nonzero(sel)
-            pad = 2
-            i0, i1 = max(ii.min() - pad, 0), min(ii.max() + pad + 1, mx)
-            j0, j1 = max(jj.min() - pad, 0), min(jj.max() + pad + 1, my)
-            # round the box up to multiples of 8 cells so trajectories reuse cached kernels
-            bi, bj = -(-(i1 - i0) // 8) * 8, -(-(j1 - j0) // 8) * 8
-            i1, j1 = min(i0 + bi, mx), min(j0 + bj, my)
-            i0, j0 = max(i1 - bi, 0), max(j1 - bj, 0)
-            sub = gap[i0:i1, j0:j1]
-            op, op32 = elastic.compliance_operators(sub.shape, dx, dx, layer, model,
-                                                 tol if truncation is None else truncation, precision)
-            p0 = p0_full[i0:i1, j0:j1] if p0_full is not None else None
-            sol = contact_solver(model, h)(sub, op, area, force=force, approach=target_d, p0=p0, tol=tol,
-                                           maxiter=maxiter, conv32=op32)
-            iters += sol.iterations
-            trunc = sol.truncation
-            conv_ok = sol.converged
-            p = np.zeros_like(gap)
-            p[i0:i1, j0:j1] = sol.pressure
-            d = sol.approach
-            # every cell outside the box must stay clear of the object
-            outside = finite.copy()
-            outside[i0:i1, j0:j1] = False
-            if not (outside & (gap < d)).any():
-                break
-            thresh = d + 2 * dx + (d - gmin)
+    p, d, iters, conv_ok, trunc = _solve_contact(gap, finite, gmin, layer, model, dx, force=force,
+                                                 indentation=indentation, warm_start=warm_start, tol=tol,
+                                                 maxiter=maxiter, truncation=truncation, precision=precision)
     p = np.where(np.isfinite(p) & (p > 0), p, 0.0)
     fld.pressure = p
     max_c, bottomed = check_compression(np.where(p > 0, d - np.where(finite, gap, d), 0.0), h, force, model)

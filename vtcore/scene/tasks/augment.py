@@ -150,47 +150,38 @@ def probe_model(p):
                       layer_stiffness=p["layer_stiffness"], response_noise=p["response_noise"], position_noise=0.0)
 
 
-def run(scene, ctx) -> TaskResult:
-    p = scene["task"]
-    if p["channels"][:1] != ["compliance"]:
-        raise scene.error("task.channels", "must start with \"compliance\"")
-    if p["c_max"] <= p["c_min"]:
-        raise scene.error("task.c_max", f"must be > c_min ({p['c_min']}), got {p['c_max']}")
-    obj = make_seed000_object(p["object"], p["stiffness_scale"])
-    probe = probe_model(p)
-    noise, _, _ = probe_noise(scene, ctx)
-    lo, hi = np.asarray(obj.mesh.bounds)
-    cams = two_cameras(target=tuple((lo + hi) / 2), depth_noise=p["depth_noise"])[:p["cameras"]]
-    rng = ctx.child_rng("augment")
-    if p["cloud"]:
-        pts, nrm = read_point_cloud(p["cloud"])
-        if len(pts) == 0:
-            raise scene.error("task.cloud", "the visual point cloud is empty")
-        if nrm is None:
-            raise scene.error("task.cloud", "the cloud has fewer than 3 points: cannot estimate normals")
-    prober = contact_prober(scene, ctx, obj) if p["probe"] == "contact" else None
-    # with recorded probes nothing is simulated but the cloud (one closed-form probe keeps the bookkeeping)
-    recorded = bool(p["probes"])
-    probed = probe_object(obj, 1 if recorded else p["touches"], probe, cameras=cams, n_points=p["points"], rng=rng,
-                          channels=tuple(p["channels"]), probe_fn=None if recorded else prober,
-                          cloud=(pts, nrm) if p["cloud"] else None, noise=noise)
-    tactile = load_probes(p["probes"]) if p["probes"] else probed.tactile
-    x, v, c = probed.points, tactile.points, tactile.values
+def _visual_cloud(scene, p):
+    """The recorded visual cloud of ``task.cloud`` as (points (P, 3) m, normals (P, 3)), or None to
+    simulate the cameras."""
+    if not p["cloud"]:
+        return None
+    pts, nrm = read_point_cloud(p["cloud"])
+    if len(pts) == 0:
+        raise scene.error("task.cloud", "the visual point cloud is empty")
+    if nrm is None:
+        raise scene.error("task.cloud", "the cloud has fewer than 3 points: cannot estimate normals")
+    return pts, nrm
+
+
+def _ground_truth(ctx, p, prober, probed, x):
+    """What the propagation is scored against: (points (Q, 3) m, Eq. 1 values (Q,), a label)."""
     if prober is None:
         # the series model's noise-free Eq. 1 is known at every visual point: a dense ground truth
-        truth_points, truth, truth_kind = x, probed.truth, "dense ground truth"
-    else:
-        # no closed form with the contact solve: score on held-out probes at other cloud points
-        free = np.setdiff1d(np.arange(len(x)), probed.touch_index)
-        held = np.sort(ctx.child_rng("validation").choice(free, min(p["validation_probes"], len(free)),
-                                                          replace=False))
-        pm, vss = prober(x[held], probed.normals[held])
-        ok = np.isfinite(pm)                     # unreachable held-out probes score nothing
-        held, pm, vss = held[ok], pm[ok], vss[ok]
-        truth_points, truth_kind = x[held], f"{len(held)} held-out probes"
-        truth = compliance(pm, vss, x[held], direction=-probed.normals[held])
-    k = p["k_nearest"] or None
+        return x, probed.truth, "dense ground truth"
+    # no closed form with the contact solve: score on held-out probes at other cloud points
+    free = np.setdiff1d(np.arange(len(x)), probed.touch_index)
+    held = np.sort(ctx.child_rng("validation").choice(free, min(p["validation_probes"], len(free)),
+                                                      replace=False))
+    pm, vss = prober(x[held], probed.normals[held])
+    ok = np.isfinite(pm)                     # unreachable held-out probes score nothing
+    held, pm, vss = held[ok], pm[ok], vss[ok]
+    return x[held], compliance(pm, vss, x[held], direction=-probed.normals[held]), f"{len(held)} held-out probes"
 
+
+def _propagate(scene, p, x, v, c, truth_points, truth):
+    """Every propagation method fitted on the touches (v (T, 3) m, c (T,) or (T, C)) and predicted at the
+    cloud x (P, 3): ({method: (P,) or (P, C)}, metrics: time and error against the truth)."""
+    k = p["k_nearest"] or None
     methods = {"cluster": ClusterPropagation(), "smooth": SmoothPropagation(beta=p["beta"], k_nearest=k)}
     if p["gp"]:
         methods["gp"] = GPPropagation(radius=p["gp_radius"], voxel=p["gp_voxel"], random_state=scene.seed)
@@ -207,6 +198,66 @@ def run(scene, ctx) -> TaskResult:
         metrics[f"{name}_ms"] = (t_fit + t_pred) * 1e3
         metrics[f"{name}_mae"] = float(np.mean(np.abs(comp - truth)))
         metrics[f"{name}_error_rel_pct"] = 100.0 * metrics[f"{name}_mae"] / float(np.mean(truth))
+    return preds, metrics
+
+
+def _write_plys(ctx, p, x, normals, preds, n_touches) -> list[str]:
+    """The augmented clouds of the cluster and smooth propagations as PLY files; their names."""
+    files = []
+    rgb = {n: colour_map(y if y.ndim == 1 else y[:, 0], p["c_min"], p["c_max"], p["cmap"]) for n, y in preds.items()}
+    for name in ("cluster", "smooth"):
+        y = preds[name]
+        scalars = {"tactile_color": y if y.ndim == 1 else y[:, 0]}
+        for j, ch in enumerate(p["channels"][1:], start=1):
+            scalars[ch] = y[:, j]
+        write_ply(ctx.out / f"augmented_{name}.ply", x, normals=normals, rgb=rgb[name], scalars=scalars,
+                  comment=f"vtcore augmented point cloud, {p['object']}, {name} propagation, "
+                          f"{n_touches} touches\ncolour scale c_min={p['c_min']:g} c_max={p['c_max']:g} "
+                          f"counts/m, {p['cmap']}")
+        files.append(f"augmented_{name}.ply")
+    return files
+
+
+def _figures(p, x, v, c, preds, truth_points, truth) -> dict:
+    """Fig. 7 (the augmented clouds side by side) and Fig. 2 (touch by touch)."""
+    panels = {"smooth": preds["smooth"], "cluster-based": preds["cluster"]}
+    if "gp" in preds:
+        panels["GP"] = preds["gp"]
+    panels = {k2: (y if y.ndim == 1 else y[:, 0]) for k2, y in panels.items()}
+    if truth_points is x:
+        panels["ground truth"] = truth
+    fig = augmented_panels(x, panels, v, c_min=p["c_min"], c_max=p["c_max"], cmap=p["cmap"],
+                           title=f"{p['object']}: {len(v)} touches (red), dark = stiff")
+    figures = {"fig7_augmented": fig}
+    c_scalar = c if c.ndim == 1 else c[:, 0]
+    figures["fig2_touches"] = touch_sequence(x, v, c_scalar, beta=p["beta"], c_min=p["c_min"], c_max=p["c_max"],
+                                             cmap=p["cmap"], title=f"{p['object']}: touch by touch (Fig. 2)")
+    return figures
+
+
+def run(scene, ctx) -> TaskResult:
+    p = scene["task"]
+    if p["channels"][:1] != ["compliance"]:
+        raise scene.error("task.channels", "must start with \"compliance\"")
+    if p["c_max"] <= p["c_min"]:
+        raise scene.error("task.c_max", f"must be > c_min ({p['c_min']}), got {p['c_max']}")
+    obj = make_seed000_object(p["object"], p["stiffness_scale"])
+    probe = probe_model(p)
+    noise, _, _ = probe_noise(scene, ctx)
+    lo, hi = np.asarray(obj.mesh.bounds)
+    cams = two_cameras(target=tuple((lo + hi) / 2), depth_noise=p["depth_noise"])[:p["cameras"]]
+    rng = ctx.child_rng("augment")
+    cloud = _visual_cloud(scene, p)
+    prober = contact_prober(scene, ctx, obj) if p["probe"] == "contact" else None
+    # with recorded probes nothing is simulated but the cloud (one closed-form probe keeps the bookkeeping)
+    recorded = bool(p["probes"])
+    probed = probe_object(obj, 1 if recorded else p["touches"], probe, cameras=cams, n_points=p["points"], rng=rng,
+                          channels=tuple(p["channels"]), probe_fn=None if recorded else prober,
+                          cloud=cloud, noise=noise)
+    tactile = load_probes(p["probes"]) if p["probes"] else probed.tactile
+    x, v, c = probed.points, tactile.points, tactile.values
+    truth_points, truth, truth_kind = _ground_truth(ctx, p, prober, probed, x)
+    preds, metrics = _propagate(scene, p, x, v, c, truth_points, truth)
 
     c0 = c if c.ndim == 1 else c[:, 0]
     metrics = {
@@ -224,31 +275,8 @@ def run(scene, ctx) -> TaskResult:
         if tactile.displacement is not None else float("nan"),
         **metrics,
     }
-    files = []
-    rgb = {n: colour_map(y if y.ndim == 1 else y[:, 0], p["c_min"], p["c_max"], p["cmap"]) for n, y in preds.items()}
-    if p["ply"]:
-        for name in ("cluster", "smooth"):
-            y = preds[name]
-            scalars = {"tactile_color": y if y.ndim == 1 else y[:, 0]}
-            for j, ch in enumerate(p["channels"][1:], start=1):
-                scalars[ch] = y[:, j]
-            write_ply(ctx.out / f"augmented_{name}.ply", x, normals=probed.normals, rgb=rgb[name], scalars=scalars,
-                      comment=f"vtcore augmented point cloud, {p['object']}, {name} propagation, "
-                              f"{len(v)} touches\ncolour scale c_min={p['c_min']:g} c_max={p['c_max']:g} "
-                              f"counts/m, {p['cmap']}")
-            files.append(f"augmented_{name}.ply")
-    panels = {"smooth": preds["smooth"], "cluster-based": preds["cluster"]}
-    if "gp" in preds:
-        panels["GP"] = preds["gp"]
-    panels = {k2: (y if y.ndim == 1 else y[:, 0]) for k2, y in panels.items()}
-    if truth_points is x:
-        panels["ground truth"] = truth
-    fig = augmented_panels(x, panels, v, c_min=p["c_min"], c_max=p["c_max"], cmap=p["cmap"],
-                           title=f"{p['object']}: {len(v)} touches (red), dark = stiff")
-    figures = {"fig7_augmented": fig}
-    c_scalar = c if c.ndim == 1 else c[:, 0]
-    figures["fig2_touches"] = touch_sequence(x, v, c_scalar, beta=p["beta"], c_min=p["c_min"], c_max=p["c_max"],
-                                             cmap=p["cmap"], title=f"{p['object']}: touch by touch (Fig. 2)")
+    files = _write_plys(ctx, p, x, probed.normals, preds, len(v)) if p["ply"] else []
+    figures = _figures(p, x, v, c, preds, truth_points, truth)
     arrays = {"cloud_points": x, "cloud_normals": probed.normals, "contact_points": v, "contact_values": c,
               "truth_points": truth_points, "c_true": truth, **{f"c_{n}": y for n, y in preds.items()}}
     table = [f"## Propagation vs {truth_kind}", "",

@@ -110,10 +110,8 @@ def scan_objects(scene, ctx, names, p) -> list[D.ObjectScan]:
     return scans
 
 
-def run(scene, ctx) -> TaskResult:
-    from ...learn.pointnet import require_torch, resolve_device
-    from ...learn.train import TrainConfig
-
+def _checked_params(scene) -> dict:
+    """The task's parameters (``task.quick`` applied), checked against each other: errors name the key."""
     p = dict(scene["task"])
     if p["quick"]:
         p.update({k: min(p[k], v) for k, v in QUICK.items()})
@@ -130,6 +128,107 @@ def run(scene, ctx) -> TaskResult:
                 raise scene.error(f"task.{key}", f"G = {g} touches per cloud but {', '.join(few)} "
                                                  f"{'has' if len(few) == 1 else 'have'} fewer probes "
                                                  f"(probes_bottle / probes_other)")
+    return p
+
+
+def _epoch_logger(say, name, t0):
+    """A training ``progress`` callback that writes one line per epoch to the training log."""
+    def progress(epoch, epochs, row):
+        say(f"{name}: epoch {epoch}/{epochs} loss {row['train_loss']:.4f} "
+            f"train {row['train_accuracy']:.3f} val {row['val_accuracy']:.3f} ({time.perf_counter() - t0:.0f} s)")
+
+    return progress
+
+
+def _train_all(scene, versions, scans, subs, cfg, scale, p, say, t0):
+    """Train and test PointNet on every data set version; returns ({name: result}, metrics)."""
+    from ...learn.train import TrainConfig
+
+    results, metrics = {}, {}
+    for i, ds in enumerate(versions):
+        r = train_and_test(ds, scans, subs, TrainConfig(seed=scene.seed + i, **cfg), scale=scale, beta=p["beta"],
+                           progress=_epoch_logger(say, ds.name, t0))
+        results[ds.name] = r
+        say(f"{ds.name}: test accuracy {r.accuracy:.4f}, {r.seconds_train:.1f} s training")
+        metrics[f"accuracy_{ds.name}"] = r.accuracy
+        metrics[f"train_seconds_{ds.name}"] = r.seconds_train
+        metrics[f"train_cpu_seconds_{ds.name}"] = r.cpu_seconds_train
+        metrics[f"data_seconds_{ds.name}"] = r.seconds_data
+        metrics[f"infer_ms_per_cloud_{ds.name}"] = r.infer_ms
+        metrics[f"best_epoch_{ds.name}"] = r.best_epoch
+    return results, metrics
+
+
+def _outputs(results, versions, scans, subs, p, names):
+    """Figures (confusions, training curves) and arrays (confusions, curves, the scans, every data set's
+    clouds) of the trained versions."""
+    from ...learn.plots import confusion_figure, curves_figure
+
+    figures, objects = {}, tuple(names)
+    fig8 = {k: results[k].confusion for k in ("g0", f"cluster_g{max(p['touches'], default=0)}") if k in results}
+    if fig8:
+        figures["fig8_confusion"] = png_writer(confusion_figure, fig8, objects,
+                                               "Fig. 8: test-set confusion (rows: true object)")
+    if results:
+        figures["confusion_all"] = png_writer(confusion_figure, {k: r.confusion for k, r in results.items()},
+                                              objects)
+        figures["training_curves"] = png_writer(curves_figure, {k: r.curves for k, r in results.items()})
+    arrays = {f"confusion_{k}": r.confusion for k, r in results.items()}
+    arrays.update({f"curve_val_accuracy_{k}": np.asarray(r.curves["val_accuracy"]) for k, r in results.items()})
+    for o, s in enumerate(scans):
+        arrays[f"visual_points_{s.name}"] = s.points          # V_o: with the indices below, every cloud
+        arrays[f"probe_points_{s.name}"] = s.touch_points
+        arrays[f"probe_values_{s.name}"] = s.touch_values
+        arrays[f"subsamples_{s.name}"] = subs[o]
+    for ds in versions:
+        arrays[f"dataset_{ds.name}_labels"] = ds.labels
+        arrays[f"dataset_{ds.name}_subsample"] = ds.subsample
+        arrays[f"dataset_{ds.name}_touches"] = ds.touches
+        arrays[f"dataset_{ds.name}_split"] = ds.split
+    return figures, arrays
+
+
+def _active_part(scene, scans, subs, cfg, scale, p, say, t0):
+    """Active (farthest-point, coverage) against random touch selection with networks trained on mixed
+    G; returns (metrics, arrays, figure, report section)."""
+    from ...learn.plots import active_figure
+    from ...learn.train import TrainConfig
+
+    t1 = time.perf_counter()
+    models, metrics, arrays = {}, {}, {}
+    for j, prop in enumerate(p["active_propagations"]):
+        model, acc_mixed, secs = train_mixed(scans, subs, p["active_touches"], prop,
+                                             TrainConfig(seed=scene.seed + 100 + j, **cfg),
+                                             per_object=p["per_object"], seed=scene.seed, scale=scale,
+                                             beta=p["beta"], progress=_epoch_logger(say, f"active_{prop}", t0))
+        metrics[f"active_network_accuracy_{prop}"] = acc_mixed
+        metrics[f"active_network_train_seconds_{prop}"] = secs
+        models.update({(prop, g): model for g in p["active_touches"]})
+    av = active_vs_random(models, scans, subs, seeds=p["active_seeds"], per_object=p["active_clouds"],
+                          seed=scene.seed, scale=scale, beta=p["beta"])
+    metrics["active_seconds"] = time.perf_counter() - t1
+    for (prop, policy), (gs, a) in av["accuracy"].items():
+        for gi, g in enumerate(gs):
+            metrics[f"active_accuracy_{prop}_{policy}_g{g}"] = float(np.mean(a[:, gi]))
+            metrics[f"active_accuracy_std_{prop}_{policy}_g{g}"] = float(np.std(a[:, gi]))
+        metrics[f"active_touches_to_95_{prop}_{policy}"] = touches_to_reach(gs, a)
+        arrays[f"active_accuracy_{prop}_{policy}"] = a
+    for (prop, policy), (gs, e) in av["map_error"].items():
+        for gi, g in enumerate(gs):
+            metrics[f"active_map_error_{prop}_{policy}_g{g}"] = float(np.nanmean(e[:, gi]))
+        arrays[f"active_map_error_{prop}_{policy}"] = e
+    acc = {f"{prop} {pol}": v for (prop, pol), v in av["accuracy"].items()}
+    err = {f"{prop} {pol}": v for (prop, pol), v in av["map_error"].items()}
+    figure = png_writer(active_figure, acc, err,
+                        f"active (farthest, coverage) vs random touches, {p['active_seeds']} seeds")
+    return metrics, arrays, figure, _active_table(av, p)
+
+
+def run(scene, ctx) -> TaskResult:
+    from ...learn.pointnet import require_torch, resolve_device
+
+    p = _checked_params(scene)
+    names = list(p["objects"])
     require_torch()                                   # before the scans: a missing extra fails in a second
     try:
         device = resolve_device(p["device"])          # ... and so does a GPU asked for and not there
@@ -154,86 +253,19 @@ def run(scene, ctx) -> TaskResult:
                feature_transform=p["feature_transform"], threads=p["threads"] or None,
                recalibrate_bn=p["recalibrate_bn"], device=device)
     say(f"training on {device} (task.device = {p['device']})")
-    results, metrics = {}, {}
-    for i, ds in enumerate(versions):
-        def progress(epoch, epochs, row, name=ds.name):
-            say(f"{name}: epoch {epoch}/{epochs} loss {row['train_loss']:.4f} "
-                f"train {row['train_accuracy']:.3f} val {row['val_accuracy']:.3f} ({time.perf_counter() - t0:.0f} s)")
-
-        r = train_and_test(ds, scans, subs, TrainConfig(seed=scene.seed + i, **cfg), scale=scale, beta=p["beta"],
-                           progress=progress)
-        results[ds.name] = r
-        say(f"{ds.name}: test accuracy {r.accuracy:.4f}, {r.seconds_train:.1f} s training")
-        metrics[f"accuracy_{ds.name}"] = r.accuracy
-        metrics[f"train_seconds_{ds.name}"] = r.seconds_train
-        metrics[f"train_cpu_seconds_{ds.name}"] = r.cpu_seconds_train
-        metrics[f"data_seconds_{ds.name}"] = r.seconds_data
-        metrics[f"infer_ms_per_cloud_{ds.name}"] = r.infer_ms
-        metrics[f"best_epoch_{ds.name}"] = r.best_epoch
+    results, metrics = _train_all(scene, versions, scans, subs, cfg, scale, p, say, t0)
     metrics["scan_seconds"] = t_scan
     metrics["train_on_cuda"] = int(device.startswith("cuda"))
     metrics.update(scan_metrics(scans, p))
     metrics["clouds_per_object"] = int(p["per_object"])
     metrics["epochs"] = int(p["epochs"])
-
-    figures, sections = {}, [_table(results, versions, p)]
-    objects = tuple(names)
-    from ...learn.plots import active_figure, confusion_figure, curves_figure
-
-    fig8 = {k: results[k].confusion for k in ("g0", f"cluster_g{max(p['touches'], default=0)}") if k in results}
-    if fig8:
-        figures["fig8_confusion"] = png_writer(confusion_figure, fig8, objects,
-                                               "Fig. 8: test-set confusion (rows: true object)")
-    if results:
-        figures["confusion_all"] = png_writer(confusion_figure, {k: r.confusion for k, r in results.items()},
-                                              objects)
-        figures["training_curves"] = png_writer(curves_figure, {k: r.curves for k, r in results.items()})
-    arrays = {f"confusion_{k}": r.confusion for k, r in results.items()}
-    arrays.update({f"curve_val_accuracy_{k}": np.asarray(r.curves["val_accuracy"]) for k, r in results.items()})
-    for o, s in enumerate(scans):
-        arrays[f"visual_points_{s.name}"] = s.points          # V_o: with the indices below, every cloud
-        arrays[f"probe_points_{s.name}"] = s.touch_points
-        arrays[f"probe_values_{s.name}"] = s.touch_values
-        arrays[f"subsamples_{s.name}"] = subs[o]
-    for ds in versions:
-        arrays[f"dataset_{ds.name}_labels"] = ds.labels
-        arrays[f"dataset_{ds.name}_subsample"] = ds.subsample
-        arrays[f"dataset_{ds.name}_touches"] = ds.touches
-        arrays[f"dataset_{ds.name}_split"] = ds.split
-
+    figures, arrays = _outputs(results, versions, scans, subs, p, names)
+    sections = [_table(results, versions, p)]
     if p["active"]:
-        t1 = time.perf_counter()
-        models = {}
-        for j, prop in enumerate(p["active_propagations"]):
-            def progress(epoch, epochs, row, name=f"active_{prop}"):
-                say(f"{name}: epoch {epoch}/{epochs} loss {row['train_loss']:.4f} "
-                    f"train {row['train_accuracy']:.3f} val {row['val_accuracy']:.3f} ({time.perf_counter() - t0:.0f} s)")
-
-            model, acc_mixed, secs = train_mixed(scans, subs, p["active_touches"], prop,
-                                                 TrainConfig(seed=scene.seed + 100 + j, **cfg),
-                                                 per_object=p["per_object"], seed=scene.seed, scale=scale,
-                                                 beta=p["beta"], progress=progress)
-            metrics[f"active_network_accuracy_{prop}"] = acc_mixed
-            metrics[f"active_network_train_seconds_{prop}"] = secs
-            models.update({(prop, g): model for g in p["active_touches"]})
-        av = active_vs_random(models, scans, subs, seeds=p["active_seeds"], per_object=p["active_clouds"],
-                              seed=scene.seed, scale=scale, beta=p["beta"])
-        metrics["active_seconds"] = time.perf_counter() - t1
-        for (prop, policy), (gs, a) in av["accuracy"].items():
-            for gi, g in enumerate(gs):
-                metrics[f"active_accuracy_{prop}_{policy}_g{g}"] = float(np.mean(a[:, gi]))
-                metrics[f"active_accuracy_std_{prop}_{policy}_g{g}"] = float(np.std(a[:, gi]))
-            metrics[f"active_touches_to_95_{prop}_{policy}"] = touches_to_reach(gs, a)
-            arrays[f"active_accuracy_{prop}_{policy}"] = a
-        for (prop, policy), (gs, e) in av["map_error"].items():
-            for gi, g in enumerate(gs):
-                metrics[f"active_map_error_{prop}_{policy}_g{g}"] = float(np.nanmean(e[:, gi]))
-            arrays[f"active_map_error_{prop}_{policy}"] = e
-        acc = {f"{prop} {pol}": v for (prop, pol), v in av["accuracy"].items()}
-        err = {f"{prop} {pol}": v for (prop, pol), v in av["map_error"].items()}
-        figures["active_vs_random"] = png_writer(active_figure, acc, err,
-                                                 f"active (farthest, coverage) vs random touches, {p['active_seeds']} seeds")
-        sections.append(_active_table(av, p))
+        am, aa, figures["active_vs_random"], section = _active_part(scene, scans, subs, cfg, scale, p, say, t0)
+        metrics.update(am)
+        arrays.update(aa)
+        sections.append(section)
     log.close()
     manifest = D.manifest(versions, scans, scale=scale, points=p["cloud_points"])
     from ..._io import write_json

@@ -116,19 +116,11 @@ def _detectors(p, mesh, layout):
     return out
 
 
-def run(scene, ctx) -> TaskResult:
-    from ...control import AnalyticContact, ContourFollower, summarize
-    from ...control.contour import (PressContact, believed_skin, random_starts, seed002_object,
-                                    taxel_position_error)
-    from ...layout import skin_mesh
-    from ..effects.contact import spread_options
-    from ..sections.layer import build_layer, layer_options
+def _skin(ctx, p):
+    """The skin as it is (``layout``), as the robot believes it (``belief``: with ``task.position_error``,
+    seed 002's ~1 mm taxel estimate) and the control frame (4, 4) taken from the belief."""
+    from ...control.contour import believed_skin, taxel_position_error
 
-    p = scene["task"]
-    if p["object"] == "mug" and not p["mug_inner_diameter"] < p["mug_outer_diameter"]:
-        raise scene.error("task.mug_inner_diameter", "must be smaller than mug_outer_diameter")
-    if not p["methods"]:
-        raise scene.error("task.methods", "list at least one of mesh, image, subtaxel")
     _, layout, frame = control_skin(p["end_effector"])
     belief = layout
     if p["position_error"] > 0:
@@ -138,13 +130,16 @@ def run(scene, ctx) -> TaskResult:
                                    p["position_error_model"])
         layout, belief, believed_frame = believed_skin(layout, err)
         frame = frame @ believed_frame
-    mesh = skin_mesh(belief)
-    detectors = _detectors(p, mesh, belief)
-    keys = ("ruler_length", "ruler_thickness", "ruler_height", "mug_outer_diameter", "mug_inner_diameter",
-            "mug_height", "reference_radius")
-    contour, spec, obj_world = seed002_object(p["object"], **{k: p[k] for k in keys})
-    starts = random_starts(contour, p["runs"], ctx.child_rng("contour-starts"), offset=p["start_offset"],
-                           heading=p["start_heading"], step=p["step"], margin=p["ruler_margin"])
+    return layout, belief, frame
+
+
+def _contact_model(scene, ctx, p, layout, contour, spec, obj_world):
+    """The scene's layer, the tap (``PressContact`` through the layer, or the analytic contact) and how
+    many taxels can feel a tap."""
+    from ...control import AnalyticContact
+    from ...control.contour import PressContact
+    from ..effects.contact import spread_options
+    from ..sections.layer import build_layer, layer_options
 
     layer = build_layer(scene)  # the scene's [layer] table, the same for every task
     if p["contact"] == "press":
@@ -155,13 +150,15 @@ def run(scene, ctx) -> TaskResult:
         sense = PressContact(layout, make_object(spec[0], **spec[1]), obj_world, layer, force=p["force"],
                              lift=p["lift"], active_depth=p["active_depth"],
                              **{**layer_options(scene), **spread_options(ctx.pipeline)})
-        n_active = len(sense.active)
-    else:
-        sense = AnalyticContact(layout.positions, contour, force=p["force"], depth=layer.thickness)
-        n_active = len(layout)
+        return layer, sense, len(sense.active)
+    return layer, AnalyticContact(layout.positions, contour, force=p["force"], depth=layer.thickness), len(layout)
 
+
+def _sensing(ctx, p, sense):
+    """``sensed(world_pose) -> (N,) or None``: the taxel pressure of one tap after the listed sensor
+    effects (what the detectors see); it keeps each tap's force (N) and raw pressure (N,) Pa in its
+    ``force`` and ``raw`` lists, which the caller empties before each run."""
     def sensed(world_pose):
-        """The taxel pressure after the listed sensor effects (what the detectors see)."""
         q = sense(world_pose)
         if q is None:
             return None
@@ -169,50 +166,83 @@ def run(scene, ctx) -> TaskResult:
         sensed.raw.append(np.asarray(q, dtype=np.float64))
         return np.asarray(ctx.pipeline.apply("sensor", np.asarray(q, float)[None, :].copy(), ctx))[0]
 
-    if p["object"] == "ruler":
-        stop = contour.explored(p["ruler_margin"])
-    else:
-        stop = contour.explored(p["explore_angle"])
+    return sensed
+
+
+def _follow(ctx, p, m, det, sense, sensed, contour, starts, stop, n_taxels):
+    """Every run of method ``m`` from ``starts``: (runs, distances per run (m), metrics, arrays)."""
+    from ...control import ContourFollower, summarize
+
+    follower = ContourFollower(det, step=p["step"], lift=p["lift"], max_taps=p["max_taps"])
+    runs, dists = [], []
+    t0 = time.perf_counter()
+    saturated0 = getattr(sense, "saturated", 0)
+    for start in ctx.progress(starts, desc=f"contour {m}", total=len(starts)):
+        sensed.raw, sensed.force = [], []
+        r = follower.run(sensed, start, stop)
+        r.extra["raw"] = np.array(sensed.raw).reshape(-1, n_taxels)[: len(r)]
+        r.extra["force"] = np.array(sensed.force, dtype=np.float64)[: len(r)]
+        runs.append(r)
+        dists.append(contour.distances(r.x_ref))
+    s = summarize(dists)
+    n_frames = sum(len(r) for r in runs)
+    metrics = {
+        f"{m}_d_mean_mm": s["d_mean"] * 1e3, f"{m}_d_std_mm": s["d_std"] * 1e3,
+        f"{m}_d_max_mm": s["d_max"] * 1e3, f"{m}_taps": n_frames,
+        f"{m}_runs_explored": sum(r.stop_reason == "explored" for r in runs),
+        f"{m}_detect_ms": 1e3 * sum(r.seconds_detect for r in runs) / max(n_frames, 1),
+        f"{m}_seconds": time.perf_counter() - t0,
+        f"{m}_taps_below_force": getattr(sense, "saturated", 0) - saturated0,
+    }
+    arrays = {f"{m}_x_ref": np.concatenate([r.x_ref for r in runs]),
+              f"{m}_run": np.concatenate([np.full(len(r), i) for i, r in enumerate(runs)]),
+              f"{m}_theta": np.concatenate([r.theta for r in runs]),
+              f"{m}_distance_mm": np.concatenate([np.r_[np.nan, d] * 1e3 for d in dists])}
+    return runs, dists, metrics, arrays
+
+
+def _tap_arrays(runs_by_method) -> dict:
+    """The standard arrays: the taps of the mesh filter's runs (the method whose edges are taxels)."""
+    first = "mesh" if "mesh" in runs_by_method else next(iter(runs_by_method))
+    fr = runs_by_method[first][0]
+    return {"pressure": np.concatenate([r.extra["raw"] for r in fr]),
+            "frames": np.concatenate([r.pressure for r in fr]),
+            "edge": np.concatenate([r.edge for r in fr]),
+            "force": np.concatenate([r.extra["force"] for r in fr]),
+            "tap_run": np.concatenate([np.full(len(r), i) for i, r in enumerate(fr)])}
+
+
+def run(scene, ctx) -> TaskResult:
+    from ...control.contour import random_starts, seed002_object
+    from ...layout import skin_mesh
+
+    p = scene["task"]
+    if p["object"] == "mug" and not p["mug_inner_diameter"] < p["mug_outer_diameter"]:
+        raise scene.error("task.mug_inner_diameter", "must be smaller than mug_outer_diameter")
+    if not p["methods"]:
+        raise scene.error("task.methods", "list at least one of mesh, image, subtaxel")
+    layout, belief, frame = _skin(ctx, p)
+    mesh = skin_mesh(belief)
+    detectors = _detectors(p, mesh, belief)
+    keys = ("ruler_length", "ruler_thickness", "ruler_height", "mug_outer_diameter", "mug_inner_diameter",
+            "mug_height", "reference_radius")
+    contour, spec, obj_world = seed002_object(p["object"], **{k: p[k] for k in keys})
+    starts = random_starts(contour, p["runs"], ctx.child_rng("contour-starts"), offset=p["start_offset"],
+                           heading=p["start_heading"], step=p["step"], margin=p["ruler_margin"])
+    layer, sense, n_active = _contact_model(scene, ctx, p, layout, contour, spec, obj_world)
+    sensed = _sensing(ctx, p, sense)
+    stop = contour.explored(p["ruler_margin"] if p["object"] == "ruler" else p["explore_angle"])
 
     metrics = {"taxels": len(layout), "force_n": p["force"], "step_mm": p["step"] * 1e3,
                "active_taxels": n_active}
     arrays = {"positions": layout.positions, "normals": layout.normals, "control_frame": frame}
     runs_by_method = {}
     for m, det in detectors.items():
-        follower = ContourFollower(det, step=p["step"], lift=p["lift"], max_taps=p["max_taps"])
-        runs, dists = [], []
-        t0 = time.perf_counter()
-        saturated0 = getattr(sense, "saturated", 0)
-        for start in ctx.progress(starts, desc=f"contour {m}", total=len(starts)):
-            sensed.raw, sensed.force = [], []
-            r = follower.run(sensed, start, stop)
-            r.extra["raw"] = np.array(sensed.raw).reshape(-1, len(layout))[: len(r)]
-            r.extra["force"] = np.array(sensed.force, dtype=np.float64)[: len(r)]
-            runs.append(r)
-            dists.append(contour.distances(r.x_ref))
-        s = summarize(dists)
-        n_frames = sum(len(r) for r in runs)
-        metrics.update({
-            f"{m}_d_mean_mm": s["d_mean"] * 1e3, f"{m}_d_std_mm": s["d_std"] * 1e3,
-            f"{m}_d_max_mm": s["d_max"] * 1e3, f"{m}_taps": n_frames,
-            f"{m}_runs_explored": sum(r.stop_reason == "explored" for r in runs),
-            f"{m}_detect_ms": 1e3 * sum(r.seconds_detect for r in runs) / max(n_frames, 1),
-            f"{m}_seconds": time.perf_counter() - t0,
-            f"{m}_taps_below_force": getattr(sense, "saturated", 0) - saturated0,
-        })
+        runs, dists, mm, ma = _follow(ctx, p, m, det, sense, sensed, contour, starts, stop, len(layout))
+        metrics.update(mm)
         runs_by_method[m] = (runs, dists)
-        arrays[f"{m}_x_ref"] = np.concatenate([r.x_ref for r in runs])
-        arrays[f"{m}_run"] = np.concatenate([np.full(len(r), i) for i, r in enumerate(runs)])
-        arrays[f"{m}_theta"] = np.concatenate([r.theta for r in runs])
-        arrays[f"{m}_distance_mm"] = np.concatenate([np.r_[np.nan, d] * 1e3 for d in dists])
-    # the standard arrays hold the taps of the mesh filter's runs (the method whose edges are taxels)
-    first = "mesh" if "mesh" in runs_by_method else next(iter(runs_by_method))
-    fr = runs_by_method[first][0]
-    arrays["pressure"] = np.concatenate([r.extra["raw"] for r in fr])
-    arrays["frames"] = np.concatenate([r.pressure for r in fr])
-    arrays["edge"] = np.concatenate([r.edge for r in fr])
-    arrays["force"] = np.concatenate([r.extra["force"] for r in fr])
-    arrays["tap_run"] = np.concatenate([np.full(len(r), i) for i, r in enumerate(fr)])
+        arrays.update(ma)
+    arrays.update(_tap_arrays(runs_by_method))
 
     # drawn only when the runner writes plots (output.plots), never built and discarded
     figures = {"path": png_writer(_path_figure, scene.name, p, contour, runs_by_method),

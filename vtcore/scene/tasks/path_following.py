@@ -80,8 +80,8 @@ PARAMS = Section({
 })
 
 
-def run(scene, ctx) -> TaskResult:
-    p = scene["task"]
+def _check_loop(scene, p) -> None:
+    """The path's step count and the position loop's stability, checked before any probing."""
     # before the probing: the speed is to blame if the path is too long even at the default control period
     slowest = max(p["dt"], PARAMS.fields["dt"].default)
     check_steps(p["length"], p["speed"], slowest, key="task.speed", file=scene.path,
@@ -90,6 +90,69 @@ def run(scene, ctx) -> TaskResult:
     unstable = position_loop_problem(p["omega"], p["zeta"], p["dt"])
     if unstable:
         raise scene.error("task.omega", unstable.replace("omega, zeta or dt", "task.omega, task.zeta or task.dt"))
+
+
+def _path_line(scene, p):
+    """The planned straight path down the bottle's side: (start (3,) m, end (3,) m, outward radial (3,))."""
+    z0, z1 = p["start_height"], p["start_height"] - p["length"]
+    if z1 < 0 or z0 > BOTTLE["body_top"] + 0.02:
+        raise scene.error("task.start_height", f"the path from z={z0} m down {p['length']} m must stay on the "
+                          f"bottle's side wall (0 .. {BOTTLE['body_top'] + 0.02:.3f} m)")
+    az = np.radians(p["azimuth"])
+    radial = np.array([np.cos(az), np.sin(az), 0.0])
+    r_line = BOTTLE["radius"]
+    return r_line * radial + [0, 0, z0], r_line * radial + [0, 0, z1], radial
+
+
+def _response_table(scene, ctx, p, obj, prober, start, end, radial):
+    """With the contact probe, the skin's response along the path from the contact solve
+    (``contact_response_table``); None with the series probe."""
+    if prober is None:
+        return None
+    comp = ctx.pipeline.get("object_compliance")
+    stiff = (lambda r: comp.stiffness(obj.stiffness, obj.mesh, r)) if comp is not None else None
+    opts = layer_options(scene)
+    return contact_response_table(obj.mesh, start, end, radial, build_layer(scene), stiffness=stiff,
+                                  counts=prober.sensor or (lambda pr: prober.counts_per_pa * pr),
+                                  stations=stations(p, p["start_height"], prober.layout),
+                                  spread=ctx.pipeline.has("soft_layer"), **opts)
+
+
+def _path_metrics(p, obj, runs, sigma, prober, probed) -> dict:
+    """The loop's noise, the groove, each propagation's run metrics and the probing's bookkeeping."""
+    z0 = p["start_height"]
+    metrics = {"loop_noise_taxel_counts": float(sigma), "loop_noise_mean_counts": float(sigma / np.sqrt(10.0)),
+               "groove_depth_mm": 1e3 * obj.meta.get("groove_depth", BOTTLE["groove_depth"]),
+               "groove_width_mm": 1e3 * obj.meta.get("groove_width", BOTTLE["groove_width"]),
+               "groove_at_mm": 1e3 * (z0 - BOTTLE["groove_z"])}
+    for name, r in runs.items():
+        metrics.update({f"{name}_{k}": val for k, val in run_metrics(r, p).items()})
+    metrics["duration_s"] = float(runs["cluster"].time[-1])
+    if prober is not None:
+        metrics["probes_unreachable"] = len(prober.failures)
+    metrics["probes_repeated"] = probed.meta["probes_repeated"]
+    metrics["probes_rejected"] = probed.meta["probes_rejected"]
+    metrics["path_length_m"] = p["length"]
+    return metrics
+
+
+def _path_arrays(runs) -> dict:
+    """Time (T,) s and path position (T,) m, then per propagation its set-point, responses, colour and
+    contact-loss intervals."""
+    arrays = {"timestamps": runs["cluster"].time, "path_s": runs["cluster"].s}
+    for name, r in runs.items():
+        arrays[f"{name}_setpoint"] = r.setpoint
+        arrays[f"{name}_response"] = r.response
+        arrays[f"{name}_response_true"] = r.response_true
+        arrays[f"{name}_response_expected"] = r.response_expected
+        arrays[f"{name}_colour"] = r.colour
+        arrays[f"{name}_contact_loss_intervals"] = np.asarray(r.contact_loss_intervals(), float).reshape(-1, 2)
+    return arrays
+
+
+def run(scene, ctx) -> TaskResult:
+    p = scene["task"]
+    _check_loop(scene, p)
     groove = {k: p[k] for k in ("groove_depth", "groove_width") if p[k] is not None}
     try:
         obj = make_seed000_object(p["object"], **groove)
@@ -104,31 +167,16 @@ def run(scene, ctx) -> TaskResult:
                           n_points=p["points"], rng=ctx.child_rng("augment"), probe_fn=prober,
                           noise=probe_noise(scene, ctx)[0])
     v, c = probed.tactile.points, probed.tactile.values
-    z0, z1 = p["start_height"], p["start_height"] - p["length"]
-    if z1 < 0 or z0 > BOTTLE["body_top"] + 0.02:
-        raise scene.error("task.start_height", f"the path from z={z0} m down {p['length']} m must stay on the "
-                          f"bottle's side wall (0 .. {BOTTLE['body_top'] + 0.02:.3f} m)")
-    az = np.radians(p["azimuth"])
-    radial = np.array([np.cos(az), np.sin(az), 0.0])
-    r_line = BOTTLE["radius"]
-    start, end = r_line * radial + [0, 0, z0], r_line * radial + [0, 0, z1]
+    start, end, radial = _path_line(scene, p)
     sigma, noise_source = loop_noise(scene, ctx, p)
 
     def plant_c(x):
         return probe.true_c(obj.stiffness(x))
 
     def gap(x):                                  # the real surface below the straight planned path
-        return np.clip(r_line - bottle_radius_at(x[:, 2], **groove), 0.0, None)
+        return np.clip(BOTTLE["radius"] - bottle_radius_at(x[:, 2], **groove), 0.0, None)
 
-    table = None
-    if prober is not None:
-        comp = ctx.pipeline.get("object_compliance")
-        stiff = (lambda r: comp.stiffness(obj.stiffness, obj.mesh, r)) if comp is not None else None
-        opts = layer_options(scene)
-        table = contact_response_table(obj.mesh, start, end, radial, build_layer(scene), stiffness=stiff,
-                                       counts=prober.sensor or (lambda pr: prober.counts_per_pa * pr),
-                                       stations=stations(p, z0, prober.layout),
-                                       spread=ctx.pipeline.has("soft_layer"), **opts)
+    table = _response_table(scene, ctx, p, obj, prober, start, end, radial)
     # per taxel with the contact table (clipped at 0 like the real read-out); on the mean otherwise
     per_taxel = table is not None
     ctl = ForceController(ki=p["ki"], omega=p["omega"], zeta=p["zeta"], dt=p["dt"],
@@ -142,29 +190,9 @@ def run(scene, ctx) -> TaskResult:
         plant = {"response": table} if table is not None else {"plant_c": plant_c, "gap": gap}
         runs[name] = follow_path(start, end, est.predict, speed=p["speed"], p_max=p["p_max"], c_max=c_max,
                                  controller=ctl, rng=ctx.child_rng(f"path_{name}"), **plant)
-
-    metrics = {"loop_noise_taxel_counts": float(sigma), "loop_noise_mean_counts": float(sigma / np.sqrt(10.0)),
-               "groove_depth_mm": 1e3 * obj.meta.get("groove_depth", BOTTLE["groove_depth"]),
-               "groove_width_mm": 1e3 * obj.meta.get("groove_width", BOTTLE["groove_width"]),
-               "groove_at_mm": 1e3 * (z0 - BOTTLE["groove_z"])}
-    for name, r in runs.items():
-        metrics.update({f"{name}_{k}": val for k, val in run_metrics(r, p).items()})
-    metrics["duration_s"] = float(runs["cluster"].time[-1])
-    if prober is not None:
-        metrics["probes_unreachable"] = len(prober.failures)
-    metrics["probes_repeated"] = probed.meta["probes_repeated"]
-    metrics["probes_rejected"] = probed.meta["probes_rejected"]
-    metrics["path_length_m"] = p["length"]
+    metrics = _path_metrics(p, obj, runs, sigma, prober, probed)
     fig = _figure(runs, probed, preds, start, end, radial, p)
-    arrays = {"timestamps": runs["cluster"].time, "path_s": runs["cluster"].s}
-    for name, r in runs.items():
-        arrays[f"{name}_setpoint"] = r.setpoint
-        arrays[f"{name}_response"] = r.response
-        arrays[f"{name}_response_true"] = r.response_true
-        arrays[f"{name}_response_expected"] = r.response_expected
-        arrays[f"{name}_colour"] = r.colour
-        arrays[f"{name}_contact_loss_intervals"] = np.asarray(r.contact_loss_intervals(), float).reshape(-1, 2)
-    return TaskResult(metrics=metrics, arrays=arrays, figures={"fig9_path_following": fig},
+    return TaskResult(metrics=metrics, arrays=_path_arrays(runs), figures={"fig9_path_following": fig},
                       sections=[_table(runs, metrics, p, noise_source)])
 
 

@@ -206,24 +206,12 @@ def _resolution_notes(area, spacing, mesh, k, kind) -> list[str]:
     return [f"**Warning:** {line}." for line in lines]
 
 
-def run(scene, ctx) -> TaskResult:
-    if not scene["objects"]:
-        raise scene.error("objects", "task 'press' needs at least one [[objects]] table")
-    task = scene["task"]
-    k = task["object"]
-    if k >= len(scene["objects"]):
-        raise scene.error("task.object", f"there are only {len(scene['objects'])} [[objects]] tables")
-    layout = build_layout(scene)
-    layer = build_layer(scene)
-    opts = layer_options(scene)
-    obj = scene["objects"][k]
-    mesh = object_mesh(scene, k)
-    comp_eff = ctx.pipeline.get("object_compliance")
-    compliance = object_compliance(scene, k, mesh) if comp_eff is not None else None
-    direction = task["direction"]
+def _simulate(scene, ctx, layout, layer, opts, mesh, k):
+    """Press the scene's object ``k``: along its keyframes (trajectory mode) or once at the task's
+    force or target response (hold mode). Returns (PressResults, timestamps (T,) s, mode)."""
+    task, obj = scene["task"], scene["objects"][k]
     rate = task["rate"]
-    kw = dict(opts, direction=direction, spread=False)
-
+    kw = dict(opts, direction=task["direction"], spread=False)
     if obj["keyframes"]:
         t_end = obj["keyframes"][-1]["t"]
         with np.errstate(over="ignore"):
@@ -232,26 +220,25 @@ def run(scene, ctx) -> TaskResult:
                      f"{n_frames:.3g} contact frames ({t_end:g} s of keyframes at {rate:g} Hz)")
         times = np.arange(int(n_frames)) / rate
         poses = keyframe_poses(scene, k, times, mesh)
-        results = press_sequence(layout, mesh, poses, layer, **kw)
-        mode = "trajectory"
+        return press_sequence(layout, mesh, poses, layer, **kw), times, "trajectory"
+    pose = object_pose(scene, k, mesh)
+    if task["target_response"] is not None:
+        gain = ctx.pipeline.get("gain")
+        to_counts = gain.counts if gain is not None else (lambda p: np.asarray(p, float))
+        spread_kw = dict(kw, spread=ctx.pipeline.has("soft_layer"))
+        pr = probe(layout, mesh, pose, layer, target=task["target_response"], sensor=to_counts, **spread_kw)
+        res = press(layout, mesh, pose, layer, force=pr.force, **kw)
     else:
-        pose = object_pose(scene, k, mesh)
-        if task["target_response"] is not None:
-            gain = ctx.pipeline.get("gain")
-            to_counts = gain.counts if gain is not None else (lambda p: np.asarray(p, float))
-            spread_kw = dict(kw, spread=ctx.pipeline.has("soft_layer"))
-            pr = probe(layout, mesh, pose, layer, target=task["target_response"], sensor=to_counts, **spread_kw)
-            res = press(layout, mesh, pose, layer, force=pr.force, **kw)
-        else:
-            res = press(layout, mesh, pose, layer, force=task["force"], **kw)
-        results = [res]
-        times = np.arange(task["readings"]) / rate
-        mode = "hold"
+        res = press(layout, mesh, pose, layer, force=task["force"], **kw)
+    return [res], np.arange(task["readings"]) / rate, "hold"
 
-    state = {"layout": layout, "layer": layer, "results": results, "mesh": mesh, "compliance": compliance,
-             "pressure": np.array([r.surface_pressure for r in results]),
-             "samples_per_taxel": opts["samples_per_taxel"]}
-    state = ctx.pipeline.apply("contact", state, ctx)
+
+def _read_skin(ctx, state, results, times, mode) -> dict:
+    """The per-frame series after the contact stage's ``state``: the sensor stage, then the transport
+    stage, then the sampling clock's pick. Returns ``pressure`` (T, N) Pa, ``surface_pressure`` (T, N)
+    Pa, ``force`` (T,) N, ``contact_area`` (T,) m^2, ``indentation`` (T,) m, ``displacement`` (T,) m or
+    None, ``per_last`` (N,) Pa (the last simulated frame, which the grid fields belong to),
+    ``frames`` (T', N) and ``timestamps`` (T',) s."""
     per = np.asarray(state["pressure"], float)
     surf = np.array([r.surface_pressure for r in results])
     force = np.array([r.force for r in results])
@@ -277,18 +264,23 @@ def run(scene, ctx) -> TaskResult:
         idx = sensed["sample_index"]
         per, surf, force, area, indent = per[idx], surf[idx], force[idx], area[idx], indent[idx]
         disp = disp[idx] if disp is not None else None
+    return {"pressure": per, "surface_pressure": surf, "force": force, "contact_area": area,
+            "indentation": indent, "displacement": disp, "per_last": per_last, "frames": frames,
+            "timestamps": stamps}
 
-    last = results[-1]
-    fld = last.field
-    mean = frames.mean(axis=0) if len(frames) else np.zeros(len(layout))
-    unit = "counts" if ctx.pipeline.stage("sensor") else "Pa"
+
+def _metrics(layout, layer, results, ser, mean) -> dict:
+    """The press task's metrics from the series ``ser`` (:func:`_read_skin`) and the mean response (N,)."""
+    per, force, area, indent, disp = (ser["pressure"], ser["force"], ser["contact_area"], ser["indentation"],
+                                      ser["displacement"])
+    fld = results[-1].field
     pmax = float(per.max()) if per.size else 0.0
     metrics = {
         "force_n": float(force[-1]) if len(force) else 0.0,
         "indentation_mm": float(indent[-1]) * 1e3 if len(indent) else 0.0,
         "contact_area_mm2": float(area[-1]) * 1e6 if len(area) else 0.0,
         "taxels": len(layout),
-        "frames": int(len(frames)),
+        "frames": int(len(ser["frames"])),
         "active_taxels": int((per[-1] > 1e-3 * max(pmax, EPS)).sum()) if len(per) else 0,
         "pressure_max_pa": pmax,
         "surface_pressure_max_pa": float(fld.pressure.max()),
@@ -305,7 +297,59 @@ def run(scene, ctx) -> TaskResult:
         metrics["displacement_mm"] = float(disp[-1]) * 1e3
         if metrics["displacement_mm"] > 0:
             metrics["compliance_attribute"] = float(mean.mean() / disp[-1])  # seed 000 Eq. 1
-    cut = profile_cut(fld, layout, per_last, angle_deg=task["profile_angle"],
+    return metrics
+
+
+def _arrays(layout, ser, fld, cut) -> dict:
+    """The press task's arrays (see the module docstring) from the series, the last grid and the cut."""
+    arrays = {
+        "positions": layout.positions, "normals": layout.normals, "taxel_ids": layout.taxel_ids,
+        "timestamps": ser["timestamps"], "frames": ser["frames"], "pressure": ser["pressure"],
+        "surface_pressure": ser["surface_pressure"], "force": ser["force"],
+        "contact_area": ser["contact_area"], "indentation": ser["indentation"],
+        "grid_x": fld.x, "grid_y": fld.y, "grid_pressure": fld.pressure,
+    }
+    if fld.stress is not None:
+        arrays["grid_stress"] = fld.stress
+    arrays.update({"profile_s": cut["s"], "profile_surface_pressure": cut["surface"],
+                   "profile_disc_mean": cut["disc_mean"], "profile_taxel_index": cut["taxel_index"],
+                   "profile_taxel_s": cut["taxel_s"], "profile_taxel_offset": cut["taxel_offset"],
+                   "profile_taxel_pressure": cut["taxel_value"], "profile_centre": cut["centre"],
+                   "profile_direction": cut["direction"]})
+    if cut["stress"] is not None:
+        arrays["profile_stress"] = cut["stress"]
+    if ser["displacement"] is not None:
+        arrays["displacement"] = np.asarray(ser["displacement"], float)
+    return arrays
+
+
+def run(scene, ctx) -> TaskResult:
+    if not scene["objects"]:
+        raise scene.error("objects", "task 'press' needs at least one [[objects]] table")
+    task = scene["task"]
+    k = task["object"]
+    if k >= len(scene["objects"]):
+        raise scene.error("task.object", f"there are only {len(scene['objects'])} [[objects]] tables")
+    layout = build_layout(scene)
+    layer = build_layer(scene)
+    opts = layer_options(scene)
+    obj = scene["objects"][k]
+    mesh = object_mesh(scene, k)
+    comp_eff = ctx.pipeline.get("object_compliance")
+    compliance = object_compliance(scene, k, mesh) if comp_eff is not None else None
+    results, times, mode = _simulate(scene, ctx, layout, layer, opts, mesh, k)
+
+    state = {"layout": layout, "layer": layer, "results": results, "mesh": mesh, "compliance": compliance,
+             "pressure": np.array([r.surface_pressure for r in results]),
+             "samples_per_taxel": opts["samples_per_taxel"]}
+    state = ctx.pipeline.apply("contact", state, ctx)
+    ser = _read_skin(ctx, state, results, times, mode)
+    frames = ser["frames"]
+    fld = results[-1].field
+    mean = frames.mean(axis=0) if len(frames) else np.zeros(len(layout))
+    unit = "counts" if ctx.pipeline.stage("sensor") else "Pa"
+    metrics = _metrics(layout, layer, results, ser, mean)
+    cut = profile_cut(fld, layout, ser["per_last"], angle_deg=task["profile_angle"],
                       samples=state.get("taxel_samples", opts["samples_per_taxel"]))
     title = f"{scene.name}: {obj['name']} through {layer.thickness * 1e3:g} mm ({opts['model']})"
     flat = layout.flat if layout.flat is not None else layout.positions[:, :2]
@@ -318,33 +362,16 @@ def run(scene, ctx) -> TaskResult:
             "pressure_field": _field_figure(fld, layout, title, cut),
             "profile": _profile_figure(cut, title),
         }
-    arrays = {
-        "positions": layout.positions, "normals": layout.normals, "taxel_ids": layout.taxel_ids,
-        "timestamps": stamps, "frames": frames, "pressure": per, "surface_pressure": surf, "force": force,
-        "contact_area": area, "indentation": indent,
-        "grid_x": fld.x, "grid_y": fld.y, "grid_pressure": fld.pressure,
-    }
-    if fld.stress is not None:
-        arrays["grid_stress"] = fld.stress
-    arrays.update({"profile_s": cut["s"], "profile_surface_pressure": cut["surface"],
-                   "profile_disc_mean": cut["disc_mean"], "profile_taxel_index": cut["taxel_index"],
-                   "profile_taxel_s": cut["taxel_s"], "profile_taxel_offset": cut["taxel_offset"],
-                   "profile_taxel_pressure": cut["taxel_value"], "profile_centre": cut["centre"],
-                   "profile_direction": cut["direction"]})
-    if cut["stress"] is not None:
-        arrays["profile_stress"] = cut["stress"]
-    if disp is not None:
-        arrays["displacement"] = np.asarray(disp, float)
     notes = [f"Contact model `{opts['model']}`, layer {layer.thickness * 1e3:g} mm of {layer.material} "
              f"(E = {layer.young_modulus / 1e3:.1f} kPa, nu = {layer.poisson}; {layer.source}). "
              f"Mode: {mode}, {len(frames)} frames."]
-    notes += _resolution_notes(area, opts["grid"].spacing, mesh, k, obj["kind"])
+    notes += _resolution_notes(ser["contact_area"], opts["grid"].spacing, mesh, k, obj["kind"])
     big = compression_note(max(r.max_compression for r in results), layer.thickness, f"pressing {obj['name']}",
                            opts["model"])
     if big:
         notes.append(f"**Warning:** {big}.")
         warnings.warn(big, LargeDeformationWarning, stacklevel=2)
-    return TaskResult(metrics=metrics, arrays=arrays, figures=figures, sections=notes)
+    return TaskResult(metrics=metrics, arrays=_arrays(layout, ser, fld, cut), figures=figures, sections=notes)
 
 
 register_task(TaskSpec("press", run, PARAMS, sections=("layout", "objects"),
