@@ -46,3 +46,27 @@ def test_the_command_needs_recordings_held_out(tmp_path, capsys):
     lay = tmp_path / "missing.json"
     assert main(["calibrate-finger", str(rec), "--layout", str(lay), "--out", str(tmp_path / "o")]) == 2
     assert "--holdout" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_the_command_fits_on_some_recordings_and_reports_the_held_out_apart(tmp_path):
+    import json
+    import os
+    from pathlib import Path
+
+    shared = Path(os.environ.get("VTCORE_SHARED_DATA", Path(__file__).resolve().parents[2] / "shared" / "data"))
+    data = shared / "cyskin_gesture"
+    if not data.is_dir():
+        pytest.skip("the shared CySkin recordings are not beside the repository")
+    out = tmp_path / "fit"
+    recs = [str(data / "1_finger" / f"sample_0{i}.txt") for i in (1, 2)]
+    held = str(data / "1_finger" / "sample_12.txt")
+    assert main(["calibrate-finger", *recs, "--holdout", held, "--layout",
+                 str(data / "curved_gesture_patch_full_isomap.json"), "--quick", "--out", str(out)]) == 0
+    doc = json.loads((out / "finger_fit.json").read_text())
+    assert len(doc["points"]) == len(doc["scores"]) == 2 and doc["best"] in doc["points"]
+    assert doc["held_out"] == [str(Path(held).resolve())] and len(doc["fitted"]) == 2
+    groups = [r["group"] for r in doc["table"]]
+    assert groups.count("fitted") == 4 and groups.count("held out") == 4
+    assert all(r["real_q25"] <= r["real_median"] <= r["real_q75"] for r in doc["table"])
+    assert (out / "by_force.png").exists() and (out / "report.md").exists()
