@@ -26,7 +26,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .footprint import METRICS  # noqa: F401  (the statistics' names, for readers of this module)
 from .validate import Validation, peak_frames, validate
 
 #: the four statistics the fit and the held-out test are judged on
