@@ -94,7 +94,30 @@ def test_validate_writes_matched_arrays_and_metrics(tmp_path):
         assert key in m and m[key] is not None, key
     # the force rule: the simulated peak follows the recorded one (noise aside)
     assert abs(m["all_sim_peak_median"] / m["all_real_peak_median"] - 1) < 0.15
-    assert (out / "footprints.png").exists() and (out / "metrics.png").exists()
+    assert (out / "footprints.png").exists() and (out / "metrics.png").exists() and (out / "by_force.png").exists()
+    # one recording: its strongest frame is the one peak frame, and the rest are the others
+    strongest = int(np.argmax(np.nanmax(arr["real"], axis=1)))
+    assert m["peak_all_real_peak_median"] == pytest.approx(float(np.nanmax(arr["real"][strongest])))
+    assert "rest_all_real_ring1_median" in m and "peak_fitted_sim_ring1_within_real_iqr" in m
+
+
+def test_peak_frames_and_statistics_by_force():
+    from vtcore.calibrate.validate import Validation, by_force, peak_frames
+
+    real = np.array([[1.0, 0.0], [3.0, 1.0], [2.0, 0.0], [5.0, 1.0], [4.0, 4.0]])
+    rec = np.array([0, 0, 0, 1, 1])
+    force = np.array([0.5, 1.5, 1.0, 3.0, 2.5])
+    ring = {"ring1": np.array([0.1, 0.2, 0.3, 0.4, np.nan])}
+    v = Validation(real=real, sim=real, pressure=real, force=force, compression=force * 0, recording=rec,
+                   frame=np.arange(5), held_out=rec == 1, baselines=np.zeros((2, 2)), paths=["a", "b"],
+                   real_metrics=ring, sim_metrics={"ring1": ring["ring1"] * 2})
+    assert peak_frames(v).tolist() == [False, True, False, True, False]
+    b = by_force(v, ("ring1",), bins=2)
+    assert b["frames"].sum() == 5 and np.all(np.diff(b["force_n"]) > 0)
+    # the light bin holds 0.5, 1.0 (and 1.5) N: its real median is the median of their ring 1
+    lo = force <= b["force_n"][0] * 1.5
+    assert b["ring1_real"][0] == pytest.approx(np.median(ring["ring1"][lo]))
+    assert np.allclose(b["ring1_sim"], 2 * b["ring1_real"], equal_nan=True)
 
 
 def test_the_scene_sets_how_far_the_pad_wraps(tmp_path, capsys):

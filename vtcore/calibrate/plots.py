@@ -72,3 +72,40 @@ def metrics_figure(v, title: str):
     fig.suptitle(title, fontsize=9)
     fig.tight_layout()
     return fig
+
+
+#: the statistics the force plot shows (the four the footprint comparison is judged on)
+FORCE_METRICS = ("ring1", "ring2", "active", "minor_mm")
+
+
+def force_figure(v, title: str):
+    """Each footprint statistic against the pressed force (the matched force of each frame, N, log
+    axis): every frame as a faint dot (recorded and simulated), each recording's strongest frame as
+    a large marker (open where the recording was held out of the calibration), and the medians of
+    force bins as lines (:func:`vtcore.calibrate.validate.by_force`). ``v``: a Validation."""
+    from .validate import by_force, peak_frames
+
+    plt = pyplot()
+    fig, axes = plt.subplots(1, len(FORCE_METRICS), figsize=(3.2 * len(FORCE_METRICS), 3.3))
+    peak = peak_frames(v)
+    binned = by_force(v, FORCE_METRICS)
+    f = np.asarray(v.force, float)
+    for ax, m in zip(axes, FORCE_METRICS):
+        for side, mm, col in (("real", v.real_metrics, "tab:blue"), ("sim", v.sim_metrics, "tab:orange")):
+            y = np.asarray(mm[m], float)
+            ax.scatter(f, y, s=5, color=col, alpha=0.25, edgecolors="none")
+            for sel, face in ((peak & ~v.held_out, col), (peak & v.held_out, "none")):
+                if sel.any():
+                    ax.scatter(f[sel], y[sel], s=28, facecolors=face, edgecolors=col, linewidths=1.0)
+            ax.plot(binned["force_n"], binned[f"{m}_{side}"], "-o", color=col, ms=3, lw=1.5,
+                    label=f"{side} (bin medians)")
+        ax.set_xscale("log")
+        ax.xaxis.set_minor_formatter(plt.NullFormatter())    # a decade or less: minor labels overlap
+        ax.xaxis.set_major_formatter(plt.FuncFormatter(lambda x, _: f"{x:g}"))
+        ax.set_xlabel("matched force (N)", fontsize=8)
+        ax.set_title(LABELS[m], fontsize=8)
+        ax.tick_params(labelsize=7)
+    axes[0].legend(fontsize=6, title="large: peak frames\nopen: held out", title_fontsize=6)
+    fig.suptitle(title, fontsize=9)
+    fig.tight_layout()
+    return fig

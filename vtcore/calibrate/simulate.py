@@ -92,12 +92,34 @@ def check_wrap(value) -> float:
     return w
 
 
+#: the indenter kind of a soft finger: a finger pad whose pulp deforms too (vtcore.contact.soft_finger)
+SOFT_FINGER = "softfinger"
+
+
+def soft_finger_parts(indenter: dict, layer: SoftLayer):
+    """``(indenter, layer)`` as the press takes them: a ``"softfinger"`` (a finger pad's ``radius``,
+    ``length``, ``wrap`` and its pulp's ``pad_modulus`` Pa, ``core_depth`` m over the rigid bone,
+    ``pad_poisson``) becomes a ``"fingerpad"`` mesh pressed through the layer with the pad's
+    compliance in series (:func:`vtcore.contact.soft_finger.soft_indenter`); other kinds pass as given."""
+    from ..contact.soft_finger import FINGER_DEFAULTS, finger_pad, soft_indenter
+
+    if indenter.get("kind") != SOFT_FINGER:
+        return indenter, layer
+    pad = {k: indenter.pop(k, v) for k, v in FINGER_DEFAULTS.items()}
+    radius = float(indenter.get("radius", 0.008))
+    if not float(pad["core_depth"]) < radius:
+        raise InputError(f"must be below the finger pad's radius ({radius:g} m): the bone lies inside the finger, "
+                         f"got {pad['core_depth']!r}", key="core_depth")
+    return {**indenter, "kind": "fingerpad"}, soft_indenter(layer, finger_pad(**pad))
+
+
 class MatchedPress:
     """Presses of one indenter through one layer on a layout, at recorded poses.
 
     layout : the real layout. layer : SoftLayer. indenter : dict for make_object (``kind`` and its
     dimensions, e.g. ``{"kind": "fingerpad", "radius": 0.008, "length": 0.04}``; a finger pad's may
-    hold ``wrap``, below). conform : a finger pad's axis is bent along the skin's curvature (a soft
+    hold ``wrap``, below; a ``"softfinger"`` is a finger pad whose pulp deforms too:
+    :func:`soft_finger_parts`). conform : a finger pad's axis is bent along the skin's curvature (a soft
     pad lying along a convex skin wraps it), straight where the skin is flat or concave. How far:
     ``wrap`` (0-1, default 1) of the curvature of the arc concentric with the skin (radius
     1/curvature + h + pad radius): 1 wraps it fully (the pad as soft as the layer, an even
@@ -108,8 +130,8 @@ class MatchedPress:
 
     def __init__(self, layout, layer: SoftLayer, indenter: dict, *, conform: bool = True,
                  grid: ContactGrid | None = None, samples_per_taxel: int = 7, window: float = WINDOW_M):
-        self.layout, self.layer = layout, layer
-        self.indenter = dict(indenter)
+        self.layout = layout
+        self.indenter, self.layer = soft_finger_parts(dict(indenter), layer)
         self.wrap = check_wrap(self.indenter.pop("wrap", 1.0))
         self.conform = conform and self.indenter.get("kind") == "fingerpad" and self.wrap > 0
         self.grid = grid or ContactGrid(spacing=1e-3)

@@ -154,12 +154,16 @@ def validate(paths, layout, *, layer, indenter: dict, sensor: Sensor, rng, k: fl
 def result_metrics(v: Validation) -> dict:
     """The flat metrics of result.json: real and simulated quartiles of each footprint statistic, for
     all frames, the frames of held-out recordings and the others, and whether each simulated median
-    lies within the recorded interquartile range."""
+    lies within the recorded interquartile range. ``peak_*``: each recording's strongest frame only
+    (:func:`peak_frames`), all, held-out and fitted recordings; ``rest_all``: the other frames."""
     out = {"frames": int(len(v.real)), "recordings": int(len(np.unique(v.recording))),
            "frames_held_out": int(v.held_out.sum()), "force_n_median": float(np.median(v.force)),
            "force_n_max": float(v.force.max()), "compression_max": float(v.compression.max()),
            "frames_compressed_over_30pct": int((v.compression > LARGE_COMPRESSION).sum())}
-    groups = {"all": np.ones(len(v.real), bool), "heldout": v.held_out, "fitted": ~v.held_out}
+    peak = peak_frames(v)
+    groups = {"all": np.ones(len(v.real), bool), "heldout": v.held_out, "fitted": ~v.held_out,
+              "peak_all": peak, "peak_heldout": peak & v.held_out, "peak_fitted": peak & ~v.held_out,
+              "rest_all": ~peak}
     for g, sel in groups.items():
         if not sel.any():
             continue
@@ -170,6 +174,47 @@ def result_metrics(v: Validation) -> dict:
         for name in METRICS:
             med = s[f"{g}_sim_{name}_median"]
             out[f"{g}_sim_{name}_within_real_iqr"] = bool(r[f"{g}_real_{name}_q25"] <= med <= r[f"{g}_real_{name}_q75"])
+    return out
+
+
+def peak_frames(v: Validation) -> np.ndarray:
+    """(K,) bool: each recording's strongest frame (its largest recorded reading), one per recording.
+
+    The footprint of a press changes with its force (a real one concentrates as it grows); a
+    recording's frames run from light touches to its peak, so statistics over all frames mix force
+    levels. The peak frames compare like with like: each recording at its own strongest press."""
+    pk = np.nanmax(np.where(np.isfinite(v.real), v.real, -np.inf), axis=1)
+    out = np.zeros(len(v.real), bool)
+    for r in np.unique(v.recording):
+        idx = np.flatnonzero(v.recording == r)
+        out[idx[np.argmax(pk[idx])]] = True
+    return out
+
+
+def by_force(v: Validation, metrics=("ring1", "ring2", "active", "minor_mm"), bins: int = 5) -> dict:
+    """Each footprint statistic as a function of the pressed force: the frames binned by their
+    matched force (N, quantile bins of equal frame count, in log force) and, per bin, the real and
+    simulated medians. Returns ``{"force_n": (B,) bin median force, "frames": (B,), "<metric>_real":
+    (B,), "<metric>_sim": (B,)}`` (NaN where a bin holds no finite value)."""
+    f = np.asarray(v.force, float)
+    edges = np.unique(np.quantile(np.log(f), np.linspace(0.0, 1.0, bins + 1)))
+    which = np.clip(np.searchsorted(edges, np.log(f), side="right") - 1, 0, max(len(edges) - 2, 0))
+    nb = max(len(edges) - 1, 1)
+    out = {"force_n": np.full(nb, np.nan), "frames": np.zeros(nb, int)}
+    for name in metrics:
+        out[f"{name}_real"] = np.full(nb, np.nan)
+        out[f"{name}_sim"] = np.full(nb, np.nan)
+    for b in range(nb):
+        sel = which == b
+        out["frames"][b] = int(sel.sum())
+        if not sel.any():
+            continue
+        out["force_n"][b] = float(np.median(f[sel]))
+        for name in metrics:
+            for side, mm in (("real", v.real_metrics), ("sim", v.sim_metrics)):
+                x = np.asarray(mm[name], float)[sel]
+                x = x[np.isfinite(x)]
+                out[f"{name}_{side}"][b] = float(np.median(x)) if len(x) else np.nan
     return out
 
 

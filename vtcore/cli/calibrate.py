@@ -65,7 +65,7 @@ def cmd_validate(args) -> int:
     m = result["metrics"]
     print(f"{m['frames']} contact frames of {m['recordings']} recordings simulated "
           f"({m['frames_held_out']} from recordings held out of the calibration)")
-    for g in ("all", "heldout"):
+    for g in ("all", "heldout", "peak_fitted", "peak_heldout"):
         if f"{g}_real_peak_median" not in m:
             continue
         parts = []

@@ -345,9 +345,25 @@ def compliance_operator(shape, dx, dy, layer, model, truncation=0.0, dtype=np.fl
     model = KERNELS.get(model, model)
     if not (tr >= 0 and np.isfinite(tr)):
         raise InputError(f"kernel truncation must be >= 0, got {truncation}", key="truncation")
+    pad = getattr(layer, "pad", None)
+    if pad is not None:     # a soft indenter (vtcore.contact.soft_finger): the two bodies' kernels in series
+        return _cached_two_body(model, tuple(int(s) for s in shape), float(dx), float(dy), _params(layer),
+                                _params(pad), tr, np.dtype(dtype).name)
     return _cached_convolver(model, tuple(int(s) for s in shape), float(dx), float(dy),
                              float(layer.young_modulus), float(layer.poisson), float(layer.thickness),
                              getattr(layer, "base", "bonded"), tr, np.dtype(dtype).name)
+
+
+def _params(layer) -> tuple:
+    return (float(layer.young_modulus), float(layer.poisson), float(layer.thickness), getattr(layer, "base", "bonded"))
+
+
+@lru_cache(maxsize=8)
+def _cached_two_body(kind, shape, dx, dy, skin, pad, truncation, dtype):
+    """The compliance of the skin's layer and a soft indenter's pad in series: the sum of their
+    kernels (both surfaces displace under the same contact pressure). skin, pad: (E, nu, h, base)."""
+    k = _cached_kernel(kind, shape, dx, dy, *skin) + _cached_kernel(kind, shape, dx, dy, *pad)
+    return Convolver(k, shape, truncation=truncation, dtype=np.dtype(dtype))
 
 
 PRECISIONS = ("float64", "float32")

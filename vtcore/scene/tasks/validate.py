@@ -8,7 +8,8 @@ the listed ``gain``, ``noise``, ``saturation`` and ``quantisation`` effects. Wri
 with ``positions (N, 3)`` m, ``real (K, N)`` and ``sim (K, N)`` counts (NaN: not recorded),
 ``noise_sigma (N,)``, ``pressure (K, N)`` Pa, ``force (K,)`` N, ``compression (K,)``,
 ``recording (K,)``, ``frame (K,)``, ``held_out (K,)``, ``baselines (R, N)``; the footprint
-statistics' quartiles in ``result.json``; ``footprints.png`` and ``metrics.png``.
+statistics' quartiles in ``result.json`` (all frames, and each recording's peak frame apart:
+``peak_*``); ``footprints.png``, ``metrics.png`` and ``by_force.png`` (each statistic against force).
 """
 
 from __future__ import annotations
@@ -59,7 +60,7 @@ def _expand(patterns, base: Path, scene) -> list[str]:
 
 
 def run(scene, ctx) -> TaskResult:
-    from ...calibrate.plots import footprints_figure, metrics_figure
+    from ...calibrate.plots import footprints_figure, force_figure, metrics_figure
     from ...calibrate.validate import Sensor, validate
     from ...contact.materials import LargeDeformationWarning
     from ...contact.objects import DEFAULTS
@@ -117,7 +118,8 @@ def run(scene, ctx) -> TaskResult:
               "baselines": v.baselines}
     figures = {"footprints": footprints_figure(v, layout, f"{scene.name}: recorded vs simulated footprints "
                                                            "(strongest frame of each recording)"),
-               "metrics": metrics_figure(v, f"{scene.name}: footprint statistics over the contact frames")}
+               "metrics": metrics_figure(v, f"{scene.name}: footprint statistics over the contact frames"),
+               "by_force": force_figure(v, f"{scene.name}: footprint statistics against the pressed force")}
     for w in v.warnings + notes:     # the runner lists them (result.json "warnings", report.md)
         warnings.warn(w, LargeDeformationWarning if "linear elasticity" in w else UserWarning, stacklevel=2)
     sections = [_table(v.metrics), f"Indenter: {indenter}, conforming to the skin: {task['conform']}. "
@@ -135,7 +137,9 @@ def _table(m: dict) -> str:
     lines = ["## Recorded vs simulated footprints", "",
              "| frames | statistic | recorded median [IQR] | simulated median [IQR] | simulated median within recorded IQR |",
              "|---|---|---|---|---|"]
-    for g, label in (("all", "all"), ("heldout", "held out of the calibration"), ("fitted", "used by the calibration")):
+    for g, label in (("all", "all"), ("heldout", "held out of the calibration"), ("fitted", "used by the calibration"),
+                     ("peak_heldout", "peak frames, held out"), ("peak_fitted", "peak frames, used by the calibration"),
+                     ("rest_all", "all but the peak frames")):
         if f"{g}_real_peak_median" not in m:
             continue
         for name in METRICS:
