@@ -9,7 +9,7 @@ from vtcore.errors import InputError
 from vtcore.layout import (MODULES, Patch, get_module, hexagon_flat, make_patch, seed001_disc, seed002_curved,
                            seed002_planar)
 from vtcore.layout.modules import ModuleType, register_module
-from vtcore.layout.patches import patch_from_poses, tile_poses
+from vtcore.layout.patches import coincident_pairs, patch_from_poses, tile_poses
 
 PITCH = 7.5e-3
 
@@ -140,3 +140,18 @@ def test_patch_is_dataclass_with_layout():
     lay = p.flat_layout()
     assert lay.meta["module_type"] == "cyskin10" and len(lay) == 20
     np.testing.assert_array_equal(lay.taxel_ids >> 4, lay.module_ids + 1)
+
+
+def test_coincident_pairs_are_the_k_d_trees_pairs():
+    """The shared-site search of patch_from_poses finds what cKDTree.query_pairs finds: points a
+    fraction of the tolerance apart anywhere, across the borders of its grid cells, in threes."""
+    rng = np.random.default_rng(3)
+    x = rng.uniform(-1, 1, (3000, 2))
+    on_grid = np.round(rng.uniform(-1, 1, (1000, 2)) / 1e-6) * 1e-6  # on the grid's cell borders
+    pts = np.concatenate([x, x + rng.uniform(-1, 1, x.shape) * 6e-10, x, on_grid, on_grid + 3e-10,
+                          on_grid - 3e-10, rng.uniform(-1, 1, (3000, 2))])
+    want = {tuple(p) for p in np.sort(cKDTree(pts).query_pairs(1e-9, output_type="ndarray"), axis=1)}
+    got = coincident_pairs(pts, 1e-9)
+    assert len(want) == 3 * 3000 + 3 * 1000
+    assert {tuple(p) for p in got} == want and (got[:, 0] < got[:, 1]).all()
+    assert not len(coincident_pairs(rng.uniform(-1, 1, (500, 2)), 1e-9))

@@ -171,7 +171,7 @@ def test_float32_vertices_and_the_same_layout_every_time(cylinder20):
 
 
 def test_too_big_a_request_fails_before_allocating():
-    from vtcore.layout.tiling import lattice_patch
+    from vtcore.layout.lattice import lattice_patch
     from vtcore.layout import get_module
 
     with pytest.raises(InputError, match="module positions"):

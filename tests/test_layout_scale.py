@@ -167,7 +167,7 @@ def test_fill_over_its_solve_budget_keeps_taxels_on_the_users_mesh(tube, over):
 def test_an_unbounded_lattice_is_one_clear_error():
     from vtcore.errors import InputError
     from vtcore.layout.modules import get_module
-    from vtcore.layout.tiling import lattice_patch
+    from vtcore.layout.lattice import lattice_patch
 
     with pytest.raises(InputError, match="unbounded size"):
         lattice_patch(get_module("cyskin10"), 0.0, (0.0, 0.0), np.zeros(2), float("inf"))

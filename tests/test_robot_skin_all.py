@@ -72,6 +72,13 @@ def test_one_failing_link_does_not_stop_the_others(bot, tmp_path):
     saved = json.loads((tmp_path / "out" / "skin_report.json").read_text())
     assert [r["status"] for r in saved["links"]] == ["skipped", "ok", "refused", "failed"]
     assert "| plate | ok |" in (tmp_path / "out" / "report.md").read_text()
+    # where the plate's fill lost candidates (a box: its edges), in the record and the report's row
+    from vtcore.robot.skin_robot import lost_text
+
+    lost = st["plate"]["lost"]
+    assert lost == {k: v for k, v in lay.meta["fill_left_out"].items() if v} and lost.get("rules", 0) > 0
+    row = next(x for x in (tmp_path / "out" / "report.md").read_text().splitlines() if x.startswith("| plate |"))
+    assert f"| {lost_text(lost)} |" in row and "on an edge" in row
 
 
 def test_two_workers_give_the_same_bytes_as_one(tmp_path):

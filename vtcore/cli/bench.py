@@ -111,7 +111,10 @@ def cmd_bench(args) -> int:
         print(f"bench {n} ...", flush=True)
         t0 = time.perf_counter()
         # --peers goes only to the benchmarks that run other solvers side by side (contact)
-        extra_kw = {"peers": True} if args.peers and "peers" in inspect.signature(module.run).parameters else {}
+        params = inspect.signature(module.run).parameters
+        extra_kw = {"peers": True} if args.peers and "peers" in params else {}
+        if args.cases and "cases" in params:  # the benchmarks that run their rows in groups (layout, robot)
+            extra_kw["cases"] = args.cases
         module.run(out / n, quick=args.quick, **extra_kw)
         sections.append(section(out / n, n, n, time.perf_counter() - t0))
     for d in extra:
@@ -134,4 +137,7 @@ def register(sub) -> None:
     p.add_argument("--peers", action="store_true",
                    help="contact: also run tamaas and ContactMechanics on the same problems, in a throwaway "
                         "venv created under the output folder (needs the package index)")
+    p.add_argument("--cases", default=None, metavar="PATTERNS",
+                   help="layout, robot: only the groups of rows whose case matches one of these comma-separated "
+                        "patterns (e.g. 'fill_scale', 'skin_command'); the others run everything")
     p.set_defaults(func=cmd_bench)

@@ -299,12 +299,18 @@ def _scale_rows(quick, on_row=None):
     from .meshinput import load_mesh
     from .tiling import fill
 
+    import os
+
     rows = []
 
     def row(case, setting, n, fn):
+        # the machine's load (1-minute average) before and after: on a shared machine the wall time
+        # says little without it; the CPU seconds (the child's, all its threads) are the fair figure
+        load0 = os.getloadavg()[0]
         sec, cpu, mb, res, err = in_child(fn)
         r = {"case": case, "method": "grow", "setting": setting, "n": n, "seconds": sec, "cpu_seconds": cpu,
-             "peak_mb": mb, "accuracy_name": "coverage", "accuracy": (res or {}).get("coverage", float("nan")),
+             "peak_mb": mb, "load": f"{load0:.1f}-{os.getloadavg()[0]:.1f}", "accuracy_name": "coverage",
+             "accuracy": (res or {}).get("coverage", float("nan")),
              "extra": err or ", ".join(f"{k}={v:.3g}" if isinstance(v, float) else f"{k}={v}"
                                        for k, v in (res or {}).items() if k != "coverage")}
         rows.append(r)
@@ -366,6 +372,33 @@ def _real_hull_cases():
              lambda: fill(hull, (0.0, 0.0, float(hull.bounds[1, 2]))))]
 
 
+def _scale_plot(rows, path):
+    """The ``fill_scale`` rows side by side: wall and CPU seconds (left), peak GB (right), with the goals."""
+    import matplotlib.pyplot as plt
+
+    fig, (a, b) = plt.subplots(1, 2, figsize=(12, 0.5 * len(rows) + 1.8), sharey=True)
+    y = np.arange(len(rows))
+    names = [f"{r['setting'][:60]} ({r.get('load', '')} load)" for r in rows]
+    a.barh(y - 0.2, [r["seconds"] for r in rows], 0.4, label="wall s")
+    a.barh(y + 0.2, [r["cpu_seconds"] for r in rows], 0.4, label="CPU s")
+    a.axvline(10, color="k", ls="--", lw=0.8, label="10 s goal (10,000 modules, 1M faces)")
+    a.set_xscale("log")
+    a.set_yticks(y, names, fontsize=7)
+    a.invert_yaxis()
+    a.set_xlabel("seconds")
+    a.legend(fontsize=7)
+    b.barh(y, [r["peak_mb"] / 1000 for r in rows], 0.5, color="tab:green")
+    b.axvline(4, color="k", ls="--", lw=0.8, label="4 GB goal")
+    for k, r in enumerate(rows):
+        b.annotate(f"{r['extra'].split(',')[0]}, coverage {100 * r['accuracy']:.0f} %"
+                   if np.isfinite(r["accuracy"]) else r["extra"][:40], (0.05, k), fontsize=6, va="center")
+    b.set_xlabel("peak resident GB (forked child, libraries included)")
+    b.legend(fontsize=7)
+    fig.suptitle("fill at scale (issue 36): time, memory and what was placed")
+    fig.tight_layout()
+    save_png(fig, path, dpi=110)
+
+
 def _fill_plot(rows, path):
     import matplotlib.pyplot as plt
 
@@ -388,8 +421,29 @@ def _fill_plot(rows, path):
     save_png(fig, path, dpi=110)
 
 
-def run(out: Path, quick: bool = False) -> list[dict]:
-    """Run the layout benchmarks; write ``table.md``, ``table.csv``, ``accuracy_vs_time.png`` into ``out``."""
+#: the benchmark's groups of rows, by the cases they write (``vtcore bench layout --cases fill_scale``)
+GROUPS = (("place_1000,place_100", "_place_rows"), ("exp_sphere", "_sphere_rows"), ("skin_mesh", "_skin_rows"),
+          ("maker_agreement", "_maker_rows"), ("fill_faces,fill_region,fill_meshes,fill_islands", "_fill_rows"),
+          ("fill_scale", "_scale_rows"))
+
+GOALS = ("Targets: 1,000 modules on a 100k-face mesh <= 5 s; skin mesh of 4,000 taxels <= 0.5 s; fill of the "
+         "side of a 72 x 200 mm link (~100 modules) < 3 s and within 5x one hexagon; peak memory < 2 GB. "
+         "Issue 36 (fill_scale): 10,000 modules on a 1M-face body < 10 s wall, peak < 4 GB; a 1M-face link's "
+         "fill <= 3x the CPU of the same link at 100k faces. load: the machine's 1-minute load average before "
+         "and after the row (2 cores).")
+
+
+def _selected(cases: str | None) -> list:
+    """The row functions whose cases match one of the comma-separated fnmatch ``cases`` (None: all)."""
+    from fnmatch import fnmatch
+
+    pats = [c.strip() for c in (cases or "*").split(",") if c.strip()]
+    return [globals()[fn] for names, fn in GROUPS if any(fnmatch(n, p) for n in names.split(",") for p in pats)]
+
+
+def run(out: Path, quick: bool = False, cases: str | None = None) -> list[dict]:
+    """Run the layout benchmarks (``cases``: only the groups of rows with a matching case, e.g.
+    ``"fill_scale"``); write ``table.md``, ``table.csv``, ``accuracy_vs_time.png`` into ``out``."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -397,15 +451,15 @@ def run(out: Path, quick: bool = False) -> list[dict]:
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    fills = _fill_rows(quick)
-    rows = (_place_rows(quick) + _sphere_rows(quick) + _skin_rows(quick) + _maker_rows(quick) + fills
-            + _scale_rows(quick))
-    write_table(out, rows, title="Layout benchmark" + (" (quick)" if quick else ""), notes=[
-        "Targets: 1,000 modules on a 100k-face mesh <= 5 s; skin mesh of 4,000 taxels <= 0.5 s; fill of the "
-        "side of a 72 x 200 mm link (~100 modules) < 3 s and within 5x one hexagon; peak memory < 2 GB."],
-        columns=["case", "method", "setting", "n", "seconds", "cpu_seconds", "peak_mb", "accuracy_name", "accuracy",
-                 "extra"])
-    _fill_plot(fills, out / "fill_time_memory.png")
+    rows = [r for fn in _selected(cases) for r in fn(quick)]
+    fills = [r for r in rows if r["case"] in ("fill_faces", "fill_region", "fill_meshes", "fill_islands")]
+    write_table(out, rows, title="Layout benchmark" + (" (quick)" if quick else "") + (f" ({cases})" if cases else ""),
+                notes=[GOALS], columns=["case", "method", "setting", "n", "seconds", "cpu_seconds", "peak_mb", "load",
+                                        "accuracy_name", "accuracy", "extra"])
+    if fills:
+        _fill_plot(fills, out / "fill_time_memory.png")
+    if any(r["case"] == "fill_scale" for r in rows):
+        _scale_plot([r for r in rows if r["case"] == "fill_scale"], out / "fill_scale.png")
     fig, axes = plt.subplots(1, 3, figsize=(13, 4))
     for ax, case, ylab in ((axes[0], ("place_1000", "place_100"), "max module-edge strain"),
                            (axes[1], ("exp_sphere",), "max error vs exact exp map (mm)"),

@@ -396,12 +396,16 @@ def close_seam(growth: Growth, lattice, check, max_strain: float, shifts,
     flat frame within ``radius`` of ``centre``. check : as for :func:`grow`. Returns
     ``(poses (S, 3), chart (S,))`` of the added modules (flat frame of the lattice).
     """
-    taken = [growth.positions[np.isfinite(growth.positions[:, 0])]]
-    if avoid is not None and len(avoid):
-        taken[0] = np.concatenate([taken[0], np.asarray(avoid, float).reshape(-1, 3)])
-    out_poses, out_chart = [], []
     if not len(growth.seam_at):
         return np.zeros((0, 3)), np.zeros(0, np.int64)
+    placed = growth.positions[np.isfinite(growth.positions[:, 0])]
+    if avoid is not None and len(avoid):
+        placed = np.concatenate([placed, np.asarray(avoid, float).reshape(-1, 3)])
+    # the taxels there before the pass in one k-d tree, built once (it was rebuilt for every chart and
+    # shift, and for every module added: 4 of the 10,000-module fill's CPU seconds); the pass's own
+    # modules, a few hundred, are searched apart
+    trees = {"placed": cKDTree(placed) if len(placed) else None, "added": []}
+    out_poses, out_chart = [], []
     seam_tree = cKDTree(growth.seam_at)
     for c, ch in enumerate(growth.charts):
         for shift in shifts:
@@ -409,7 +413,6 @@ def close_seam(growth: Growth, lattice, check, max_strain: float, shifts,
             if not cand.n_modules:
                 continue
             mod = cand.module
-            min_gap = OVERLAP_FRACTION * mod.pitch
             d = np.linalg.norm(cand.poses[:, 1:] - ch.origin, axis=1)
             # only at the seam: within two module radii of a module dropped there
             at_seam = seam_tree.query_ball_point(cand.poses[:, 1:], 2 * mod.radius, return_length=True) > 0
@@ -417,33 +420,57 @@ def close_seam(growth: Growth, lattice, check, max_strain: float, shifts,
             cand = cand.select_modules((d + reach <= ch.radius) & at_seam)
             if not cand.n_modules:
                 continue
-            d = np.linalg.norm(cand.poses[:, 1:] - ch.origin, axis=1)
-            p_, n_, f_, ok_ = ch.logmap.exp(cand.flat - ch.origin, fallback=False)
-            tmod, M = cand.module_ids, cand.n_modules
-            keep = np.bincount(tmod, weights=ok_, minlength=M) == np.bincount(tmod, minlength=M)
-            allp = np.concatenate(taken)
-            if len(allp):
-                hit = cKDTree(allp).query_ball_point(p_, min_gap, return_length=True) > 0
-                keep &= np.bincount(tmod, weights=hit, minlength=M) == 0
-            idx = np.flatnonzero(keep)
-            if not len(idx):
-                continue
-            keep[idx] &= module_strain(cand, p_, n_, idx) <= max_strain
-            idx = np.flatnonzero(keep)
-            if not len(idx):
-                continue
-            tsel = np.isin(tmod, idx)
-            keep[idx] &= np.asarray(check(ch, cand, idx, f_[tsel], np.searchsorted(idx, tmod[tsel])), bool)
-            # greedy, nearest the chart origin first, against each other
-            for m in np.flatnonzero(keep)[np.argsort(d[keep], kind="stable")]:
-                pm = p_[tmod == m]
-                if len(taken) > 1 and (cKDTree(np.concatenate(taken[1:])).query_ball_point(
-                        pm, min_gap, return_length=True) > 0).any():
-                    continue
-                taken.append(pm)
-                out_poses.append(cand.poses[m])
+            for _m, pose in _seam_modules(ch, cand, check, max_strain, trees, OVERLAP_FRACTION * mod.pitch):
+                out_poses.append(pose)
                 out_chart.append(c)
     return np.array(out_poses).reshape(-1, 3), np.array(out_chart, np.int64)
+
+
+def _overlapping(trees: dict, pts: np.ndarray, min_gap: float, since: int = 0) -> np.ndarray:
+    """(n,) bool: which of ``pts`` (n, 3) come within ``min_gap`` of a taxel placed before the seam
+    pass (``since`` 0) or of one the pass added (its modules from number ``since`` on)."""
+    hit = np.zeros(len(pts), bool)
+    if since == 0 and trees["placed"] is not None:
+        hit |= trees["placed"].query_ball_point(pts, min_gap, return_length=True) > 0
+    added = trees["added"][since:]
+    if added:
+        hit |= cKDTree(np.concatenate(added)).query_ball_point(pts, min_gap, return_length=True) > 0
+    return hit
+
+
+def _seam_modules(ch: Chart, cand: Patch, check, max_strain: float, trees: dict, min_gap: float):
+    """The modules of ``cand`` (one shifted lattice near the seam, in chart ``ch``) the seam pass adds,
+    as ``(module, pose (3,))`` nearest the chart's origin first; their taxels join ``trees["added"]``.
+    Every taxel is located on the solve mesh first; only the modules found whole are moved to the
+    full-resolution surface (the same points :meth:`LogMap.exp` would give them, point by point)."""
+    d = np.linalg.norm(cand.poses[:, 1:] - ch.origin, axis=1)
+    p_, n_, f_, ok_ = ch.logmap.exp(cand.flat - ch.origin, fallback=False, on_surface=False)
+    tmod, M = cand.module_ids, cand.n_modules
+    keep = np.bincount(tmod, weights=ok_, minlength=M) == np.bincount(tmod, minlength=M)
+    t = keep[tmod]
+    p_[t], n_[t] = ch.logmap.to_surface(p_[t], n_[t])
+    n_added = len(trees["added"])
+    if keep.any():
+        keep &= np.bincount(tmod, weights=_overlapping(trees, p_, min_gap) & t, minlength=M) == 0
+    idx = np.flatnonzero(keep)
+    if not len(idx):
+        return []
+    keep[idx] &= module_strain(cand, p_, n_, idx) <= max_strain
+    idx = np.flatnonzero(keep)
+    if not len(idx):
+        return []
+    tsel = np.isin(tmod, idx)
+    keep[idx] &= np.asarray(check(ch, cand, idx, f_[tsel], np.searchsorted(idx, tmod[tsel])), bool)
+    # greedy, nearest the chart origin first, against each other (all of them passed the taxels there
+    # before this lattice: only the modules added since count)
+    out = []
+    for m in np.flatnonzero(keep)[np.argsort(d[keep], kind="stable")]:
+        pm = p_[tmod == m]
+        if _overlapping(trees, pm, min_gap, since=n_added).any():
+            continue
+        trees["added"].append(pm)
+        out.append((m, cand.poses[m]))
+    return out
 
 
 def module_frames(charts: list, patch: Patch, chart_of: np.ndarray) -> np.ndarray:

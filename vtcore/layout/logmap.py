@@ -353,9 +353,18 @@ class LogMap:
             bb = barycentric(tri, cp)
             pos[lost], face[lost] = cp, fc
             nrm[lost] = surface_normals(self.mesh, fc, bb)
-        if on_surface and self.surface is not self.mesh:
-            # solved on a decimated copy: move to the full-resolution surface
-            pos, fc, _ = closest_points(self.surface, pos)
-            tri = np.asarray(self.surface.vertices)[np.asarray(self.surface.faces)[fc]]
-            nrm = surface_normals(self.surface, fc, barycentric(tri, pos))
+        if on_surface:
+            pos, nrm = self.to_surface(pos, nrm)
         return pos, nrm, face, found
+
+    def to_surface(self, pos: np.ndarray, nrm: np.ndarray):
+        """``(positions (n, 3), normals (n, 3))``: points ``pos`` (n, 3) of the mesh the map is solved on
+        (with their normals ``nrm``) moved to the full-resolution surface when that mesh is a
+        simplified copy (what :meth:`exp` does unless ``on_surface=False``; point by point, so a
+        caller may map many points cheaply and move only those it keeps)."""
+        if self.surface is self.mesh or not len(pos):
+            return pos, nrm
+        # solved on a decimated copy: move to the full-resolution surface
+        pos, fc, _ = closest_points(self.surface, pos)
+        tri = np.asarray(self.surface.vertices)[np.asarray(self.surface.faces)[fc]]
+        return pos, surface_normals(self.surface, fc, barycentric(tri, pos))

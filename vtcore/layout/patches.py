@@ -97,8 +97,12 @@ class Patch:
                       roles=self.roles.copy(), meta=m)
 
 
-def patch_from_poses(module: str | ModuleType, poses, kind: str = "", extra: dict | None = None) -> Patch:
-    """Place copies of ``module`` at ``poses`` (M, 3) ``(angle, x, y)`` in the flat domain."""
+def patch_from_poses(module: str | ModuleType, poses, kind: str = "", extra: dict | None = None,
+                     shared_sites: bool = True) -> Patch:
+    """Place copies of ``module`` at ``poses`` (M, 3) ``(angle, x, y)`` in the flat domain.
+
+    ``shared_sites=False``: the caller knows no two taxels of different modules coincide (poses of
+    the module type's own tiling when :func:`tiling_shares_sites` says so): the search is skipped."""
     mod = get_module(module)
     poses = np.asarray(poses, dtype=np.float64).reshape(-1, 3)
     k = len(mod)
@@ -111,18 +115,82 @@ def patch_from_poses(module: str | ModuleType, poses, kind: str = "", extra: dic
     m = len(poses)
     mids, sensors, roles = np.repeat(np.arange(m), k), np.tile(mod.sensors, m), np.tile(mod.roles, m)
     meta = dict(extra or {})
-    if len(flat) > 1:
+    if shared_sites and len(flat) > 1:
         # sites shared by two modules (the hub-side taxel of cyskin11 is another module's corner
         # or the hexagon centre) are taxels of the first module only
-        from scipy.spatial import cKDTree
-
-        pairs = cKDTree(flat).query_pairs(LENGTH_TOL, output_type="ndarray")
+        pairs = coincident_pairs(flat, LENGTH_TOL)
         if len(pairs):
             drop = np.zeros(len(flat), bool)
             drop[pairs.max(axis=1)] = True
             flat, mids, sensors, roles = flat[~drop], mids[~drop], sensors[~drop], roles[~drop]
             meta["shared_sites_dropped"] = int(drop.sum())
     return Patch(mod, poses, flat, mids, sensors, roles, kind, meta)
+
+
+def coincident_pairs(points: np.ndarray, tol: float) -> np.ndarray:
+    """(P, 2) int64 index pairs ``i < j`` of ``points`` (n, 2) metres at most ``tol`` apart: the pairs
+    ``cKDTree.query_pairs(tol)`` finds (in another order), for a ``tol`` far below the spacing.
+
+    A fill's lattice has ~10^5-10^6 taxels and no or few coincident ones; a k-d tree of them took
+    ~0.3 s of CPU at 800k taxels (a 10,000-module fill builds ~85 lattices), this ~0.1 s. Here: one sort
+    of the points' cells on a grid of ``h = 1000 tol`` (a pair within ``tol`` lies in one cell, or
+    straddles a cell border with both points within ``tol`` of it), and a k-d tree of the few points
+    that near a border."""
+    pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+    h = 1000.0 * tol
+    bound = float(np.abs(pts).max()) if len(pts) else 0.0  # nan or inf too: the plain way
+    if tol <= 0 or not bound < 2.0 ** 30 * h:
+        from scipy.spatial import cKDTree  # non-finite or huge coordinates: the plain way
+
+        return cKDTree(pts).query_pairs(tol, output_type="ndarray")
+    g = pts / h
+    cell = np.floor(g)
+    c = cell.astype(np.int64)
+    key = c[:, 0] * (2 ** 32) + c[:, 1]
+    order = np.argsort(key)
+    ks = key[order]
+    out = []
+    k = 1
+    while k < len(ks):  # runs of equal cells: every pair in a run, one offset at a time
+        same = ks[k:] == ks[:-k]
+        if not same.any():
+            break
+        out.append(np.column_stack([order[:-k][same], order[k:][same]]))
+        k += 1
+    frac = g - cell
+    near = (frac < tol / h) | (frac > 1.0 - tol / h)
+    edge = np.flatnonzero(near[:, 0] | near[:, 1])
+    if len(edge) > 1:
+        from scipy.spatial import cKDTree
+
+        e = cKDTree(pts[edge]).query_pairs(tol, output_type="ndarray")
+        out.append(edge[e])
+    if not out:
+        return np.zeros((0, 2), np.int64)
+    p = np.sort(np.concatenate(out), axis=1)
+    p = np.unique(p[:, 0] * len(pts) + p[:, 1])
+    p = np.column_stack([p // len(pts), p % len(pts)])
+    return p[np.linalg.norm(pts[p[:, 0]] - pts[p[:, 1]], axis=1) <= tol]
+
+
+_TILINGS_SHARING: dict = {}  #: module type's tiling (bytes) -> whether its modules share taxel sites
+
+
+def tiling_shares_sites(module: ModuleType) -> bool:
+    """Whether two modules of ``module``'s plane tiling (:func:`tile_poses`, any turn and shift of it)
+    can share a taxel site (cyskin11's hub-side taxel): False when the closest two taxels of different
+    modules of a piece of the tiling are farther apart than a thousand times the tolerance, so that no
+    rounding of a turned or shifted copy brings them within it (cyskin10, iCub's)."""
+    key = b"".join(np.ascontiguousarray(a, np.float64).tobytes() for a in
+                   (module.taxels, np.array([[a, *c] for a, c in module.strip]), module.strip_period, module.fill_row))
+    if key not in _TILINGS_SHARING:
+        r = 4 * module.radius
+        p = patch_from_poses(module, tile_poses(module, [-r, -r], [r, r]))
+        from scipy.spatial import cKDTree
+
+        close = cKDTree(p.flat).query_pairs(1000 * LENGTH_TOL, output_type="ndarray")
+        _TILINGS_SHARING[key] = bool(len(close) or p.meta.get("shared_sites_dropped"))
+    return _TILINGS_SHARING[key]
 
 
 def strip_poses(module: ModuleType, n: int) -> np.ndarray:

@@ -20,15 +20,18 @@ from .grow import Chart, close_seam, grow, map_modules, module_frames, module_st
 from .islands import island_groups, islands_note, next_seed, no_module_fits
 from .logmap import LogMap, PreparedSurface
 from .model import Layout
-from .patches import Patch, patch_from_poses, tile_poses
+from .lattice import centred_shift, lattice_patch, modules_covering
+from .patches import Patch, patch_from_poses
 from .placement import finish
 from .regions import crop_mask, face_islands
 from .repair import clean_mesh, edge_keys, face_submesh, source_faces
-from .surface import at_notes, closest_points, snap
+from .surface import at_notes, closest_points, faces_at, snap
 from .report import OVERLAP_FRACTION, PlacementReport, coverage_by_frames
 
 CREASE_ANGLE = 40.0  #: degrees: no module covers an edge where the faces turn more than this (a design crease)
-MAX_CANDIDATES = 2_000_000  #: lattice modules a fill may consider (each ~10 taxels): ~1 GB of work arrays
+#: why the fill's candidate modules were left out (``layout.meta["fill_left_out"]``: counts over every
+#: island and seed): off the surface, on a sharp/open/region edge, strained, overlapping, over the skin there
+LEFT_OUT = ("off", "rules", "strain", "overlap", "existing")
 SEAM_SHIFTS = ((0.5, 0.0), (0.0, 0.5), (0.5, 0.5), (0.25, 0.0), (0.75, 0.0), (0.25, 0.5), (0.75, 0.5))
 
 
@@ -231,7 +234,7 @@ def _region_coverage(surf, clean, creg, radius, start, mod):
     within ``radius`` metres of ``start`` (3,) when given) under the modules of ``frames`` (M, 3, 3)
     turned by ``angles`` (M,) radians (NaN for a region of no area)."""
     sc = np.asarray(surf.triangles_center)
-    sel = creg[closest_points(clean, sc)[1]]
+    sel = creg[faces_at(clean, sc)]
     if radius is not None:  # the disc of the radius (geodesic; measured in 3-D, a little wider)
         sel &= np.linalg.norm(sc - start, axis=1) <= radius
     cov_den = float(np.asarray(surf.area_faces)[sel].sum())
@@ -260,6 +263,7 @@ def _fill_result(reports, surf, cover, notes, max_strain, **kw) -> tuple[Layout,
                          "on the final surface"]
         layout, report = finish(p, pos, nrm, found, surf, notes=notes, coverage=cover(frames, p.poses[:, 0]), **kw)
     layout.meta["fill_tilings"] = [t for r in reports for t in r.tilings]
+    layout.meta["fill_left_out"] = {k: sum(r.reasons.get(k, 0) for r in reports) for k in LEFT_OUT}
     layout.meta["module_charts"] = chart_of.tolist()
     layout.meta["seam_module_ids"] = np.flatnonzero(is_seam).tolist()
     layout.meta["placement"] = report.as_dict()
@@ -325,98 +329,6 @@ def feature_samples(mesh, crease_angle: float, region: np.ndarray | None = None)
     ed = np.concatenate([open_e, sharp, border])
     w = np.array([0.1, 0.3, 0.5, 0.7, 0.9])
     return np.repeat(ed, len(w), axis=0), np.tile(w, len(ed)), len(open_e), len(sharp)
-
-
-_HULLS: dict = {}  #: taxel positions (bytes) -> their hull: qhull took a fifth of a fill's tiling tries
-
-
-def taxel_hull(mod) -> np.ndarray:
-    """(h, 2) metres, counter-clockwise: the convex hull of a module's taxel centres (the part of
-    the board that must lie on one smooth piece of surface; the margin round it may overhang)."""
-    from scipy.spatial import ConvexHull
-
-    key = np.ascontiguousarray(mod.taxels).tobytes()
-    if key not in _HULLS:
-        _HULLS[key] = mod.taxels[ConvexHull(mod.taxels).vertices]
-    return _HULLS[key]
-
-
-def modules_covering(points: np.ndarray, patch: Patch, modules: np.ndarray, origin: np.ndarray) -> np.ndarray:
-    """(len(modules),) bool: which of ``modules`` of ``patch`` hold one of the flat ``points``
-    (n, 2) inside the hull of their taxels; points in the frame of a chart whose origin is
-    ``origin`` (2,) in the patch's frame."""
-    out = np.zeros(len(modules), bool)
-    if not len(points) or not len(modules):
-        return out
-    mod = patch.module
-    cen = patch.poses[modules, 1:] - origin
-    hits = cKDTree(points).query_ball_point(cen, float(np.linalg.norm(mod.taxels, axis=1).max()))
-    rows = np.repeat(np.arange(len(modules)), [len(h) for h in hits])
-    if not len(rows):
-        return out
-    pts = points[np.concatenate([np.asarray(h, np.int64) for h in hits if len(h)])]
-    ang = patch.poses[modules, 0][rows]
-    c, s = np.cos(ang), np.sin(ang)
-    rel = pts - cen[rows]
-    local = np.column_stack([c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1]])  # R(-ang) rel
-    poly = taxel_hull(mod)
-    edge = np.roll(poly, -1, axis=0) - poly
-    r = local[:, None, :] - poly[None]
-    cr = edge[None, :, 0] * r[..., 1] - edge[None, :, 1] * r[..., 0]
-    ins = np.all(cr >= 0, axis=1)
-    out[np.unique(rows[ins])] = True
-    return out
-
-
-def lattice_patch(mod, angle: float, shift, centre, rad: float, limit: float | None = None) -> Patch:
-    """The fill lattice's modules (a Patch in the lattice's flat frame) with origins within
-    ``rad`` metres of ``centre`` (2,): the module type's plane tiling turned by ``angle`` and
-    shifted by ``shift`` (2,) fractions of a tiling cell; ``limit``: only modules whose taxels are
-    all within this distance of the lattice origin. Raises InputError, naming the size, before building
-    more than MAX_CANDIDATES modules."""
-    if not np.isfinite(rad):  # every size the fill asks for is bounded by its region: this is a bug, said once
-        raise InputError(f"the fill's lattice was asked for a region of unbounded size ({rad}); give a radius "
-                         "or a smaller region, and report the mesh and the start point", key="region")
-    cell = abs(float(np.linalg.det(np.column_stack([mod.strip_period, mod.fill_row]))))
-    est = (2 * rad + 4 * mod.radius) ** 2 / max(cell, 1e-300) * len(mod.strip)
-    if est > MAX_CANDIDATES:
-        raise InputError(f"the fill would consider about {est:.3g} module positions (a region "
-                         f"{2e3 * rad:.0f} mm across, {1e3 * mod.pitch:.1f} mm pitch), more than the "
-                         f"{MAX_CANDIDATES} this machine is sized for; give a radius or a smaller region",
-                         key="region")
-    c, s = np.cos(angle), np.sin(angle)
-    rot = np.array([[c, -s], [s, c]])
-    centre = np.asarray(centre, float)
-    cu = rot.T @ centre
-    d = shift[0] * mod.strip_period + shift[1] * mod.fill_row
-    poses = tile_poses(mod, cu - d - rad, cu - d + rad)
-    poses[:, 1:] = (poses[:, 1:] + d) @ rot.T
-    poses[:, 0] += angle
-    keep = np.linalg.norm(poses[:, 1:] - centre, axis=1) <= rad
-    if limit is not None:  # a superset first (any orientation), then taxel by taxel
-        keep &= np.linalg.norm(poses[:, 1:], axis=1) - np.linalg.norm(mod.taxels, axis=1).max() <= limit
-    p = patch_from_poses(mod, poses[keep], "fill")
-    if limit is not None and p.n_modules:
-        # every taxel within the limit: a module at the rim whose far taxels point along it fits
-        far = np.zeros(p.n_modules)
-        np.maximum.at(far, p.module_ids, np.linalg.norm(p.flat, axis=1))
-        p = p.select_modules(far <= limit)
-    return p
-
-
-def centred_shift(mod, angle: float) -> tuple[float, float]:
-    """The lattice shift (fractions of a tiling cell) that puts the middle of the bounding box of the
-    taxels of the module nearest the lattice origin (in the lattice's turned frame) on the origin:
-    the module then lies centred on the start, across a strip in either axis."""
-    near = lattice_patch(mod, angle, (0.0, 0.0), np.zeros(2), 4 * mod.radius)
-    if not near.n_modules:
-        return 0.0, 0.0
-    i = int(np.argmin(np.linalg.norm(near.poses[:, 1:], axis=1)))
-    t = near.flat[near.module_ids == i]
-    mid = (t.min(axis=0) + t.max(axis=0)) / 2
-    c, s = np.cos(angle), np.sin(angle)
-    frac = np.linalg.solve(np.column_stack([mod.strip_period, mod.fill_row]), -np.array([[c, s], [-s, c]]) @ mid)
-    return float(frac[0]), float(frac[1])
 
 
 def _fill_island(prepared, preg, samples, start, direction, mod, radius, max_strain, avoid, angles,

@@ -161,37 +161,75 @@ def picture(robot, layouts, geometry, path, q=None) -> None:
     plt.close(fig)
 
 
-def _command_rows(out: Path, geometries, rows: list) -> None:
-    """``skin_command`` rows: ``vtcore robot skin`` (:func:`.skin_robot.skin_robot`) of every UR10 link with 1
-    and 2 workers: one row per link (its own wall and CPU seconds, peak memory) and one for the command."""
+def _command_rows(out: Path, geometries, rows: list, workers_tried=(1, 2)) -> None:
+    """``skin_command`` rows (2 workers; ``skin_command_1worker``: 1): ``vtcore robot skin``
+    (:func:`.skin_robot.skin_robot`) of every UR10 link: one row per link (its own wall and CPU seconds,
+    peak memory, what its fill lost where) and one for the command, each with the machine's load."""
     import os
 
-    from .skin_robot import skin_robot
+    from .skin_robot import lost_text, skin_robot
 
     urdf = _robot().path
     for geometry in geometries:
-        for workers in (1, 2):
+        for workers in workers_tried:
+            case = "skin_command" if workers > 1 else "skin_command_1worker"
             load0 = os.getloadavg()[0]
             t0 = time.perf_counter()
             rep = skin_robot(urdf, out / f"skin_{geometry}_{workers}", geometry=geometry, workers=workers, bars=False)
             wall = time.perf_counter() - t0
+            load = f"{load0:.1f}-{os.getloadavg()[0]:.1f}"
             done = [r for r in rep["links"] if r["status"] != "skipped"]
             for r in done:
-                rows.append({"case": "skin_command", "geometry": geometry, "link": f"{r['link']} ({workers} workers)",
+                rows.append({"case": case, "geometry": geometry, "link": f"{r['link']} ({workers} workers)",
                              "faces": r.get("faces"), "modules": r.get("modules"), "taxels": r.get("taxels"),
                              "coverage": r.get("coverage"), "seconds": r.get("seconds"),
-                             "cpu_seconds": r.get("cpu_seconds"), "peak_mb": r.get("peak_mb"),
-                             "extra": r["status"] + (f": {r['reason']}" if r.get("reason") else "")})
-            rows.append({"case": "skin_command", "geometry": geometry, "link": f"whole command, {workers} workers",
+                             "cpu_seconds": r.get("cpu_seconds"), "peak_mb": r.get("peak_mb"), "load": load,
+                             "extra": r["status"] + (f": {r['reason']}" if r.get("reason") else "")
+                             + (f"; lost: {lost_text(r['lost'])}" if r.get("lost") else "")})
+            rows.append({"case": case, "geometry": geometry, "link": f"whole command, {workers} workers",
                          "modules": rep["modules"], "taxels": sum(r.get("taxels") or 0 for r in done),
                          "seconds": wall, "cpu_seconds": sum(r.get("cpu_seconds") or 0 for r in done),
-                         "peak_mb": max([r.get("peak_mb") or 0 for r in done] + [0]),
-                         "extra": f"load {load0:.1f} at start, {os.getloadavg()[0]:.1f} at the end"})
+                         "peak_mb": max([r.get("peak_mb") or 0 for r in done] + [0]), "load": load,
+                         "extra": "merged URDF + MJCF written" if rep.get("robot_files") else ""})
 
 
-def run(out: Path, quick: bool = False, geometries=None) -> list[dict]:
+def _command_plot(rows: list, path: Path) -> None:
+    """Each link's wall and CPU seconds in ``vtcore robot skin`` (one panel per geometry and worker
+    count) against the goals: 20 s a collision link, 2 minutes a visual one (issue 36)."""
+    import matplotlib.pyplot as plt
+
+    runs = sorted({(r["geometry"], r["case"]) for r in rows})
+    fig, axes = plt.subplots(1, len(runs), figsize=(6 * len(runs), 4.2), squeeze=False)
+    for ax, (geometry, case) in zip(axes[0], runs):
+        rr = [r for r in rows if r["geometry"] == geometry and r["case"] == case]
+        y = np.arange(len(rr))
+        ax.barh(y - 0.2, [r.get("seconds") or 0 for r in rr], 0.4, label="wall s")
+        ax.barh(y + 0.2, [r.get("cpu_seconds") or 0 for r in rr], 0.4, label="CPU s")
+        ax.axvline(20 if geometry == "collision" else 120, color="k", ls="--", lw=0.8, label="goal per link")
+        ax.set_yticks(y, [f"{r['link']}: {int(r.get('modules') or 0)}" for r in rr], fontsize=7)
+        ax.invert_yaxis()
+        ax.set_xscale("log")
+        ax.set_xlabel("seconds")
+        ax.set_title(f"{geometry}, {rr[-1]['link'].split(', ')[-1]}, load {rr[-1].get('load', '')}", fontsize=9)
+        ax.legend(fontsize=7)
+    fig.suptitle("UR10: vtcore robot skin, per link (modules after the colon)")
+    fig.tight_layout()
+    save_png(fig, path, dpi=110)
+
+
+def _wanted(cases: str | None, *names: str) -> bool:
+    """Whether one of ``names`` matches one of the comma-separated fnmatch ``cases`` (None: all)."""
+    from fnmatch import fnmatch
+
+    pats = [c.strip() for c in (cases or "*").split(",") if c.strip()]
+    return any(fnmatch(n, p) for n in names for p in pats)
+
+
+def run(out: Path, quick: bool = False, geometries=None, cases: str | None = None) -> list[dict]:
     """Run the robot benchmark into ``out``; ``geometries``: which of the links' "collision" and
-    "visual" meshes to skin (default: both; the quick run: collision)."""
+    "visual" meshes to skin (default: both; the quick run: collision); ``cases``: only the groups of
+    rows whose case matches (``fill_link``: the per-link fills and the exports; ``exposure_all_links``;
+    ``skin_command``, ``skin_command_1worker``: the whole-robot command with 2 and 1 workers)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -204,7 +242,7 @@ def run(out: Path, quick: bool = False, geometries=None) -> list[dict]:
     t0 = time.perf_counter()
     kinds = tuple(geometries) if geometries else (("collision",) if quick else ("collision", "visual"))
     skins = {}
-    for geometry in kinds:
+    for geometry in (kinds if _wanted(cases, "fill_link", "all_links", "export_urdf", "export_mjcf") else ()):
         links = [n for n, ln in robot.links.items() if ln.geometry(geometry)]
         if quick:  # the command's smoke run: one hexagon on each of two links
             links = links[:2]
@@ -219,9 +257,11 @@ def run(out: Path, quick: bool = False, geometries=None) -> list[dict]:
                                      and r["geometry"] == geometry), default=None)})
         if skins[geometry]:
             _export_rows(robot, skins[geometry], geometry, out, rows, quick)
-    exposure_rows(rows, quick)
-    if not quick:  # the whole-robot command, the same links filled in parallel
-        _command_rows(out, kinds, rows)
+    if _wanted(cases, "exposure_all_links", "fill_exposed", "fill_anywhere"):
+        exposure_rows(rows, quick)
+    tried = tuple(w for w, c in ((1, "skin_command_1worker"), (2, "skin_command")) if _wanted(cases, c))
+    if not quick and tried:  # the whole-robot command, the same links filled in parallel
+        _command_rows(out, kinds, rows, tried)
     import os
 
     write_table(out, rows, title="Robot benchmark: the UR10 skinned from its URDF" + (" (quick)" if quick else ""),
@@ -235,7 +275,7 @@ def run(out: Path, quick: bool = False, geometries=None) -> list[dict]:
                        "5 random configurations. extra: why a link carries no module, or what the CLI and the "
                        "add-on would refuse the fill for unless forced."],
                 columns=["case", "geometry", "link", "faces", "modules", "taxels", "coverage", "seconds",
-                         "cpu_seconds", "peak_mb", "max_mm", "max_deg", "footprint_deg", "extra"])
+                         "cpu_seconds", "peak_mb", "load", "max_mm", "max_deg", "footprint_deg", "extra"])
     fig, ax = plt.subplots(figsize=(6, 4))
     for geometry, mk in (("collision", "o"), ("visual", "s")):
         rr = [r for r in rows if r["case"].endswith("_link") and r["geometry"] == geometry
@@ -251,6 +291,8 @@ def run(out: Path, quick: bool = False, geometries=None) -> list[dict]:
     fig.tight_layout()
     save_png(fig, out / "accuracy_vs_time.png", dpi=110)
     plt.close(fig)
+    if any(r["case"].startswith("skin_command") for r in rows):
+        _command_plot([r for r in rows if r["case"].startswith("skin_command")], out / "skin_command.png")
     for geometry, layouts in skins.items():
         if layouts:
             picture(robot, layouts, geometry, out / f"skinned_robot_{geometry}.png",

@@ -116,6 +116,7 @@ def fill_link(robot_path: str, packages: dict, link: str, geometry: str, out_fil
         # no time in the file: the same fill gives the same bytes in any worker
         layout.meta.get("placement", {}).pop("seconds", None)
         save(layout, out_file)
+        rec["lost"] = {k: int(v) for k, v in (layout.meta.get("fill_left_out") or {}).items() if v}
         rec.update(modules=int(layout.n_modules), taxels=int(len(layout)), file=out_file,
                    coverage=None if report.coverage is None or not np.isfinite(report.coverage)
                    else float(report.coverage))
@@ -132,6 +133,16 @@ def fill_link(robot_path: str, packages: dict, link: str, geometry: str, out_fil
     if _QUEUE is not None:
         _QUEUE.put((link, 1.0))
     return rec
+
+
+#: what a fill's candidate modules were left out for (``layout.meta["fill_left_out"]``), as said
+LOST_WORDS = {"off": "off the surface", "rules": "on an edge", "strain": "strained", "overlap": "overlapping",
+              "existing": "over skin already there"}
+
+
+def lost_text(lost: dict | None) -> str:
+    """``{"off": 12, "rules": 3}`` -> ``"12 off the surface, 3 on an edge"`` ("" for none)."""
+    return ", ".join(f"{n} {LOST_WORDS.get(k, k)}" for k, n in (lost or {}).items() if n)
 
 
 def one_line(text: str, limit: int = 300) -> str:
@@ -353,13 +364,14 @@ def write_report(robot, geometry: str, records: dict, out: Path, workers: int, s
     lines = [f"# Skin of {Path(robot.path).name} ({geometry} geometry)", "",
              f"{rep['modules']} modules on {rep['counts']['ok']} links in {seconds:.1f} s with {workers} worker(s); "
              + ", ".join(f"{v} {k}" for k, v in rep["counts"].items() if v and k != "ok"), "",
-             "| link | status | modules | coverage | wall s | CPU s | peak MB | reason |", "|---|---|---|---|---|---|---|---|"]
+             "| link | status | modules | coverage | wall s | CPU s | peak MB | candidates lost | reason |",
+             "|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         cov = "" if r.get("coverage") is None else f"{100 * r['coverage']:.0f} %"
         num = lambda k, f: "" if r.get(k) is None else format(r[k], f)  # noqa: E731
         why = str(r.get("reason") or "").replace("|", "\\|")
         lines.append(f"| {r['link']} | {r['status']} | {r.get('modules') or ''} | {cov} | {num('seconds', '.1f')} "
-                     f"| {num('cpu_seconds', '.1f')} | {num('peak_mb', '.0f')} | {why} |")
+                     f"| {num('cpu_seconds', '.1f')} | {num('peak_mb', '.0f')} | {lost_text(r.get('lost'))} | {why} |")
     for f in files:
         lines.append("")
         lines.append(f"- {f['format']}: " + (f"`{Path(f['file']).name}`" if "file" in f else f"not written: {f['error']}"))
