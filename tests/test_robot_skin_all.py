@@ -81,6 +81,21 @@ def test_one_failing_link_does_not_stop_the_others(bot, tmp_path):
     assert f"| {lost_text(lost)} |" in row and "on an edge" in row
 
 
+def test_a_link_with_no_exposed_surface_is_refused_not_failed(tmp_path):
+    """A link wholly inside its neighbour (issue 33's hard case) has nothing to lay skin on: the run
+    reports it "refused" with the one-line reason, as a link no module fits on, not "failed"."""
+    from vtcore.robot.skin_robot import skin_robot
+
+    path = tmp_path / "nested.urdf"
+    path.write_text('<?xml version="1.0"?>\n<robot name="nested">' + link("shell", '<box size="0.2 0.2 0.2"/>')
+                    + link("core", BOX) + '<joint name="fix" type="fixed"><parent link="shell"/><child link="core"/>'
+                    '</joint></robot>\n')
+    rep = skin_robot(path, tmp_path / "out", links="core", geometry="collision", workers=1, bars=False)
+    (rec,) = rep["links"]
+    assert rec["status"] == "refused", rec
+    assert "no exposed surface" in rec["reason"] and "\n" not in rec["reason"]
+
+
 def test_two_workers_give_the_same_bytes_as_one(tmp_path):
     from vtcore.robot.skin_robot import skin_robot
 

@@ -152,9 +152,14 @@ def exposure_of(robot: Robot, link: str, geometry: str, mesh, exposure, probe_ra
                          surfaces=surfaces), surfaces
 
 
+class NoExposedSurface(InputError):
+    """A link (or a region of it) with no exposed face: like :class:`..layout.islands.NoModuleFits`, a
+    refusal of that link (``vtcore robot skin`` reports it "refused", not "failed")."""
+
+
 def no_exposed_surface(robot: Robot, link: str, geometry: str, exp, where: str = "") -> InputError:
     """The one-line refusal of a link (or a region of it) with no exposed face."""
-    return InputError(f"link {link!r} ({geometry} geometry) has no exposed surface{where} to lay skin on: "
+    return NoExposedSurface(f"link {link!r} ({geometry} geometry) has no exposed surface{where} to lay skin on: "
                       f"{exp.excluded_text().split(': ', 1)[1]}; --anywhere lays it there anyway",
                       file=robot.path, key="--link")
 

@@ -88,6 +88,7 @@ def fill_link(robot_path: str, packages: dict, link: str, geometry: str, out_fil
     from ..errors import VtError
     from ..layout import save
     from ..layout.islands import NoModuleFits
+    from .skin import NoExposedSurface
     from .export import load_robot
     from .skin import lay_on_link
 
@@ -122,7 +123,7 @@ def fill_link(robot_path: str, packages: dict, link: str, geometry: str, out_fil
                    else float(report.coverage))
     except Cancelled:
         rec.update(status="interrupted", reason="stopped before it finished")
-    except NoModuleFits as exc:
+    except (NoModuleFits, NoExposedSurface) as exc:  # nothing to lay there: a refusal, not a failure
         rec.update(status="refused", reason=one_line(exc.reason))
     except (VtError, InputError) as exc:
         rec.update(status="failed", reason=one_line(str(exc)))  # with the file and key it names
