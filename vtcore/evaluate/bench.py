@@ -301,7 +301,9 @@ def run(out: Path, quick: bool = False) -> list[dict]:
         "(the same estimator, noise draws and blob criterion); reading errors are the neighbour taxels' mean "
         "readings at the reference force, in % of that press's peak reading. link_1000 rows: the same "
         "comparison at the covered samples nearest a few random taxels (`points`; `press_s_per_point` is the "
-        "reference's cost)."])
+        "reference's cost). table_spacing rows: each cell's maps against press-by-press solves at 12 of their 64 "
+        "points (thresholds at 4), not against the finest cell; the reference's own 0.5 mm grid and 1 % "
+        "bisection bound how closely a cell can agree with it."])
     return rows
 
 
