@@ -179,9 +179,10 @@ def backproject_reference(flat, positions, triangles, pixels) -> tuple[np.ndarra
         a, b, c = flat[tri]
         lo, hi = np.minimum(np.minimum(a, b), c) - 1e-12, np.maximum(np.maximum(a, b), c) + 1e-12
         cand = np.flatnonzero(np.all((px >= lo) & (px <= hi), axis=1) & ~inside)
-        if len(cand) == 0 or abs(np.cross(b - a, c - a)) < 1e-18:
+        m = np.column_stack([b - a, c - a])
+        if len(cand) == 0 or abs(np.linalg.det(m)) < 1e-18:  # a degenerate flat triangle covers no pixel
             continue
-        l12 = np.linalg.solve(np.column_stack([b - a, c - a]), (px[cand] - a).T).T   # (k, 2)
+        l12 = np.linalg.solve(m, (px[cand] - a).T).T   # (k, 2)
         bary = np.column_stack([1.0 - l12.sum(axis=1), l12])
         ok = np.all(bary >= -1e-9, axis=1)
         inside[cand[ok]] = True
