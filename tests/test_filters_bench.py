@@ -22,6 +22,10 @@ def test_filters_bench_quick(tmp_path):
             assert r["pos_err_mm"] < 7.5 and r["misses"] == 0
         if r["row"].startswith("mesh_filter"):  # against Eq. 6 summed edge by edge from the triangles
             assert r["rel_err"] < (1e-12 if r["knob"] == "float64" else 1e-5), r
+        if r["row"] == "image_backproject_all":  # against a plain loop over the flat triangles
+            assert r["pos_err_mm"] < 1e-9 and r["rel_err"] < 1e-9 and r["misses"] == 0, r
+    grids = {r["knob"].split(",")[0] for r in rows if r["row"] == "image_backproject_all"}
+    assert len(grids) >= 3
 
 
 def test_eq6_reference_by_hand():
@@ -39,3 +43,17 @@ def test_eq6_reference_by_hand():
             1 * (1 - 3) / 2 + 2 * (2 - 3) / d12 + 5 * (5 - 3) / 1,
             2 * (2 - 5) / 2 + 3 * (3 - 5) / 1]
     assert np.allclose(r, want, rtol=1e-14)
+
+
+def test_backproject_reference_by_hand():
+    # one flat triangle (0,0) (2,0) (0,2) lifted to z = x + 2y: inside pixels land on that plane
+    import numpy as np
+
+    from vtcore.filters.bench import backproject_reference
+
+    flat = np.array([[0, 0], [2, 0], [0, 2.0]])
+    pos = np.column_stack([flat, flat[:, 0] + 2 * flat[:, 1]])
+    px = np.array([[0.5, 0.5], [1.0, 1.0], [1.5, 1.5], [0.0, 0.0]])
+    inside, pts = backproject_reference(flat, pos, [[0, 1, 2]], px)
+    assert inside.tolist() == [True, True, False, True]
+    assert np.allclose(pts[inside], [[0.5, 0.5, 1.5], [1.0, 1.0, 3.0], [0, 0, 0]])

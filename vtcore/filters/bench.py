@@ -16,7 +16,12 @@ Rows:
   error of the edge's position (mm) and orientation (deg). Knobs: the image
   grid (0.5/1/2 mm), the Loop subdivision levels (0/1/2).
 - ``image_backproject_all`` the whole image pipeline with every skin pixel
-  back-projected and used in the moments (seed 002's worst case, 7.2 ms).
+  back-projected and used in the moments (seed 002's worst case, 7.2 ms), at
+  grids of 2, 1 and 0.5 mm, against every pixel back-projected by a plain loop
+  over the flat triangles (:func:`backproject_reference`): ``pos_err_mm`` the
+  largest distance between the two 3-D points of a pixel, ``rel_err`` the
+  distance between the two moments' centroids (mm), ``ang_err_deg`` between
+  their orientations, ``misses`` the pixels one calls on the skin and the other not.
 
 Only layout, contact and filters are used (filters sits left of control): the
 closed-loop contour error of each method next to its time is
@@ -35,7 +40,8 @@ from ..contact.analytic import footprint_pressure
 
 #: What this benchmark measures its error against (the closing note of ``vtcore bench`` lists it).
 REFERENCE = ("the known edge (position and orientation) of synthetic line contacts; mesh-filter rows: Eq. 6 "
-             "summed edge by edge from the triangles and positions")
+             "summed edge by edge from the triangles and positions; image_backproject_all rows: every pixel "
+             "back-projected by a plain loop over the flat triangles")
 
 #: frames of a batch compared with the edge-by-edge reference (it is a slow loop over edges)
 REFERENCE_FRAMES = 200
@@ -156,17 +162,82 @@ def _accuracy(det, lay, cases):
     return float(np.nanmean(pos_err)), float(np.nanmean(ang_err)), miss, frames
 
 
-def run(out: Path, quick: bool = False) -> list[dict]:
-    from .detectors import ImageEdgeDetector, MeshEdgeDetector, SubtaxelEdgeDetector
+def backproject_reference(flat, positions, triangles, pixels) -> tuple[np.ndarray, np.ndarray]:
+    """Every pixel centre back-projected onto the 3-D skin by a plain loop over the flat triangles:
+    the independent reference of the ``image_backproject_all`` rows.
+
+    ``flat`` (N, 2) m, ``positions`` (N, 3) m, ``triangles`` (F, 3), ``pixels`` (P, 2) m.
+    Returns ``(inside (P,) bool, points (P, 3) m)``. Each triangle's affine map flat -> 3-D is solved
+    from its corners (``np.linalg.solve``), and a pixel is inside where its barycentric coordinates
+    are all >= -1e-9: no point location structure (the tactile image uses matplotlib's trifinder)
+    and no precomputed weight matrix.
+    """
+    flat, pos, px = (np.asarray(a, dtype=np.float64) for a in (flat, positions, pixels))
+    inside = np.zeros(len(px), dtype=bool)
+    points = np.zeros((len(px), 3))
+    for tri in np.asarray(triangles, dtype=np.int64):
+        a, b, c = flat[tri]
+        lo, hi = np.minimum(np.minimum(a, b), c) - 1e-12, np.maximum(np.maximum(a, b), c) + 1e-12
+        cand = np.flatnonzero(np.all((px >= lo) & (px <= hi), axis=1) & ~inside)
+        m = np.column_stack([b - a, c - a])
+        if len(cand) == 0 or abs(np.linalg.det(m)) < 1e-18:  # a degenerate flat triangle covers no pixel
+            continue
+        l12 = np.linalg.solve(m, (px[cand] - a).T).T   # (k, 2)
+        bary = np.column_stack([1.0 - l12.sum(axis=1), l12])
+        ok = np.all(bary >= -1e-9, axis=1)
+        inside[cand[ok]] = True
+        points[cand[ok]] = bary[ok] @ pos[tri]
+    return inside, points
+
+
+def _backproject_rows(skins, frames_of) -> list[dict]:
+    """Seed 002's worst case of the image pipeline (7.2 ms): every skin pixel back-projected and used
+    in the moments, at three grids, with its error against :func:`backproject_reference`."""
+    from .detectors import ImageEdgeDetector
+    from .extract import features
+
+    rows = []
+    for name, (lay, mesh) in skins.items():
+        frame = frames_of[name][0]
+        for res in (2e-3, 1e-3, 0.5e-3):
+            img = ImageEdgeDetector(lay.positions, mesh.triangles, lay.flat, resolution=res,
+                                    sigma=1.5 * 1e-3 / res)
+            tac = img.tactile
+
+            def all_pixels():
+                from skimage.measure import label
+
+                _, e = img.edge_pixels(frame)
+                label(e, connectivity=2)
+                pts = tac.back_project(tac.inside)
+                return features(pts, np.zeros(len(pts), dtype=np.int64))
+
+            t = _best(all_pixels, repeat=3)
+            got = all_pixels()
+            h, w = tac.shape
+            gx, gy = np.meshgrid(tac.origin[0] + res * np.arange(w), tac.origin[1] + res * np.arange(h))
+            ref_in, ref_pts = backproject_reference(tac.flat, lay.positions, mesh.triangles,
+                                                    np.column_stack([gx.ravel(), gy.ravel()]))
+            mine_in = tac.inside.ravel()
+            both = mine_in & ref_in
+            ref = features(ref_pts[ref_in], np.zeros(int(ref_in.sum()), dtype=np.int64))
+            d_theta = np.degrees(abs(np.mod(got.theta - ref.theta + np.pi / 2, np.pi) - np.pi / 2))
+            rows.append({"row": "image_backproject_all", "skin": name, "taxels": len(lay), "frames": 1,
+                         "knob": f"grid {res * 1e3:g} mm, {int(mine_in.sum())} px", "ms_per_frame": t * 1e3,
+                         "taxel_frames_per_s": len(lay) / t,
+                         "rel_err": float(np.linalg.norm(got.centroid - ref.centroid) * 1e3),
+                         "pos_err_mm": float(np.max(np.linalg.norm(tac.pixel_points[both] - ref_pts[both], axis=1))
+                                             * 1e3),
+                         "ang_err_deg": float(d_theta), "misses": int(np.sum(mine_in != ref_in))})
+    return rows
+
+
+def _mesh_filter_rows(skins, rng, quick) -> list[dict]:
+    """Eq. 6 alone: one frame on each seed 002 skin, then (T, N) batches of three sizes per dtype
+    (``--quick``: fewer frames, not fewer sizes), each against :func:`eq6_reference`."""
     from .local import EdgeFilter
 
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    rng = np.random.default_rng(0)
     rows = []
-    skins = _skins()
-
-    # 1. Eq. 6 alone, one frame
     for name, (lay, mesh) in skins.items():
         ef = EdgeFilter(mesh)
         p = rng.random(len(lay))
@@ -175,8 +246,6 @@ def run(out: Path, quick: bool = False) -> list[dict]:
         rows.append({"row": "mesh_filter", "skin": name, "taxels": len(lay), "frames": 1, "knob": "float64",
                      "ms_per_frame": t * 1e3, "taxel_frames_per_s": len(lay) / t, "rel_err": rel,
                      "pos_err_mm": "", "ang_err_deg": "", "misses": ""})
-
-    # 2. batched throughput, three sizes per dtype (quick: fewer frames, not fewer sizes)
     t_frames = 1000 if quick else 10000
     for n in (211, 1000, 4000):
         mesh = _random_mesh(n, rng)
@@ -190,9 +259,15 @@ def run(out: Path, quick: bool = False) -> list[dict]:
                          "knob": np.dtype(dt).name, "ms_per_frame": t * 1e3 / t_frames,
                          "taxel_frames_per_s": n * t_frames / t, "rel_err": rel, "pos_err_mm": "",
                          "ang_err_deg": "", "misses": ""})
+    return rows
 
-    # 3. whole per-frame pipelines with accuracy
-    cases = _line_cases(8 if quick else 40, rng)
+
+def _detect_rows(skins, cases) -> tuple[list[dict], dict]:
+    """The whole per-frame pipeline of each method and knob on both skins, with its accuracy on the
+    straight-edge ``cases``; also returns each skin's analytic frames."""
+    from .detectors import ImageEdgeDetector, MeshEdgeDetector, SubtaxelEdgeDetector
+
+    rows, frames_of = [], {}
     for name, (lay, mesh) in skins.items():
         dets = [("mesh", "fraction 0.15", MeshEdgeDetector(mesh, fraction=0.15))]
         for res in (2e-3, 1e-3, 0.5e-3):  # >= 3 points per curve, quick or not
@@ -203,6 +278,7 @@ def run(out: Path, quick: bool = False) -> list[dict]:
             dets.append(("subtaxel", f"levels {lv}", SubtaxelEdgeDetector(mesh, levels=lv)))
         for method, knob, det in dets:
             pe, ae, miss, frames = _accuracy(det, lay, cases)
+            frames_of[name] = frames
             k = [0]
 
             def one():
@@ -213,28 +289,18 @@ def run(out: Path, quick: bool = False) -> list[dict]:
             rows.append({"row": f"detect_{method}", "skin": name, "taxels": len(lay), "frames": 1, "knob": knob,
                          "ms_per_frame": t * 1e3, "taxel_frames_per_s": len(lay) / t, "rel_err": "",
                          "pos_err_mm": pe, "ang_err_deg": ae, "misses": miss})
-        # worst case of the image pipeline (seed 002: 7.2 ms): the whole pipeline, but every
-        # pixel of the skin back-projected and used in the moments
-        img = ImageEdgeDetector(lay.positions, mesh.triangles, lay.flat)
-        frame = frames[0]
+    return rows, frames_of
 
-        def all_pixels():
-            from skimage.measure import label
 
-            from .extract import features
-
-            im, e = img.edge_pixels(frame)
-            label(e, connectivity=2)
-            mask = img.tactile.inside
-            pts = img.tactile.back_project(mask)
-            return features(pts, np.zeros(len(pts), dtype=np.int64))
-
-        t = _best(all_pixels, repeat=3)
-        rows.append({"row": "image_backproject_all", "skin": name, "taxels": len(lay), "frames": 1,
-                     "knob": f"{int(img.tactile.inside.sum())} px", "ms_per_frame": t * 1e3,
-                     "taxel_frames_per_s": len(lay) / t, "rel_err": "", "pos_err_mm": "", "ang_err_deg": "",
-                     "misses": ""})
-
+def run(out: Path, quick: bool = False) -> list[dict]:
+    """Write ``table.md``, ``table.csv`` and ``accuracy_vs_time.png`` into ``out``; return the rows."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    rng = np.random.default_rng(0)
+    skins = _skins()
+    rows = _mesh_filter_rows(skins, rng, quick)
+    detect, frames_of = _detect_rows(skins, _line_cases(8 if quick else 40, rng))
+    rows += detect + _backproject_rows(skins, frames_of)
     _write(out, rows)
     return rows
 
@@ -244,7 +310,11 @@ def _write(out: Path, rows: list[dict]) -> None:
              "(7.2 ms with every pixel back-projected). Goals: <= 0.02 ms per frame on 211 taxels, "
              ">= 50 M taxel-frames/s batched. Accuracy: straight-edge contacts (analytic pressure), "
              "error of the detected edge position and orientation. Mesh-filter rows: rel_err against Eq. 6 "
-             "summed edge by edge from the triangles (float32 rows show the single-precision rounding)."]
+             "summed edge by edge from the triangles (float32 rows show the single-precision rounding). "
+             "image_backproject_all rows: against every pixel back-projected by a plain loop over the flat "
+             "triangles (pos_err_mm: largest 3-D distance of a pixel's two points; rel_err: distance of the "
+             "two moments' centroids, mm; ang_err_deg: of their orientations; misses: pixels on the skin "
+             "in one and not the other)."]
     img = [r for r in rows if r["row"] == "detect_image" and r["knob"] == "grid 1 mm"]
     for m in (r for r in rows if r["row"] == "detect_mesh"):
         i = [r for r in img if r["skin"] == m["skin"]]
