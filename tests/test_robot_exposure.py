@@ -372,3 +372,31 @@ def test_mujoco_probe_poses_put_no_body_through_another():
     qs = free_qpos(m, 16, seed=3)
     assert len(qs) == 16
     assert (phis(qs) >= WALL_PHI).all()
+
+
+def test_a_neighbour_whose_hull_arches_over_a_skin_collides_by_parts(tmp_path):
+    """An arch standing over a plate: its mesh leaves a ball on the plate's taxels free (the roof 30 mm
+    up), its convex hull, which MuJoCo would collide, swallows the ball; the export gives the arch convex
+    parts (``crowding_links``). The same arch moved aside is left as it is."""
+    from vtcore.robot.export import crowding_links
+
+    posts = [trimesh.creation.box(extents=(0.01, 0.04, 0.06)) for _ in range(2)]
+    posts[0].apply_translation([-0.06, 0, 0.02])
+    posts[1].apply_translation([0.06, 0, 0.02])
+    roof = trimesh.creation.box(extents=(0.13, 0.04, 0.01))
+    roof.apply_translation([0, 0, 0.045])
+    trimesh.util.concatenate(posts + [roof]).export(tmp_path / "arch.stl")
+    trimesh.creation.box(extents=(0.1, 0.1, 0.02)).export(tmp_path / "plate.stl")
+    for shift, expect in ((0.0, {"arch"}), (0.5, set())):
+        urdf = tmp_path / f"arch_{shift}.urdf"
+        urdf.write_text(f"""<?xml version="1.0"?>
+<robot name="arch">
+  <link name="plate"><collision><geometry><mesh filename="plate.stl"/></geometry></collision>
+    <visual><geometry><mesh filename="plate.stl"/></geometry></visual></link>
+  <link name="arch"><collision><geometry><mesh filename="arch.stl"/></geometry></collision></link>
+  <joint name="j" type="fixed"><parent link="plate"/><child link="arch"/><origin xyz="{shift} 0 0"/></joint>
+</robot>
+""")
+        robot = load_robot(urdf)
+        lay, _ = lay_on_link(robot, "plate", "triangle", at=(0, 0, 0.01), exposure=False)
+        assert crowding_links(robot, [lay], ["plate"]) == expect

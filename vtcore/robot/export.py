@@ -336,6 +336,8 @@ def _export_skinned(robot_path, layouts, out, staged, *, format: str | None = No
     skins: dict = {}  # link -> every skin on it: its contact surface is cut under all of them
     for lay in layouts:
         skins.setdefault(lay.parent or lay.frame, []).append(lay)
+    # links whose hull would hold a ball off another link's skin collide by convex parts (skinned or not)
+    crowding = crowding_links(robot, layouts, [skin_link(lay, links) for lay in layouts])
     for lay, prefix in zip(layouts, prefixes):
         link = skin_link(lay, links)
         reach = None
@@ -343,7 +345,8 @@ def _export_skinned(robot_path, layouts, out, staged, *, format: str | None = No
             # the link's contact surface follows the surface the skin lies on (convex parts), and each
             # site reaches that surface as MuJoCo collides it
             if link not in contact:  # once per link, however many skins it carries
-                parts, geoms = link_contact(robot, link, skins.get(link, [lay]), tree, out, staged)
+                parts, geoms = link_contact(robot, link, skins.get(link, [lay]), tree, out, staged,
+                                            force=link in crowding)
                 contact[link] = (parts, bool(geoms))
                 contact_geoms += geoms
             parts, rebuilt = contact[link]
@@ -357,6 +360,7 @@ def _export_skinned(robot_path, layouts, out, staged, *, format: str | None = No
         names = mjcf_io.merge_into_tree(lay, tree, link, robot_path, prefix=prefix, reach=reach, **opts)
         sites.append(names)
         records.append({"link": link, "taxels": len(lay), "names": [names[0], names[-1]] if names else []})
+    contact_geoms += decompose_links(robot, crowding - set(contact), tree, out, staged)
     mjcf_io.rebase(tree.getroot(), model_dir, out.parent)
     mjcf_io.relative_contact_files(tree.getroot(), contact_geoms, out.parent)
     mjcf_io.write_tree(tree, staged)
@@ -372,14 +376,17 @@ def _export_skinned(robot_path, layouts, out, staged, *, format: str | None = No
     return records
 
 
-def link_contact(robot: Robot, link: str, layouts, tree: ET.ElementTree, out: Path, staged: Path):
+def link_contact(robot: Robot, link: str, layouts, tree: ET.ElementTree, out: Path, staged: Path,
+                 force: bool = False):
     """``(parts, geom names)``: the convex parts MuJoCo will collide ``link`` by in the exported
     MJCF ``tree``, and the names of the geoms added for them. The link's own colliding geometry (each
     collision element's hull) where it already hugs the skins ``layouts`` (:func:`.contact_geometry.needs_parts`);
     else a convex decomposition of the geometry the skin was laid on (``meta["geometry"]``, default
     collision; written to the staged ``<out stem>_meshes/`` (``staged``: out's name in the staging
     folder), a decomposition already in out's own folder reused), cut under the skin (:func:`.contact_geometry.under_skin`),
-    replaces the link's colliding geoms; the parts are written there as ``<link>_contact_<k>.stl``."""
+    replaces the link's colliding geoms; the parts are written there as ``<link>_contact_<k>.stl``.
+    force : decompose even where the link's hulls hug its skins (they hold a ball off another link's:
+    :func:`crowding_links`)."""
     from .contact_geometry import convex_parts, needs_parts, under_skin
     from .meshes import link_mesh
     from .reach import collision_hulls, reach_to
@@ -388,7 +395,7 @@ def link_contact(robot: Robot, link: str, layouts, tree: ET.ElementTree, out: Pa
     frames = [taxel_frames(lay) for lay in layouts]
     positions, normals = np.vstack([f[0] for f in frames]), np.vstack([f[1] for f in frames])
     hulls = collision_hulls(robot, link)
-    if hulls and not needs_parts(*reach_to(hulls, positions, normals)):
+    if hulls and not force and not needs_parts(*reach_to(hulls, positions, normals)):
         return hulls, []
     geometry = layouts[0].meta.get("geometry") or "collision"
     if not robot.link(link).geometry(geometry):
@@ -411,6 +418,71 @@ def link_contact(robot: Robot, link: str, layouts, tree: ET.ElementTree, out: Pa
     body = next(b for b in tree.getroot().iter("body") if b.get("name") == link)
     names = mjcf_io.replace_contact(tree.getroot(), body, files, f"{identifier(link)}_vtcontact_")
     return parts, names
+
+
+#: metres: a ball this wide rests on each taxel (the MuJoCo check's 20 g ball); a link whose hull reaches
+#: into it where the link's own surface stays clear of it collides by convex parts instead
+BALL_M, BALL_CLEAR_M = 0.0085, 0.001
+
+
+def crowding_links(robot: Robot, layouts, links) -> set:
+    """The links (names) whose contact surface as MuJoCo collides it (each collision element's convex
+    hull) reaches where a ball resting on another link's taxel would be at the zero pose while their own
+    collision surface leaves that ball free: the G1's wrist yaw hull over the wrist pitch's skin, where
+    the ball rested on the hull and every sensor read 0. layouts : with ``links`` (their links' names)."""
+    from .exposure import RobotSurfaces, rigid_inverse
+    from .reach import collision_hulls
+
+    poses = robot.link_poses({})
+    centres, owner = [], []
+    for lay, link in zip(layouts, links):
+        if link not in robot.links:
+            continue
+        p, n = taxel_frames(lay)
+        n = n / np.linalg.norm(n, axis=1, keepdims=True)
+        t = poses[link]
+        centres.append((p + (BALL_M + BALL_CLEAR_M) * n) @ t[:3, :3].T + t[:3, 3])
+        owner += [link] * len(p)
+    if not centres:
+        return set()
+    centres, owner = np.vstack(centres), np.array(owner)
+    surfaces, out = RobotSurfaces(robot, "collision"), set()
+    for name, ln in robot.links.items():
+        if not ln.collisions:
+            continue
+        t = rigid_inverse(poses[name])
+        c = centres @ t[:3, :3].T + t[:3, 3]
+        near = np.zeros(len(c), bool)
+        for hull in collision_hulls(robot, name):  # half-space bound: within the ball's radius of the hull
+            nrm = np.asarray(hull.face_normals)
+            d = np.einsum("ij,ij->i", nrm, np.asarray(hull.triangles)[:, 0])
+            near |= (c @ nrm.T - d).max(axis=1) < BALL_M
+        near &= owner != name  # its own skin: link_contact's parts, cut under it
+        if near.any() and surfaces.mesh(name) is not None and (surfaces.distance(name, c[near]) >= BALL_M).any():
+            out.add(name)
+    return out
+
+
+def decompose_links(robot: Robot, names, tree: ET.ElementTree, out: Path, staged: Path) -> list:
+    """Make each link of ``names`` (carrying no skin) collide by a convex decomposition of its collision
+    surface (:func:`.contact_geometry.convex_parts`) in the exported ``tree``; returns the geom names added."""
+    from .contact_geometry import convex_parts
+    from .meshes import link_mesh
+
+    bodies = {b.get("name"): b for b in tree.getroot().iter("body")}
+    folder, added = staged.parent / f"{out.stem}_meshes", []
+    for name in sorted(names):
+        if name not in bodies:
+            continue
+        mesh = link_mesh(robot, name, "collision")
+        reuse_decomposition(mesh, out.parent / f"{out.stem}_meshes", folder)
+        files = []
+        for k, part in enumerate(convex_parts(mesh, folder)):
+            fname = f"{identifier(name)}_contact_{k:02d}.stl"
+            part.export(folder / fname)
+            files.append((out.parent / folder.name / fname).resolve())
+        added += mjcf_io.replace_contact(tree.getroot(), bodies[name], files, f"{identifier(name)}_vtcontact_")
+    return added
 
 
 def taxel_frames(layout: Layout) -> tuple[np.ndarray, np.ndarray]:
