@@ -407,7 +407,10 @@ def link_contact(robot: Robot, link: str, layouts, tree: ET.ElementTree, out: Pa
     reuse_decomposition(mesh, out.parent / f"{out.stem}_meshes", folder)
     u = normals / np.linalg.norm(normals, axis=1, keepdims=True)
     covered = occluded(mesh, positions + 1e-4 * u, u)  # under the link's own mesh: a pocket, left as it is
-    parts = under_skin(convex_parts(mesh, folder), positions, normals, covered)
+    parts = convex_parts(mesh, folder)
+    if force and hulls:  # it crowds another link's skin: not beyond its hull there either
+        parts = within_hulls(parts, hulls)
+    parts = under_skin(parts, positions, normals, covered)
     if not parts:
         return hulls, []
     files = []  # where they will be once the staged set lands in out's folder
@@ -468,6 +471,7 @@ def decompose_links(robot: Robot, names, tree: ET.ElementTree, out: Path, staged
     surface (:func:`.contact_geometry.convex_parts`) in the exported ``tree``; returns the geom names added."""
     from .contact_geometry import convex_parts
     from .meshes import link_mesh
+    from .reach import collision_hulls
 
     bodies = {b.get("name"): b for b in tree.getroot().iter("body")}
     folder, added = staged.parent / f"{out.stem}_meshes", []
@@ -477,12 +481,33 @@ def decompose_links(robot: Robot, names, tree: ET.ElementTree, out: Path, staged
         mesh = link_mesh(robot, name, "collision")
         reuse_decomposition(mesh, out.parent / f"{out.stem}_meshes", folder)
         files = []
-        for k, part in enumerate(convex_parts(mesh, folder)):
+        for k, part in enumerate(within_hulls(convex_parts(mesh, folder), collision_hulls(robot, name))):
             fname = f"{identifier(name)}_contact_{k:02d}.stl"
             part.export(folder / fname)
             files.append((out.parent / folder.name / fname).resolve())
         added += mjcf_io.replace_contact(tree.getroot(), bodies[name], files, f"{identifier(name)}_vtcontact_")
     return added
+
+
+def within_hulls(parts, hulls) -> list:
+    """The convex ``parts`` each cut to the union of the convex ``hulls`` (the link's collision elements
+    as MuJoCo collided them): CoACD decomposes a decimated mesh, whose parts poke a few mm out of the
+    link's hull, over the next link's skin at a mating face (the G1 wrist pitch's over the wrist roll's:
+    a taxel that read with the hull was covered by the parts). A part outside every hull is dropped."""
+    import trimesh
+
+    out = []
+    for part in parts:
+        pieces = []
+        for hull in hulls:
+            try:
+                cut = trimesh.boolean.intersection([part, hull], engine="manifold")
+            except (ValueError, RuntimeError):  # a degenerate part: keep it as CoACD gave it
+                cut = part
+            if len(cut.faces) >= 4 and cut.volume > 1e-12:
+                pieces.append(cut.convex_hull)
+        out += pieces
+    return out or list(parts)
 
 
 def taxel_frames(layout: Layout) -> tuple[np.ndarray, np.ndarray]:
