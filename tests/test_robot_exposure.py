@@ -400,3 +400,18 @@ def test_a_neighbour_whose_hull_arches_over_a_skin_collides_by_parts(tmp_path):
         robot = load_robot(urdf)
         lay, _ = lay_on_link(robot, "plate", "triangle", at=(0, 0, 0.01), exposure=False)
         assert crowding_links(robot, [lay], ["plate"]) == expect
+
+
+def test_convex_parts_are_cut_to_the_hull_mujoco_collided():
+    """A decomposition's part poking out of the link's hull is cut back to it (it would cover the next
+    link's skin at a mating face); a part wholly inside stays as it is."""
+    from vtcore.robot.export import within_hulls
+
+    hull = trimesh.creation.box(extents=(0.1, 0.1, 0.1))
+    out = trimesh.creation.box(extents=(0.1, 0.04, 0.04))
+    out.apply_translation([0.04, 0, 0])  # 40 mm of it beyond x = 0.05
+    inner = trimesh.creation.box(extents=(0.02, 0.02, 0.02))
+    cut = within_hulls([out, inner], [hull])
+    assert len(cut) == 2
+    assert cut[0].bounds[1][0] == pytest.approx(0.05, abs=1e-9) and cut[0].volume == pytest.approx(0.06 * 0.04 * 0.04)
+    assert cut[1].volume == pytest.approx(inner.volume)
