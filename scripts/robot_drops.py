@@ -1,6 +1,7 @@
 """Issue 33's check of exported skins: fill links of the G1 and the Allegro hand (example-robot-data),
 export each robot as MJCF, drop a 20 g ball on random taxels at the zero pose and 3 random frozen
-configurations (vtcore.robot.drops) and count the drops whose skinned link reads m g within 5 %.
+configurations the robot can hold (uniform within the joint limits, none with a body through another:
+vtcore.robot.reach.free_configurations; vtcore.robot.drops) and count the drops whose skinned link reads m g within 5 %.
 
     python scripts/robot_drops.py OUT_DIR [--drops 24] [--robots g1,allegro]
 
@@ -16,15 +17,16 @@ import sys
 import warnings
 from pathlib import Path
 
-import numpy as np
 
+ARM = ["shoulder_pitch", "shoulder_roll", "shoulder_yaw", "elbow", "wrist_roll", "wrist_pitch", "wrist_yaw"]
+#: robot -> (URDF under example-robot-data, [(link, geometry)] skinned): the links issue 33 names, as
+#: scripts/robot_exposure_check.py fills them (the G1's torso and both arms; every link of the Allegro hand
+#: with geometry, fingertips on their collision spheres, whose visual meshes are far finer)
 ROBOTS = {
     "g1": ("g1_description/urdf/g1_29dof_with_hand_rev_1_0.urdf",
-           [("left_wrist_roll_link", "visual"), ("left_elbow_link", "visual"), ("left_hand_palm_link", "visual"),
-            ("right_elbow_link", "visual"), ("right_wrist_roll_link", "visual")]),
-    "allegro": ("allegro_hand_description/urdf/allegro_right_hand.urdf",
-                [("link_7.0_tip", "collision"), ("palm_link", "visual"), ("link_2.0", "visual"),
-                 ("link_9.0", "visual")]),
+           [("torso_link", "visual")] + [(f"{s}_{p}_link", "visual") for s in ("left", "right") for p in ARM]
+           + [("left_hand_palm_link", "visual")]),
+    "allegro": ("allegro_hand_description/urdf/allegro_right_hand.urdf", None),
 }
 TOLERANCE = 0.05
 
@@ -32,12 +34,16 @@ TOLERANCE = 0.05
 def run(name: str, out: Path, drops: int, seed: int = 0) -> dict:
     from vtcore.robot import export_skinned, lay_on_link, load_robot
     from vtcore.robot.drops import drop_many
+    from vtcore.robot.reach import free_configurations
     from vtcore.robot.samples import example_robot_data
 
     erd = example_robot_data()
     packages = {"example-robot-data": erd.parent}
     rel, links = ROBOTS[name]
     robot = load_robot(erd / rel, packages)
+    if links is None:
+        links = [(n, "collision" if n.endswith("_tip") else "visual") for n, ln in robot.links.items()
+                 if ln.visuals or ln.collisions]
     layouts = []
     for link, geometry in links:
         with warnings.catch_warnings():
@@ -53,10 +59,11 @@ def run(name: str, out: Path, drops: int, seed: int = 0) -> dict:
     records = export_skinned(robot.path, layouts, path, packages=packages)
     unreadable = {s for r in records for s in r.get("unreadable", [])}
     sometimes = {s for r in records for s in r.get("covered_at_some_poses", {})}
-    rng = np.random.default_rng(seed)
-    configs = [{}] + [robot.random_configuration(rng) for _ in range(3)]
-    configs = [{j.name: robot.joint_value(j, q) for j in robot.joints if j.type in ("revolute", "continuous",
-                                                                                   "prismatic")} for q in configs]
+    # the zero pose and 3 random configurations the robot can hold: uniform within the joint limits, those
+    # where MuJoCo finds a body through another (an arm through the torso) drawn again
+    configs = [{}] + free_configurations(path, 3, seed)
+    if len(configs) < 4:
+        raise SystemExit(f"{name}: only {len(configs) - 1} collision-free random configurations found")
     skinned = [lay.frame for lay in layouts]
     every = drop_many(path, skinned, drops, configurations=configs, seed=seed)
     import mujoco
@@ -66,7 +73,7 @@ def run(name: str, out: Path, drops: int, seed: int = 0) -> dict:
     readable = drop_many(path, skinned, drops, configurations=configs, seed=seed + 1,
                          readable=sites - unreadable - sometimes)
     ok = lambda rows: sum(abs(r["ratio"] - 1) <= TOLERANCE for r in rows)  # noqa: E731
-    summary = {"robot": name, "taxels": sum(len(x) for x in layouts), "unreadable": len(unreadable),
+    summary = {"robot": name, "seed": seed, "configurations": configs, "taxels": sum(len(x) for x in layouts), "unreadable": len(unreadable),
                "covered_at_some_poses": len(sometimes),
                "drops": drops, "ok_any_taxel": ok(every), "ok_readable": ok(readable),
                "rows_any": every, "rows_readable": readable}

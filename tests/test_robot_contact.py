@@ -52,7 +52,11 @@ def test_balls_on_readable_g1_taxels_read_mg_and_covered_ones_are_named(tmp_path
     assert all(abs(r["ratio"] - 1) <= 0.05 for r in rows), rows
     _, exposed, _ = skinned("g1_description/urdf/g1_29dof_with_hand_rev_1_0.urdf",
                             [("left_wrist_roll_link", "visual")], tmp_path / "g1_exposed.xml")
-    assert exposed[0]["taxels"] > 0 and exposed[0]["unreadable"] == [], exposed[0]["unreadable_why"]
+    # none covered by another link (the mating face's taxels were); a ball 17 mm wide may rest on the wrist
+    # pitch beside one (the exposure's 8 mm probe may cut 2 mm into a neighbour), which MuJoCo's rays now see:
+    # the pitch link collides by convex parts, no longer by a hull that mj_ray does not see (it hits the mesh)
+    why = exposed[0]["unreadable_why"]
+    assert exposed[0]["taxels"] > 0 and len(why) <= 1 and not any(w.startswith("covered") for w in why.values()), why
 
 
 def test_balls_on_the_allegro_palm_read_mg(tmp_path):

@@ -305,3 +305,113 @@ def test_import_robot_without_open3d_imports_the_robot_and_says_why_no_exposure(
     monkeypatch.setattr(importlib.util, "find_spec", find_spec)
     with_o3d = import_robot(path)
     assert not with_o3d.notes and any(p.exposure is not None for p in with_o3d.links)
+
+
+# --- sampled poses the robot can hold: a bar swinging round a post, past a wall on the base ----------------
+
+#: radians: the bar's centreline (radius 0.2 .. 0.4 m, pointing along angle phi) runs through the wall
+#: (x 0.29 .. 0.31 m, |y| <= 0.1 m) wherever |phi| < atan(0.1 / 0.3)
+WALL_PHI = float(np.arctan2(0.1, 0.3))
+
+
+def swing_urdf(folder):
+    """base (a hub and a wall at x = 0.3 m) - swing (revolute about z, +-pi, no geometry) - bar (fixed to
+    swing, pointing along -x at the zero pose): the bar and the base are not jointed to each other, and
+    half of a turn takes the bar through the wall."""
+    urdf = folder / "swing.urdf"
+    urdf.write_text("""<?xml version="1.0"?>
+<robot name="swing">
+  <link name="base">
+    <visual><geometry><box size="0.05 0.05 0.05"/></geometry></visual>
+    <visual><origin xyz="0.3 0 0"/><geometry><box size="0.02 0.2 0.1"/></geometry></visual>
+  </link>
+  <link name="swing"/>
+  <link name="bar"><visual><origin xyz="-0.3 0 0"/><geometry><box size="0.2 0.04 0.04"/></geometry></visual></link>
+  <joint name="turn" type="revolute"><parent link="base"/><child link="swing"/><axis xyz="0 0 1"/>
+    <limit lower="-3.14159" upper="3.14159" effort="1" velocity="1"/></joint>
+  <joint name="mount" type="fixed"><parent link="swing"/><child link="bar"/></joint>
+</robot>
+""")
+    return urdf
+
+
+def bar_phi(direction) -> float:
+    """radians: the angle about z of the bar's pointing direction (3,) in the base frame."""
+    return float(np.arctan2(direction[1], direction[0]))
+
+
+def test_sampled_poses_put_no_link_through_another(tmp_path):
+    """The exposure's sampled configurations are ones the robot can hold: uniform in the joint limits,
+    the bar drawn through the wall at some of them; kept, none does (checked by the bar's angle, not by
+    the exposure's own distance queries)."""
+    from vtcore.robot.exposure import configurations
+
+    robot = load_robot(swing_urdf(tmp_path))
+    phis = lambda configs: np.array([bar_phi(c["bar"][:3, :3] @ [-1.0, 0, 0]) for c in configs[1:]])  # noqa: E731
+    anywhere = phis(configurations(robot, 24, seed=3, free=False))
+    assert (np.abs(anywhere) < WALL_PHI).any()  # uniform draws do cross the wall: the check below can fail
+    free = configurations(robot, 24, seed=3)
+    assert len(free) == 25
+    assert (np.abs(phis(free)) >= WALL_PHI).all()
+
+
+def test_mujoco_probe_poses_put_no_body_through_another():
+    """The export's probe configurations (MuJoCo's own collision): the same swing as an MJCF."""
+    import mujoco
+
+    from vtcore.robot.reach import free_qpos
+
+    m = mujoco.MjModel.from_xml_string("""<mujoco><compiler angle="radian"/><worldbody>
+  <body name="base"><geom type="box" size=".025 .025 .025"/><geom type="box" pos=".3 0 0" size=".01 .1 .05"/></body>
+  <body name="swing"><joint name="turn" type="hinge" axis="0 0 1" range="-3.14159 3.14159"/>
+    <geom type="sphere" size=".01" contype="0" conaffinity="0"/>
+    <body name="bar"><geom type="box" pos="-.3 0 0" size=".1 .02 .02"/></body></body>
+</worldbody></mujoco>""")
+    phis = lambda qs: np.abs(np.angle(np.exp(1j * (np.array(qs)[:, 0] + np.pi))))  # noqa: E731 (bar along -x at 0)
+    assert (phis(free_qpos(m, 16, seed=3, depth=np.inf)) < WALL_PHI).any()  # nothing refused: some cross the wall
+    qs = free_qpos(m, 16, seed=3)
+    assert len(qs) == 16
+    assert (phis(qs) >= WALL_PHI).all()
+
+
+def test_a_neighbour_whose_hull_arches_over_a_skin_collides_by_parts(tmp_path):
+    """An arch standing over a plate: its mesh leaves a ball on the plate's taxels free (the roof 30 mm
+    up), its convex hull, which MuJoCo would collide, swallows the ball; the export gives the arch convex
+    parts (``crowding_links``). The same arch moved aside is left as it is."""
+    from vtcore.robot.export import crowding_links
+
+    posts = [trimesh.creation.box(extents=(0.01, 0.04, 0.06)) for _ in range(2)]
+    posts[0].apply_translation([-0.06, 0, 0.02])
+    posts[1].apply_translation([0.06, 0, 0.02])
+    roof = trimesh.creation.box(extents=(0.13, 0.04, 0.01))
+    roof.apply_translation([0, 0, 0.045])
+    trimesh.util.concatenate(posts + [roof]).export(tmp_path / "arch.stl")
+    trimesh.creation.box(extents=(0.1, 0.1, 0.02)).export(tmp_path / "plate.stl")
+    for shift, expect in ((0.0, {"arch"}), (0.5, set())):
+        urdf = tmp_path / f"arch_{shift}.urdf"
+        urdf.write_text(f"""<?xml version="1.0"?>
+<robot name="arch">
+  <link name="plate"><collision><geometry><mesh filename="plate.stl"/></geometry></collision>
+    <visual><geometry><mesh filename="plate.stl"/></geometry></visual></link>
+  <link name="arch"><collision><geometry><mesh filename="arch.stl"/></geometry></collision></link>
+  <joint name="j" type="fixed"><parent link="plate"/><child link="arch"/><origin xyz="{shift} 0 0"/></joint>
+</robot>
+""")
+        robot = load_robot(urdf)
+        lay, _ = lay_on_link(robot, "plate", "triangle", at=(0, 0, 0.01), exposure=False)
+        assert crowding_links(robot, [lay], ["plate"]) == expect
+
+
+def test_convex_parts_are_cut_to_the_hull_mujoco_collided():
+    """A decomposition's part poking out of the link's hull is cut back to it (it would cover the next
+    link's skin at a mating face); a part wholly inside stays as it is."""
+    from vtcore.robot.export import within_hulls
+
+    hull = trimesh.creation.box(extents=(0.1, 0.1, 0.1))
+    out = trimesh.creation.box(extents=(0.1, 0.04, 0.04))
+    out.apply_translation([0.04, 0, 0])  # 40 mm of it beyond x = 0.05
+    inner = trimesh.creation.box(extents=(0.02, 0.02, 0.02))
+    cut = within_hulls([out, inner], [hull])
+    assert len(cut) == 2
+    assert cut[0].bounds[1][0] == pytest.approx(0.05, abs=1e-9) and cut[0].volume == pytest.approx(0.06 * 0.04 * 0.04)
+    assert cut[1].volume == pytest.approx(inner.volume)

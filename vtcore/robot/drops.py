@@ -93,8 +93,8 @@ def drop(spec, site: str, sensors, *, mass: float = BALL_KG, radius: float = BAL
 
 
 def drop_many(path, links, n_drops: int, *, configurations=((),), seed: int = 0, readable=None) -> list[dict]:
-    """``n_drops`` drops on the merged MJCF at ``path``: each on a random taxel of a random link of
-    ``links`` (site prefix ``<link>_vtskin_``), at a random one of ``configurations`` (dicts joint ->
+    """``n_drops`` drops on the merged MJCF at ``path``: each on a taxel drawn uniformly from all the
+    taxels of ``links`` (site prefix ``<link>_vtskin_``), at a random one of ``configurations`` (dicts joint ->
     value; ``()``: the zero pose). readable : optional set of site names to draw from (the export's
     reach check). Returns one record per drop: ``link``, ``site``, ``config`` (index), ``force_n``,
     ``ratio`` (force / m g)."""
@@ -109,9 +109,9 @@ def drop_many(path, links, n_drops: int, *, configurations=((),), seed: int = 0,
     sites = {ln: v for ln, v in sites.items() if v}
     frozen_specs = [frozen(spec, dict(q))[0] for q in configurations]
     rows = []
+    pool = [(ln, s) for ln, v in sites.items() for s in v]  # every taxel as likely: a big link is hit more
     for _ in range(n_drops):
-        ln = list(sites)[int(rng.integers(len(sites)))]
-        site = sites[ln][int(rng.integers(len(sites[ln])))]
+        ln, site = pool[int(rng.integers(len(pool)))]
         c = int(rng.integers(len(frozen_specs)))
         f = drop(frozen_specs[c], site, [s + "_touch" for s in every[ln]])
         rows.append({"link": ln, "site": site, "config": c, "force_n": f, "ratio": f / (BALL_KG * G)})

@@ -363,6 +363,8 @@ def _merge_mjcf_skins(robot_path: Path, layouts: list, prefixes: list, tree, lin
     skins: dict = {}  # link -> every skin on it: its contact surface is cut under all of them
     for lay in layouts:
         skins.setdefault(lay.parent or lay.frame, []).append(lay)
+    # links whose hull would hold a ball off another link's skin collide by convex parts (skinned or not)
+    crowding = crowding_links(robot, layouts, [skin_link(lay, links) for lay in layouts])
     for lay, prefix in zip(layouts, prefixes):
         link = skin_link(lay, links)
         reach = None
@@ -370,7 +372,8 @@ def _merge_mjcf_skins(robot_path: Path, layouts: list, prefixes: list, tree, lin
             # the link's contact surface follows the surface the skin lies on (convex parts), and each
             # site reaches that surface as MuJoCo collides it
             if link not in contact:  # once per link, however many skins it carries
-                parts, geoms = link_contact(robot, link, skins.get(link, [lay]), tree, out, staged)
+                parts, geoms = link_contact(robot, link, skins.get(link, [lay]), tree, out, staged,
+                                            force=link in crowding)
                 contact[link] = (parts, bool(geoms))
                 contact_geoms += geoms
             parts, rebuilt = contact[link]
@@ -384,17 +387,21 @@ def _merge_mjcf_skins(robot_path: Path, layouts: list, prefixes: list, tree, lin
         names = mjcf_tree.merge_into_tree(lay, tree, link, robot_path, prefix=prefix, reach=reach, **opts)
         sites.append(names)
         records.append({"link": link, "taxels": len(lay), "names": [names[0], names[-1]] if names else []})
+    contact_geoms += decompose_links(robot, crowding - set(contact), tree, out, staged)
     return records, sites, contact_geoms
 
 
-def link_contact(robot: Robot, link: str, layouts, tree: ET.ElementTree, out: Path, staged: Path):
+def link_contact(robot: Robot, link: str, layouts, tree: ET.ElementTree, out: Path, staged: Path,
+                 force: bool = False):
     """``(parts, geom names)``: the convex parts MuJoCo will collide ``link`` by in the exported
     MJCF ``tree``, and the names of the geoms added for them. The link's own colliding geometry (each
     collision element's hull) where it already hugs the skins ``layouts`` (:func:`.contact_geometry.needs_parts`);
     else a convex decomposition of the geometry the skin was laid on (``meta["geometry"]``, default
     collision; written to the staged ``<out stem>_meshes/`` (``staged``: out's name in the staging
     folder), a decomposition already in out's own folder reused), cut under the skin (:func:`.contact_geometry.under_skin`),
-    replaces the link's colliding geoms; the parts are written there as ``<link>_contact_<k>.stl``."""
+    replaces the link's colliding geoms; the parts are written there as ``<link>_contact_<k>.stl``.
+    force : decompose even where the link's hulls hug its skins (they hold a ball off another link's:
+    :func:`crowding_links`)."""
     from .contact_geometry import convex_parts, needs_parts, under_skin
     from .meshes import link_mesh
     from .reach import collision_hulls, reach_to
@@ -403,7 +410,7 @@ def link_contact(robot: Robot, link: str, layouts, tree: ET.ElementTree, out: Pa
     frames = [taxel_frames(lay) for lay in layouts]
     positions, normals = np.vstack([f[0] for f in frames]), np.vstack([f[1] for f in frames])
     hulls = collision_hulls(robot, link)
-    if hulls and not needs_parts(*reach_to(hulls, positions, normals)):
+    if hulls and not force and not needs_parts(*reach_to(hulls, positions, normals)):
         return hulls, []
     geometry = layouts[0].meta.get("geometry") or "collision"
     if not robot.link(link).geometry(geometry):
@@ -415,7 +422,10 @@ def link_contact(robot: Robot, link: str, layouts, tree: ET.ElementTree, out: Pa
     reuse_decomposition(mesh, out.parent / f"{out.stem}_meshes", folder)
     u = normals / np.linalg.norm(normals, axis=1, keepdims=True)
     covered = occluded(mesh, positions + 1e-4 * u, u)  # under the link's own mesh: a pocket, left as it is
-    parts = under_skin(convex_parts(mesh, folder), positions, normals, covered)
+    parts = convex_parts(mesh, folder)
+    if force and hulls:  # it crowds another link's skin: not beyond its hull there either
+        parts = within_hulls(parts, hulls)
+    parts = under_skin(parts, positions, normals, covered)
     if not parts:
         return hulls, []
     files = []  # where they will be once the staged set lands in out's folder
@@ -426,6 +436,93 @@ def link_contact(robot: Robot, link: str, layouts, tree: ET.ElementTree, out: Pa
     body = next(b for b in tree.getroot().iter("body") if b.get("name") == link)
     names = mjcf_tree.replace_contact(tree.getroot(), body, files, f"{identifier(link)}_vtcontact_")
     return parts, names
+
+
+#: metres: a ball this wide rests on each taxel (the MuJoCo check's 20 g ball); a link whose hull reaches
+#: into it where the link's own surface stays clear of it collides by convex parts instead
+BALL_M, BALL_CLEAR_M = 0.0085, 0.001
+
+
+def crowding_links(robot: Robot, layouts, links) -> set:
+    """The links (names) whose contact surface as MuJoCo collides it (each collision element's convex
+    hull) reaches where a ball resting on another link's taxel would be at the zero pose while their own
+    collision surface leaves that ball free: the G1's wrist yaw hull over the wrist pitch's skin, where
+    the ball rested on the hull and every sensor read 0. layouts : with ``links`` (their links' names)."""
+    from .exposure import RobotSurfaces, rigid_inverse
+    from .reach import collision_hulls
+
+    poses = robot.link_poses({})
+    centres, owner = [], []
+    for lay, link in zip(layouts, links):
+        if link not in robot.links:
+            continue
+        p, n = taxel_frames(lay)
+        n = n / np.linalg.norm(n, axis=1, keepdims=True)
+        t = poses[link]
+        centres.append((p + (BALL_M + BALL_CLEAR_M) * n) @ t[:3, :3].T + t[:3, 3])
+        owner += [link] * len(p)
+    if not centres:
+        return set()
+    centres, owner = np.vstack(centres), np.array(owner)
+    surfaces, out = RobotSurfaces(robot, "collision"), set()
+    for name, ln in robot.links.items():
+        if not ln.collisions:
+            continue
+        t = rigid_inverse(poses[name])
+        c = centres @ t[:3, :3].T + t[:3, 3]
+        near = np.zeros(len(c), bool)
+        for hull in collision_hulls(robot, name):  # half-space bound: within the ball's radius of the hull
+            nrm = np.asarray(hull.face_normals)
+            d = np.einsum("ij,ij->i", nrm, np.asarray(hull.triangles)[:, 0])
+            near |= (c @ nrm.T - d).max(axis=1) < BALL_M
+        near &= owner != name  # its own skin: link_contact's parts, cut under it
+        if near.any() and surfaces.mesh(name) is not None and (surfaces.distance(name, c[near]) >= BALL_M).any():
+            out.add(name)
+    return out
+
+
+def decompose_links(robot: Robot, names, tree: ET.ElementTree, out: Path, staged: Path) -> list:
+    """Make each link of ``names`` (carrying no skin) collide by a convex decomposition of its collision
+    surface (:func:`.contact_geometry.convex_parts`) in the exported ``tree``; returns the geom names added."""
+    from .contact_geometry import convex_parts
+    from .meshes import link_mesh
+    from .reach import collision_hulls
+
+    bodies = {b.get("name"): b for b in tree.getroot().iter("body")}
+    folder, added = staged.parent / f"{out.stem}_meshes", []
+    for name in sorted(names):
+        if name not in bodies:
+            continue
+        mesh = link_mesh(robot, name, "collision")
+        reuse_decomposition(mesh, out.parent / f"{out.stem}_meshes", folder)
+        files = []
+        for k, part in enumerate(within_hulls(convex_parts(mesh, folder), collision_hulls(robot, name))):
+            fname = f"{identifier(name)}_contact_{k:02d}.stl"
+            part.export(folder / fname)
+            files.append((out.parent / folder.name / fname).resolve())
+        added += mjcf_tree.replace_contact(tree.getroot(), bodies[name], files, f"{identifier(name)}_vtcontact_")
+    return added
+
+
+def within_hulls(parts, hulls) -> list:
+    """The convex ``parts`` each cut to the union of the convex ``hulls`` (the link's collision elements
+    as MuJoCo collided them): CoACD decomposes a decimated mesh, whose parts poke a few mm out of the
+    link's hull, over the next link's skin at a mating face (the G1 wrist pitch's over the wrist roll's:
+    a taxel that read with the hull was covered by the parts). A part outside every hull is dropped."""
+    import trimesh
+
+    out = []
+    for part in parts:
+        pieces = []
+        for hull in hulls:
+            try:
+                cut = trimesh.boolean.intersection([part, hull], engine="manifold")
+            except (ValueError, RuntimeError):  # a degenerate part: keep it as CoACD gave it
+                cut = part
+            if len(cut.faces) >= 4 and cut.volume > 1e-12:
+                pieces.append(cut.convex_hull)
+        out += pieces
+    return out or list(parts)
 
 
 def taxel_frames(layout: Layout) -> tuple[np.ndarray, np.ndarray]:

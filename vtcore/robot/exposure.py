@@ -354,12 +354,92 @@ def face_samples(mesh) -> np.ndarray:
     return np.einsum("sk,fkj->fsj", SAMPLES, tri)
 
 
-def configurations(robot: Robot, poses: int = POSES, seed: int = 0) -> list:
-    """The zero pose and ``poses`` configurations drawn uniformly within the joints' limits
-    (+-pi for a joint without limits: continuous joints), seeded: a list of (name -> (4, 4)) link poses."""
+#: metres: a configuration is self-colliding where a sample of a link's surface lies this deep inside
+#: another link it is not jointed to (and did not already overlap at the zero pose): the robot cannot hold it
+SELF_DEPTH = 0.002
+#: surface samples per link for the self-collision test (area-weighted, seeded)
+SELF_SAMPLES = 256
+#: draws per wanted configuration before the sampler gives up on finding a collision-free one
+SELF_TRIES = 100
+
+
+class SelfCollision:
+    """Whether a configuration of ``robot`` puts one link through another (on the surfaces of
+    ``surfaces``: :class:`RobotSurfaces`): a sample of one link's surface (:data:`SELF_SAMPLES` per
+    link) lies more than ``depth`` metres inside a link that is neither its joint parent or child nor
+    already overlapping it at the zero pose (meshes that interpenetrate by design: a cover over its
+    mount, a hand's fingers in the palm). Such a pose the real robot can never hold; random
+    configurations uniform within the joint limits are often of that kind (a humanoid's arm through its
+    own torso)."""
+
+    def __init__(self, surfaces: RobotSurfaces, depth: float = SELF_DEPTH, seed: int = 0):
+        self.surfaces, self.depth = surfaces, float(depth)
+        robot = surfaces.robot
+        rng = np.random.default_rng(seed)
+        self.points = {}
+        for name in robot.links:
+            mesh = surfaces.mesh(name)
+            if mesh is not None:
+                self.points[name] = surface_samples(mesh, SELF_SAMPLES, rng)
+        self.exempt = {frozenset((j.parent, j.child)) for j in robot.joints}
+        self.exempt |= self.pairs(robot.link_poses({}))
+
+    def pairs(self, poses: dict, first: bool = False) -> set:
+        """The pairs of links (frozensets of names) interpenetrating at ``poses`` (link name ->
+        (4, 4)), leaving out the exempt ones; with ``first`` stop at the first such pair."""
+        names = list(self.points)
+        rank = {n: i for i, n in enumerate(names)}
+        out: set = set()
+        for name in names:
+            pts = self.points[name]
+            for _, other, rel in self.surfaces.placed(name, poses, 0.0):
+                pair = frozenset((name, other))
+                if rank.get(other, -1) <= rank[name] or pair in out or pair in getattr(self, "exempt", ()):
+                    continue  # each pair once (the other way round it is the other's turn)
+                p = pts @ rel[:3, :3].T + rel[:3, 3]
+                idx = np.flatnonzero(self.surfaces.box_distance(other, p) <= 0.0)
+                if len(idx) and (self.surfaces.signed(other, p[idx]) < -self.depth).any():
+                    out.add(pair)
+                    if first:
+                        return out
+        return out
+
+    def free(self, poses: dict) -> bool:
+        """Whether no two links interpenetrate at ``poses`` (link name -> (4, 4)) but the exempt ones."""
+        return not self.pairs(poses, first=True)
+
+
+def surface_samples(mesh, count: int, rng) -> np.ndarray:
+    """(count, 3) points on ``mesh`` (a trimesh), area-weighted, from ``rng``."""
+    area = np.asarray(mesh.area_faces, dtype=np.float64)
+    tri = np.asarray(mesh.triangles, dtype=np.float64)
+    f = rng.choice(len(tri), size=count, p=area / area.sum()) if area.sum() > 0 else rng.integers(len(tri), size=count)
+    u, v = rng.random(count), rng.random(count)
+    flip = u + v > 1  # fold the square onto the triangle: uniform barycentric samples
+    u[flip], v[flip] = 1 - u[flip], 1 - v[flip]
+    return tri[f, 0] + u[:, None] * (tri[f, 1] - tri[f, 0]) + v[:, None] * (tri[f, 2] - tri[f, 0])
+
+
+def configurations(robot: Robot, poses: int = POSES, seed: int = 0, surfaces: RobotSurfaces | None = None,
+                   free: bool = True, tries: int = SELF_TRIES) -> list:
+    """The zero pose and ``poses`` configurations drawn uniformly within the joints' limits (+-pi for
+    a joint without limits: continuous joints), seeded: a list of (name -> (4, 4)) link poses.
+
+    free : keep only configurations the robot can hold, no link through another
+    (:class:`SelfCollision`, on ``surfaces``, default the visual ones; rejection sampling): a face
+    covered only at poses the robot cannot reach is not covered. After ``tries`` draws per wanted pose
+    without a free one the draws stop and fewer poses come back (a robot whose every random pose
+    collides: the zero pose still judges it)."""
     rng = np.random.default_rng(seed)
-    qs = [{}] + [robot.random_configuration(rng) for _ in range(int(poses))]
-    return [robot.link_poses(q) for q in qs]
+    out = [robot.link_poses({})]
+    check = SelfCollision(surfaces or RobotSurfaces(robot), seed=seed) if free and poses else None
+    draws = 0
+    while len(out) <= int(poses) and draws < int(tries) * int(poses):
+        draws += 1
+        p = robot.link_poses(robot.random_configuration(rng))
+        if check is None or check.free(p):
+            out.append(p)
+    return out
 
 
 def probe_blocked(surfaces: RobotSurfaces, link: str, points, normals, poses: dict,
@@ -417,7 +497,7 @@ def exposed_faces(robot: Robot, link: str, geometry: str = "visual", *, mesh=Non
         surfaces.set_mesh(link, mesh)
     if configs is None:  # drawn once per shared robot and seed (forward kinematics of 33 poses: ~0.1 s, a humanoid)
         shared, key = _SHARED.get(id(robot), {}), ("configs", int(poses), int(seed))
-        configs = shared.get(key) or configurations(robot, poses, seed)
+        configs = shared.get(key) or configurations(robot, poses, seed, surfaces)
         if shared.get(geometry) is surfaces:
             shared[key] = configs
     pts = face_samples(mesh)
@@ -470,7 +550,7 @@ def robot_exposure(robot: Robot, geometry: str = "visual", links=None, **options
     the sampled configurations: link name -> :class:`Exposure`; a link whose surface cannot be
     read is left out (``RobotSurfaces.notes``)."""
     surfaces = RobotSurfaces(robot, geometry)
-    configs = configurations(robot, options.pop("poses", POSES), options.pop("seed", 0))
+    configs = configurations(robot, options.pop("poses", POSES), options.pop("seed", 0), surfaces)
     out = {}
     for name in links or list(robot.links):
         ln = robot.link(name)

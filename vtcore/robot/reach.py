@@ -97,7 +97,8 @@ RING_FRACTIONS = (0.5, 0.9)
 _IGNORED_GROUP = 5
 
 
-#: joint configurations (seeded, uniform within the limits) the export also probes every site at
+#: joint configurations (seeded, uniform within the limits, collision-free: :func:`free_qpos`) the export also
+#: probes every site at
 POSES = 8
 
 
@@ -109,9 +110,10 @@ def unreadable_sites(model_path, sites, poses: int = 0, seed: int = 0):
     of its body inside its volume). A miss: nothing of its link within its site, "covered by BODY",
     or the contact surface this far from the taxel.
 
-    poses : also probe at this many seeded random configurations (hinge and slide joints uniform within
-    their limits, +-pi where unlimited); then returns ``(at_zero, at_some)``: the zero pose's dict and
-    site name -> why for the sites that read at the zero pose but not at some of those poses."""
+    poses : also probe at this many seeded random configurations the robot can hold (:func:`free_qpos`:
+    hinge and slide joints uniform within their limits, +-pi where unlimited, no body through another);
+    then returns ``(at_zero, at_some)``: the zero pose's dict and site name -> why for the sites that
+    read at the zero pose but not at some of those poses."""
     import mujoco
 
     m = mujoco.MjModel.from_xml_path(str(model_path))
@@ -122,11 +124,60 @@ def unreadable_sites(model_path, sites, poses: int = 0, seed: int = 0):
     zero = _probe(m, d, ids, m.qpos0)
     if not poses:
         return zero
-    rng = np.random.default_rng(seed)
     some: dict = {}
-    for _ in range(poses):
-        some.update({k: v for k, v in _probe(m, d, ids, _random_qpos(m, rng)).items() if k not in zero})
+    for q in free_qpos(m, poses, seed):
+        some.update({k: v for k, v in _probe(m, d, ids, q).items() if k not in zero})
     return zero, {name: some[name] for name in sites if name in some}
+
+
+#: metres: a configuration is self-colliding where MuJoCo finds two bodies interpenetrating deeper than
+#: this (bodies it does not already find touching at the zero pose: parts that overlap by design)
+SELF_DEPTH = 0.002
+#: draws per wanted configuration before :func:`free_qpos` gives up on finding a collision-free one
+SELF_TRIES = 100
+
+
+def free_qpos(m, count: int, seed: int = 0, depth: float = SELF_DEPTH, tries: int = SELF_TRIES) -> list:
+    """Up to ``count`` joint configurations (each (nq,) qpos) of the MuJoCo model ``m`` that the robot
+    can hold, seeded: hinge and slide joints uniform within their limits (+-pi where unlimited), kept
+    only where MuJoCo's own collision finds no pair of bodies interpenetrating by more than ``depth``
+    metres, besides the pairs in contact at the zero pose (rejection sampling). Random configurations
+    uniform within the limits often put a humanoid's arm through its own torso; a taxel covered only
+    there is no taxel the robot covers. After ``tries`` draws per wanted pose without one, fewer come back."""
+    import mujoco
+
+    d = mujoco.MjData(m)
+    exempt = _self_contacts(m, d, m.qpos0, depth=-np.inf)  # every contact at the zero pose: by design
+    rng = np.random.default_rng(seed)
+    out, draws = [], 0
+    while len(out) < int(count) and draws < int(tries) * int(count):
+        draws += 1
+        q = _random_qpos(m, rng)
+        if not _self_contacts(m, d, q, depth) - exempt:
+            out.append(q)
+    return out
+
+
+def free_configurations(model_path, count: int, seed: int = 0) -> list:
+    """:func:`free_qpos` of the MJCF at ``model_path`` as joint name -> value dicts (hinge and slide joints)."""
+    import mujoco
+
+    m = mujoco.MjModel.from_xml_path(str(model_path))
+    moving = [j for j in range(m.njnt) if int(m.jnt_type[j]) in (int(mujoco.mjtJoint.mjJNT_HINGE),
+                                                                 int(mujoco.mjtJoint.mjJNT_SLIDE))]
+    return [{m.joint(j).name: float(q[m.jnt_qposadr[j]]) for j in moving} for q in free_qpos(m, count, seed)]
+
+
+def _self_contacts(m, d, qpos, depth: float) -> set:
+    """The pairs of bodies (frozensets of ids) MuJoCo finds in contact deeper than ``depth`` metres at ``qpos``."""
+    import mujoco
+
+    d.qpos[:] = qpos
+    mujoco.mj_fwdPosition(m, d)  # kinematics and collision: MuJoCo's own contacts (parent-child pairs filtered)
+    con = d.contact[:d.ncon]
+    deep = np.asarray(con.dist) < -depth if d.ncon else np.zeros(0, bool)
+    b1, b2 = m.geom_bodyid[np.asarray(con.geom1, dtype=int)], m.geom_bodyid[np.asarray(con.geom2, dtype=int)]
+    return {frozenset((int(a), int(b))) for a, b, k in zip(b1, b2, deep) if k}
 
 
 def _random_qpos(m, rng) -> np.ndarray:

@@ -290,21 +290,36 @@ def lay_patch(robot: Robot, link: str, patch, at, direction, mesh, exp, *, geome
         except NoModuleFits as exc:  # the fill's reason, said of this link (a robot has many)
             raise NoModuleFits(f"no module fits on link {link!r} ({geometry} geometry): {exc.reason}", exc.details,
                                key="--link") from None
+    return place_on_link(robot, link, patch, at, direction, mesh, exp, geometry=geometry, module=module,
+                         offset=offset, method=method, surfaces=surfaces, **options)
+
+
+def place_on_link(robot: Robot, link: str, patch, at, direction, mesh, exp, *, geometry, module, offset, method,
+                  surfaces=None, **options):
+    """The placed patch of :func:`lay_patch`. Without ``at`` the start is searched for on the exposed
+    surface: first the exposed point farthest from the excluded faces (:func:`interior_point`), then
+    the default anchors (:func:`anchors`) round which the whole patch fits, those whose nearest excluded
+    face lies farther than the first placement's extent (:func:`fitting_anchors`); the first place
+    where every taxel is exposed and the patch lies well wins, else the one with fewest taxels off the
+    exposed surface."""
+    from ..layout import place
+
+    exposed = None if exp is None else exp.mask
     if at is None:
         region = outer_region(mesh)
         if exposed is not None:
             region = region & exposed if (region & exposed).any() else exposed
-        tries = anchors(mesh, region)[:ANCHOR_TRIES]
-        if exposed is not None and not exposed.all():
-            tries = np.vstack([interior_point(mesh, region, ~exposed)[None], tries])
+        cands = anchors(mesh, region)
+        partial = exposed is not None and not exposed.all()
+        tries = [interior_point(mesh, region, ~exposed) if partial else cands[0]]
     else:
-        tries = [np.asarray(at, dtype=np.float64).reshape(3)]
+        tries, partial = [np.asarray(at, dtype=np.float64).reshape(3)], False
     best, best_score = None, None
-    for point in tries:  # without a given point: the first place the patch lies well, else the best of them
+    for k, point in enumerate(tries):  # the list grows after the first try, once the patch's extent is known
         layout, report = place(mesh, patch, point, direction, module=module, offset=offset, method=method,
                                **options)
         bad = 0
-        if exp is not None and len(tries) > 1 and len(layout):
+        if exp is not None and at is None and len(layout):
             from .exposure import taxel_reasons
 
             bad = int(np.count_nonzero(taxel_reasons(robot, link, layout.positions, layout.normals, geometry,
@@ -316,4 +331,31 @@ def lay_patch(robot: Robot, link: str, patch, at, direction, mesh, exp, *, geome
             best, best_score = (layout, report), score
         if len(layout) and not bad and not len(report.off_boundary) and report.strain_max <= GOOD_STRAIN:
             return layout, report
+        if k == 0 and at is None:
+            rest = cands[1:ANCHOR_TRIES]  # four starts in all, as before the search
+            if partial:
+                extent = (float(np.linalg.norm(layout.positions - point, axis=1).max()) if len(layout)
+                          else ANCHOR_RADIUS) + FIT_MARGIN
+                rest = fitting_anchors(mesh, ~exposed, extent, cands)[:ANCHOR_TRIES]
+            tries += list(rest)
     return best
+
+
+#: metres: a start fits a patch when no excluded face centre lies within the patch's extent plus this
+#: (a face centre stands for a face up to a few mm across)
+FIT_MARGIN = 0.003
+
+
+def fitting_anchors(mesh, excluded, extent: float, candidates) -> np.ndarray:
+    """``candidates`` (K, 3) reordered for a patch reaching ``extent`` metres round its start: those with
+    no face of ``excluded`` ((F,) bool) within ``extent`` first, in their own order (flat, central),
+    then the others, the farthest from the excluded faces first."""
+    from scipy.spatial import cKDTree
+
+    candidates = np.asarray(candidates, dtype=np.float64).reshape(-1, 3)
+    if not np.any(excluded) or not len(candidates):
+        return candidates
+    clear = cKDTree(np.asarray(mesh.triangles_center)[excluded]).query(candidates)[0]
+    fits = clear >= extent
+    order = np.lexsort((np.where(fits, np.arange(len(candidates)), -clear), ~fits))
+    return candidates[order]
