@@ -120,6 +120,23 @@ def test_peak_frames_and_statistics_by_force():
     assert np.allclose(b["ring1_sim"], 2 * b["ring1_real"], equal_nan=True)
 
 
+def test_validate_without_plots_draws_no_figure(tmp_path):
+    """``output.plots = false``: the footprints are validated, no figure drawn and left open (the runner
+    closes only the figures it saves; drawing them was three quarters of a small validation's time)."""
+    from vtcore.plots import pyplot
+
+    plt = pyplot()
+    plt.close("all")
+    lay = load(HEX)
+    rec = tmp_path / "press.txt"
+    write_recording(rec, lay, synthetic_press(lay, np.random.default_rng(3), centre=lay.positions[0] + [0.004, 0.002, 0]))
+    out = tmp_path / "out"
+    assert main(["validate", str(rec), "--layout", str(HEX), "--scene", str(_scene(tmp_path, [rec])),
+                 "--out", str(out)]) == 0
+    assert plt.get_fignums() == [] and not list(out.glob("*.png"))
+    assert (out / "result.json").exists()
+
+
 def test_the_scene_sets_how_far_the_pad_wraps(tmp_path, capsys):
     """``task.wrap`` (0-1) reaches the matched presses and the result; outside 0-1 it is one error naming it."""
     lay = load(HEX)

@@ -67,3 +67,17 @@ def test_bad_settings_name_the_key(tmp_path):
         run_scene(SCENES / "evaluate_hexagon.toml", tmp_path / "x", ["task.probe=\"sphere\"", "task.probe_length=0.03"])
     with pytest.raises(SceneError, match="task.taxels"):
         run_scene(SCENES / "evaluate_hexagon.toml", tmp_path / "y", ["task.taxels=100"])
+
+
+def test_no_plots_builds_no_figure(tmp_path):
+    """``output.plots = false``: the maps are computed, no figure is drawn and left open (the runner
+    closes only the figures it saves: a sweep or a fuzz run in one process piled them up, and drawing
+    them was 85 % of a small design's time)."""
+    from vtcore.plots import pyplot
+
+    plt = pyplot()
+    plt.close("all")
+    run_scene(SCENES / "evaluate_hexagon.toml", tmp_path / "o", ["task.spacing=0.01", "task.draws=2",
+                                                                  "task.two_point=false", "output.plots=false"])
+    assert plt.get_fignums() == []
+    assert (tmp_path / "o" / "maps.ply").exists() and not list((tmp_path / "o").glob("*.png"))

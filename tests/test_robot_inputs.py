@@ -301,3 +301,57 @@ def test_a_refused_layout_leaves_no_evaluate_folder(tmp_path, exists):
         rc, _, err = run(["evaluate", *layouts, "--mesh", tmp_path / "box.stl", "--out", out])
         one_error(rc, err, "bad.json")
         assert out.exists() == exists and (not exists or not os.listdir(out)), list(out.rglob("*"))
+
+
+def test_a_link_scaled_to_metres_is_split_to_a_bounded_number_of_faces():
+    """The place fuzz's long run: ``<mesh scale="0.001 -1 0.001"/>`` (a millimetre tube made 30 m wide)
+    hung ``layout place ROBOT --link`` past the 240 s alarm, splitting the link to 10 mm edges for the
+    exposure check. The split's edge grows with the link's area, so its faces stay bounded."""
+    import numpy as np
+    import trimesh
+
+    from vtcore.robot.skin import EXPOSURE_EDGE, EXPOSURE_MAX_FACES, exposure_mesh
+
+    big = trimesh.creation.box((0.5, 0.5, 0.5))
+    fine, region = exposure_mesh(big, np.ones(len(big.faces), bool))
+    assert len(big.faces) < len(fine.faces) <= EXPOSURE_MAX_FACES and region.all()
+    np.testing.assert_allclose(fine.area, big.area, rtol=1e-9)  # split on its own faces
+    small = trimesh.creation.box((0.05, 0.05, 0.05))  # a link of ordinary size: 10 mm edges, as before
+    fine, _ = exposure_mesh(small)
+    assert np.linalg.norm(np.diff(fine.vertices[fine.edges_unique], axis=1)[:, 0], axis=1).max() <= EXPOSURE_EDGE + 1e-12
+
+
+def test_a_urdf_limit_lower_above_upper_is_one_error(tmp_path, capsys):
+    """The place fuzz's long run: ``<limit lower="4294967296" upper="1"/>`` was a ValueError traceback
+    (numpy's uniform draw of the exposure's poses); the reader refuses it, naming the joint."""
+    from vtcore.robot.samples import humanoid_arm
+
+    arm = humanoid_arm(tmp_path / "h")
+    text = arm.read_text()
+    assert 'lower="-1.5" upper="1.5"' in text
+    arm.write_text(text.replace('lower="-1.5" upper="1.5"', 'lower="4294967296" upper="1"', 1))
+    assert main(["robot", "info", str(arm)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("vtcore: error: ") and len(err.strip().split("\n")) == 1, err
+    assert "joint.limit" in err and "above upper" in err, err
+
+
+def test_a_robot_placed_on_is_freed_with_its_scenes(tmp_path):
+    """The place fuzz's long run: every robot placed on in one process stayed in memory with its open3d
+    scenes (a module cache keyed by id(robot) whose surfaces held the robot), until open3d crashed the
+    process with a segmentation fault after about a thousand robots. The cache now goes with its robot."""
+    import gc
+    import weakref
+
+    from vtcore.robot import load_robot
+    from vtcore.robot.exposure import exposed_faces, shared_surfaces
+    from vtcore.robot.samples import humanoid_arm
+
+    robot = load_robot(humanoid_arm(tmp_path / "h"))
+    surfaces = shared_surfaces(robot)  # as layout place ROBOT --link and the add-on's lays use it
+    exp = exposed_faces(robot, "l_forearm", poses=2, surfaces=surfaces)
+    assert len(exp.reason) and shared_surfaces(robot) is surfaces
+    alive = weakref.ref(robot)
+    del robot, exp, surfaces
+    gc.collect()
+    assert alive() is None, "the robot (and its link scenes) outlived every reference to it"

@@ -213,7 +213,8 @@ def fuzz(config, strategy, body) -> None:
 
     ``VTCORE_FUZZ_KEEP_GOING=FILE``: a failing example does not stop the run; it is appended to FILE
     (JSON lines: the exception, where it was raised, the input's start) and the run goes on without
-    shrinking, so a long run counts every failure; the test fails at the end if there was any.
+    shrinking, so a long run counts every failure; the test fails at the end if there was any. The input
+    under way is kept in FILE.last (what a crash of the process left unrecorded).
     """
     from hypothesis import Phase, given
 
@@ -228,6 +229,10 @@ def fuzz(config, strategy, body) -> None:
         if not keep:
             body(example)
             return
+        # the input under way, rewritten before each: a crash of the process itself (a segmentation
+        # fault in a C library) leaves it in FILE.last, where nothing else would record it
+        with open(f"{keep}.last", "w", encoding="utf-8") as fh:
+            fh.write(repr(example)[:20000])
         try:
             body(example)
         except Exception as exc:  # noqa: BLE001  (recorded, then raised as one failure at the end)
@@ -515,8 +520,12 @@ def warm_up(argv: list) -> None:
     geometry-central..., which on a loaded machine can take most of the 60 s a fuzz input is given."""
     from vtcore.cli import main
 
-    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
-        main([str(a) for a in argv])
+    err = io.StringIO()
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
+        rc = main([str(a) for a in argv])
+    # the unmutated seed must pass: a seed the command refuses makes every mutant a refusal at the
+    # same first check, and the driver would count inputs that never reach the reader under test
+    assert rc == 0, f"the driver's seed is refused: {err.getvalue()}"
 
 
 def finite_json_text(text: str):

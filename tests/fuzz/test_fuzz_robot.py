@@ -5,7 +5,9 @@ Seeds are small robots, so that an input takes well under a second: a URDF of pr
 arm of :mod:`vtcore.robot.samples` (a CAD mesh in millimetres placed by its visual origin, a convex
 hull, ``package://`` paths), example-robot-data's double pendulum (STL meshes, ``package://`` paths);
 an MJCF of primitives with a default class and a hinge, one with a mesh asset and an ``<include>``, and
-the humanoid arm as MuJoCo's URDF import writes it. Mutants (:func:`fuzzing.xml_mutation`: attribute
+the humanoid arm as MuJoCo's URDF import writes it. The place-and-fill driver has seeds of its own with
+the same features on links a module just fits on (``URDF_SMALL``...: a placement on a 20 cm arm or a
+humanoid forearm takes seconds, the reader a millisecond). Mutants (:func:`fuzzing.xml_mutation`: attribute
 values, deleted, duplicated and renamed elements and attributes, declared encodings, names that are
 not UTF-8, byte-level mutations) are written beside their seed's files, so relative and ``package://``
 paths still resolve.
@@ -115,6 +117,93 @@ def robots(tmp_path_factory):
     return seeds
 
 
+#: The place-and-fill seeds: the same features as the seeds above (a mimic, continuous and prismatic joint;
+#: a default class, a hinge and a slide; a CAD mesh in millimetres, scaled, by a ``package://`` path or a
+#: ``meshdir``; an ``<include>``) on links a module just fits on, so that the placement after the reader
+#: (log map, exposure over 32 poses) takes a tenth of a second, not the seconds of a 20 cm arm or a
+#: humanoid forearm (``robot info`` and ``robot export`` read those).
+URDF_SMALL = """<?xml version="1.0"?>
+<robot name="small">
+  <link name="base"><collision><geometry><box size="0.05 0.05 0.02"/></geometry></collision></link>
+  <joint name="shoulder" type="revolute"><parent link="base"/><child link="arm"/>
+    <origin xyz="0 0 0.02" rpy="0 0 0.3"/><axis xyz="0 1 0"/><limit lower="-1.5" upper="1.5" effort="1" velocity="1"/>
+  </joint>
+  <link name="arm">
+    <visual><origin xyz="0 0 0.025"/><geometry><box size="0.036 0.036 0.05"/></geometry></visual>
+    <collision><origin xyz="0 0 0.025"/><geometry><box size="0.036 0.036 0.05"/></geometry></collision>
+    <inertial><mass value="0.5"/><inertia ixx="0.002" ixy="0" ixz="0" iyy="0.002" iyz="0" izz="0.0002"/></inertial>
+  </link>
+  <joint name="wrist" type="continuous"><parent link="arm"/><child link="hand"/><origin xyz="0 0 0.05"/>
+    <axis xyz="0 0 1"/></joint>
+  <joint name="finger" type="prismatic"><parent link="hand"/><child link="tip"/><origin xyz="0 0 0.01"/>
+    <axis xyz="0 0 1"/><limit lower="0" upper="0.02" effort="1" velocity="1"/><mimic joint="wrist" multiplier="0.01"/></joint>
+  <link name="hand"><visual><geometry><sphere radius="0.01"/></geometry></visual>
+    <inertial><mass value="0.1"/><inertia ixx="0.00003" ixy="0" ixz="0" iyy="0.00003" iyz="0" izz="0.00003"/></inertial></link>
+  <link name="tip"><inertial><mass value="0.01"/><inertia ixx="1e-6" ixy="0" ixz="0" iyy="1e-6" iyz="0" izz="1e-6"/></inertial></link>
+</robot>
+"""
+URDF_SMALL_MESH = """<?xml version="1.0"?>
+<robot name="smallmesh">
+  <link name="base"><collision><geometry><box size="0.05 0.05 0.02"/></geometry></collision></link>
+  <joint name="elbow" type="revolute"><parent link="base"/><child link="forearm"/>
+    <origin xyz="0 0 0.07" rpy="0.1 0 0"/><axis xyz="1 0 0"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+  <link name="forearm">
+    <visual><origin xyz="0 0 0" rpy="0 0 0"/>
+      <geometry><mesh filename="package://small_description/meshes/tube.stl" scale="0.001 0.001 0.001"/></geometry></visual>
+    <collision><geometry><mesh filename="package://small_description/meshes/tube.stl" scale="0.001 0.001 0.001"/></geometry></collision>
+  </link>
+</robot>
+"""
+MJCF_SMALL = """<mujoco model="small">
+  <compiler angle="radian"/>
+  <default><default class="soft"><geom rgba="1 0 0 1" contype="1" conaffinity="1"/></default></default>
+  <worldbody>
+    <body name="base"><geom type="box" size="0.025 0.025 0.01"/>
+      <body name="arm" pos="0 0 0.02" euler="0 0 0.3">
+        <joint name="shoulder" type="hinge" axis="0 1 0" range="-1.5 1.5" limited="true"/>
+        <geom name="shell" class="soft" type="box" size="0.018 0.018 0.025" pos="0 0 0.025"/>
+        <body name="hand" pos="0 0 0.05"><joint name="slide" type="slide" axis="0 0 1" range="0 0.02"/>
+          <geom type="capsule" fromto="0 0 0 0 0 0.02" size="0.008"/></body>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+MJCF_SMALL_MESH = """<mujoco model="smallmesh">
+  <compiler meshdir="meshes"/>
+  <asset><mesh name="shell" file="tube.stl" scale="0.001 0.001 0.001"/></asset>
+  <worldbody>
+    <body name="arm" pos="0 0 0.1" quat="1 0 0 0"><joint name="j" axis="1 0 0"/>
+      <geom type="mesh" mesh="shell" pos="0 0 0.02"/></body>
+    <include file="part.xml"/>
+  </worldbody>
+</mujoco>
+"""
+
+
+@pytest.fixture(scope="module")
+def small_robots(tmp_path_factory):
+    """The place-and-fill seeds: {"urdf": [...], "mjcf": [...]}, as :func:`robots`."""
+    from vtcore.layout.cadmeshes import cad_link
+
+    d = tmp_path_factory.mktemp("small_robot_seeds")
+    tube = cad_link(radius=0.016, length=0.05, sections=12, mm=True)  # fins and duplicate faces kept
+    seeds = {"urdf": [], "mjcf": []}
+    (d / "prims").mkdir()
+    seeds["urdf"].append((d / "prims", ".urdf", URDF_SMALL.encode(), "arm"))
+    (d / "small_description" / "meshes").mkdir(parents=True)
+    (d / "small_description" / "urdf").mkdir()
+    tube.export(d / "small_description" / "meshes" / "tube.stl")
+    seeds["urdf"].append((d / "small_description" / "urdf", ".urdf", URDF_SMALL_MESH.encode(), "forearm"))
+    (d / "mprims").mkdir()
+    seeds["mjcf"].append((d / "mprims", ".xml", MJCF_SMALL.encode(), "arm"))
+    (d / "mmesh" / "meshes").mkdir(parents=True)
+    tube.export(d / "mmesh" / "meshes" / "tube.stl")
+    (d / "mmesh" / "part.xml").write_text(MJCF_PART)
+    seeds["mjcf"].append((d / "mmesh", ".xml", MJCF_SMALL_MESH.encode(), "arm"))
+    return seeds
+
+
 def _write(seed, data: bytes) -> Path:
     folder, suffix, _, _ = seed
     p = folder / f"mutant{suffix}"
@@ -149,13 +238,13 @@ def test_fuzz_robot_info(fmt, robots, tmp_path, monkeypatch, pytestconfig):
 
 
 @pytest.mark.parametrize("fmt", ["urdf", "mjcf"])
-def test_fuzz_robot_place_and_fill(fmt, robots, tmp_path, monkeypatch, pytestconfig):
+def test_fuzz_robot_place_and_fill(fmt, small_robots, tmp_path, monkeypatch, pytestconfig):
     """``layout place ROBOT --link LINK`` (a triangle) or ``--patch fill --radius 0.015`` through a
     mutated robot: a layout read back with finite numbers, or one error and no file."""
     from vtcore.layout import load
 
     monkeypatch.chdir(tmp_path)
-    seeds = [s for s in robots[fmt] if s[3] != "link1"]  # the pendulum's links are long: slow fills
+    seeds = small_robots[fmt]
     out = tmp_path / "o" / "placed.json"
     warm_up(["layout", "place", _write(seeds[0], seeds[0][2]), "--link", seeds[0][3], "--patch", "fill", "--radius",
              "0.015", "--geometry", "collision", "--out", tmp_path / "warm.json"])

@@ -45,6 +45,7 @@ samples_per_taxel = 1
 kind = "fingerpad"
 [task]
 recordings = ["rec.txt"]
+[effects.soft_layer]
 [effects.gain]
 profile = "{profile}"
 [effects.noise]

@@ -330,22 +330,24 @@ def covered_over_poses(surfaces: RobotSurfaces, link: str, points: np.ndarray, c
     return always, some
 
 
-#: id(robot) -> {geometry: RobotSurfaces}: the scenes of a robot read once per process (a whole-robot
-#: skin, or Blender's lays on several links, would read every link's meshes again for each link)
-_SHARED: dict = {}
+def _shared(robot: Robot) -> dict:
+    """{geometry: RobotSurfaces, ("configs", poses, seed): configurations}: the scenes of a robot read
+    once (a whole-robot skin, or Blender's lays on several links, would read every link's meshes again
+    for each link), kept on the robot itself so that they go with it. A module-level cache keyed by
+    id(robot) never let a robot go (its RobotSurfaces held it): every robot placed on in one process
+    stayed in memory with its open3d scenes, and a fuzz run's process was killed by a segmentation
+    fault in open3d after about a thousand robots."""
+    return robot.__dict__.setdefault("_exposure_shared", {})
 
 
 def shared_surfaces(robot: Robot, geometry: str = "visual") -> RobotSurfaces:
     """The :class:`RobotSurfaces` of ``robot`` kept for as long as ``robot`` lives (the meshes of
     its links are read once; a caller that sets a link's own mesh changes only that link's scene,
     whose surface is the same)."""
-    import weakref
-
-    key = id(robot)
-    if key not in _SHARED:
-        _SHARED[key] = {}
-        weakref.finalize(robot, _SHARED.pop, key, None)
-    return _SHARED[key].setdefault(geometry, RobotSurfaces(robot, geometry))
+    shared = _shared(robot)
+    if geometry not in shared:
+        shared[geometry] = RobotSurfaces(robot, geometry)
+    return shared[geometry]
 
 
 def face_samples(mesh) -> np.ndarray:
@@ -496,7 +498,7 @@ def exposed_faces(robot: Robot, link: str, geometry: str = "visual", *, mesh=Non
     if not surfaces.holds(link, mesh):
         surfaces.set_mesh(link, mesh)
     if configs is None:  # drawn once per shared robot and seed (forward kinematics of 33 poses: ~0.1 s, a humanoid)
-        shared, key = _SHARED.get(id(robot), {}), ("configs", int(poses), int(seed))
+        shared, key = _shared(robot), ("configs", int(poses), int(seed))
         configs = shared.get(key) or configurations(robot, poses, seed, surfaces)
         if shared.get(geometry) is surfaces:
             shared[key] = configs

@@ -115,10 +115,26 @@ def outer_region(mesh) -> np.ndarray:
 #: after the fill catches what they hide)
 EXPOSURE_EDGE = 0.01
 COARSE_AREA = 0.2
+#: faces the split may make, about: past it the edge grows with the link's size (a millimetre tube
+#: scaled to 48 m by a typo in its mesh scale was split to 10 mm edges for minutes, past the fuzz alarm)
+EXPOSURE_MAX_FACES = 30_000
+
+
+def _split_edge(area: float, length: float) -> float:
+    """Metres: :data:`EXPOSURE_EDGE`, or longer where splitting faces of total ``area`` (m^2) and
+    total longest-edge ``length`` (m) to it would make more than :data:`EXPOSURE_MAX_FACES` faces.
+    Faces made, over-estimated: 3 area / (0.43 e^2) (fat faces) + 2 length / e (needles are split
+    along their length only); e solves that count = the cap."""
+    cap = float(EXPOSURE_MAX_FACES)
+    a, b = 3.0 * area / 0.433, 2.0 * length
+    if a / EXPOSURE_EDGE ** 2 + b / EXPOSURE_EDGE <= cap:  # every link of ordinary size: as before
+        return EXPOSURE_EDGE
+    return float((b + np.sqrt(b * b + 4.0 * a * cap)) / (2.0 * cap))
 
 
 def exposure_mesh(mesh, region=None):
-    """``(mesh, region)`` with ``mesh``'s edges longer than :data:`EXPOSURE_EDGE` split (the same
+    """``(mesh, region)`` with ``mesh``'s edges longer than :data:`EXPOSURE_EDGE` split (longer on a link
+    so large that it would make more than :data:`EXPOSURE_MAX_FACES` faces; the same
     object when none is) and ``region`` (an (F,) bool mask of the given mesh, or None) carried to
     the new faces (each lies on one old face: the one nearest its centre)."""
     from ..layout.repair import longest_edges, refine
@@ -126,11 +142,15 @@ def exposure_mesh(mesh, region=None):
 
     if not len(mesh.faces):
         return mesh, region
-    long = longest_edges(np.asarray(mesh.vertices), np.asarray(mesh.faces)) > EXPOSURE_EDGE
+    longest = longest_edges(np.asarray(mesh.vertices), np.asarray(mesh.faces))
+    long = longest > EXPOSURE_EDGE
     area = np.asarray(mesh.area_faces)
     if area[long].sum() <= COARSE_AREA * area.sum():
         return mesh, region
-    fine = refine(mesh, EXPOSURE_EDGE)
+    edge = _split_edge(float(area.sum()), float(longest.sum()))
+    fine = refine(mesh, edge)
+    if len(fine.faces) > 1.5 * EXPOSURE_MAX_FACES:  # the estimate was short (needles of a link metres long)
+        fine = refine(mesh, edge * float(np.sqrt(len(fine.faces) / EXPOSURE_MAX_FACES)))
     if region is not None:
         region = np.asarray(region, dtype=bool)[closest_points(mesh, np.asarray(fine.triangles_center))[1]]
     return fine, region

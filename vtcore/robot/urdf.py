@@ -156,6 +156,9 @@ def read(path, packages: dict | None = None) -> Robot:
             upper = _numbers(lim, "upper", 1, path, (0.0,))[0]
             if lower == upper == 0.0 and jt == "revolute":
                 lower = upper = None  # a limit without bounds: URDF readers treat it as unlimited
+            elif lower > upper:  # no value lies within: the exposure's sampled poses cannot be drawn
+                raise FormatError(f"joint {el.get('name')!r}: limit lower {lower:g} is above upper {upper:g}",
+                                  file=path, key="joint.limit")
         mim = el.find("mimic")
         mimic = None if mim is None or not mim.get("joint") else (
             mim.get("joint"), _numbers(mim, "multiplier", 1, path, (1.0,))[0], _numbers(mim, "offset", 1, path, (0.0,))[0])

@@ -180,8 +180,10 @@ def run(scene, ctx) -> TaskResult:
         f"`maps.ply`: the end-effector mesh (edges split to the spacing) with per-vertex `threshold_n`, `localisation_mm`, `two_point_mm`, "
         f"`detect_rate`, `blind`, `evaluated`, `covered`, coloured by {legend.title.lower()} "
         f"({'; '.join(legend.lines()[1:])}).", ""]
-    figures = {"histograms": histograms(dm), "maps": map_figure(dm, layout.positions[~np.isin(layout.taxel_ids,
-                                                                                              st.dead)])}
+    figures = {}
+    if scene["output"]["plots"]:  # the runner closes only the figures it saves: never built and left open
+        live = layout.positions[~np.isin(layout.taxel_ids, st.dead)]
+        figures = {"histograms": histograms(dm), "maps": map_figure(dm, live)}
     return TaskResult(metrics, arrays, figures, sections, files=["maps.ply"])
 
 

@@ -116,10 +116,12 @@ def run(scene, ctx) -> TaskResult:
               "real": v.real, "sim": v.sim, "noise_sigma": sigma, "pressure": v.pressure, "force": v.force,
               "compression": v.compression, "recording": v.recording, "frame": v.frame, "held_out": v.held_out,
               "baselines": v.baselines}
-    figures = {"footprints": footprints_figure(v, layout, f"{scene.name}: recorded vs simulated footprints "
-                                                           "(strongest frame of each recording)"),
-               "metrics": metrics_figure(v, f"{scene.name}: footprint statistics over the contact frames"),
-               "by_force": force_figure(v, f"{scene.name}: footprint statistics against the pressed force")}
+    figures = {}
+    if scene["output"]["plots"]:  # the runner closes only the figures it saves: never built and left open
+        figures = {"footprints": footprints_figure(v, layout, f"{scene.name}: recorded vs simulated footprints "
+                                                               "(strongest frame of each recording)"),
+                   "metrics": metrics_figure(v, f"{scene.name}: footprint statistics over the contact frames"),
+                   "by_force": force_figure(v, f"{scene.name}: footprint statistics against the pressed force")}
     for w in v.warnings + notes:     # the runner lists them (result.json "warnings", report.md)
         warnings.warn(w, LargeDeformationWarning if "linear elasticity" in w else UserWarning, stacklevel=2)
     sections = [_table(v.metrics), f"Indenter: {indenter}, conforming to the skin: {task['conform']}. "
