@@ -249,11 +249,16 @@ def _run_local(n: int, jobs: list, records: dict, bars: bool, progress=None) -> 
 
 
 def _result(fut, name: str) -> dict:
-    try:
+    """The record of the done future ``fut`` of link ``name``: its worker's failure (killed, out of
+    memory, interrupted) as that link's record. The future's exception is asked for, not caught: a
+    Ctrl-C reaches the worker and this process together, and an ``except BaseException`` round
+    ``fut.result()`` swallowed this process's own KeyboardInterrupt when it landed there (the run
+    then finished the other links and exited 0: seen once in a loaded CI run)."""
+    exc = fut.exception()
+    if exc is None:
         return fut.result()
-    except BaseException as exc:  # the worker died (killed, out of memory) or was interrupted
-        status = "interrupted" if isinstance(exc, KeyboardInterrupt) else "failed"
-        return {"link": name, "status": status, "reason": one_line(f"{type(exc).__name__}: {exc}")}
+    status = "interrupted" if isinstance(exc, KeyboardInterrupt) else "failed"
+    return {"link": name, "status": status, "reason": one_line(f"{type(exc).__name__}: {exc}")}
 
 
 def _drain(queue, shown) -> None:
