@@ -355,3 +355,29 @@ def test_a_robot_placed_on_is_freed_with_its_scenes(tmp_path):
     del robot, exp, surfaces
     gc.collect()
     assert alive() is None, "the robot (and its link scenes) outlived every reference to it"
+
+
+@pytest.mark.parametrize("joints, words", [
+    # the place fuzz's find: a duplicated <child> read as the parent itself; forward kinematics never ended
+    ('<joint name="w" type="continuous"><parent link="arm"/><child link="arm"/><child link="hand"/></joint>',
+     ("'w'", "same link 'arm'")),
+    ('<joint name="w" type="fixed"><parent link="arm"/><child link="hand"/></joint>'
+     '<joint name="v" type="fixed"><parent link="base"/><child link="hand"/></joint>', ("'hand'", "two joints")),
+    ('<joint name="w" type="fixed"><parent link="hand"/><child link="tip"/></joint>'
+     '<joint name="v" type="fixed"><parent link="tip"/><child link="hand"/></joint>', ("'hand', 'tip'", "loop")),
+])
+def test_joints_that_do_not_make_a_tree_are_one_error(tmp_path, joints, words):
+    """Found by the place-and-fill fuzz on the merged code: ``layout place`` of a URDF whose joint named
+    one link as both its parent and child hung in forward kinematics (the exposure's pose draw) until
+    the 240 s alarm. A URDF is a tree: a self-loop, a link with two parent joints, and a loop no root
+    reaches are each one error naming the joint or link."""
+    robot = tmp_path / "r.urdf"
+    robot.write_text('<robot name="r"><link name="base"/><link name="arm"><collision><geometry><box size="0.1 0.1 0.1"/>'
+                     '</geometry></collision></link><link name="hand"/><link name="tip"/>'
+                     '<joint name="s" type="revolute"><parent link="base"/><child link="arm"/><axis xyz="0 1 0"/>'
+                     f'<limit lower="-1" upper="1" effort="1" velocity="1"/></joint>{joints}</robot>')
+    for argv in (["robot", "info", robot], ["layout", "place", robot, "--link", "arm", "--geometry", "collision",
+                                            "--patch", "triangle", "--out", tmp_path / "o.json"]):
+        rc, _, err = run(argv)
+        one_error(rc, err, *words)
+    assert not (tmp_path / "o.json").exists()

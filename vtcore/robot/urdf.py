@@ -144,6 +144,9 @@ def read(path, packages: dict | None = None) -> Robot:
             if n not in links:
                 raise FormatError(f"joint {el.get('name')!r}: its {role} link {n!r} is not a link of the robot",
                                   file=path, key=f"joint.{role}")
+        if names[0] == names[1]:  # a loop of one joint: forward kinematics would never end (found by the place fuzz)
+            raise FormatError(f"joint {el.get('name')!r}: its parent and child are the same link {names[0]!r}",
+                              file=path, key="joint.child")
         axis = np.asarray(_numbers(el.find("axis"), "xyz", 3, path, (1.0, 0.0, 0.0)) if el.find("axis") is not None
                           else (1.0, 0.0, 0.0))
         norm = np.linalg.norm(axis)
@@ -164,8 +167,34 @@ def read(path, packages: dict | None = None) -> Robot:
             mim.get("joint"), _numbers(mim, "multiplier", 1, path, (1.0,))[0], _numbers(mim, "offset", 1, path, (0.0,))[0])
         joints.append(Joint(el.get("name") or f"joint_{len(joints)}", jt, *names, origin_of(el, path),
                             axis / (norm or 1.0), lower, upper, mimic=mimic))
+    _check_tree(joints, links, path)
     children = {j.child for j in joints}
     roots = [n for n in links if n not in children]
+    return Robot(root.get("name") or path.stem, path, NAME, links, joints, roots[0])
+
+
+def _check_tree(joints: list, links, path) -> None:
+    """Refuse joints that do not make a tree (URDF's kinematics is one): a link that is the child of two
+    joints, or links that no root reaches (the joints among them form a loop), in one line each."""
+    parent_joint: dict = {}
+    for j in joints:
+        if j.child in parent_joint:
+            raise FormatError(f"link {j.child!r} is the child of two joints ({parent_joint[j.child]!r} and "
+                              f"{j.name!r}); a URDF's links form a tree", file=path, key="joint.child")
+        parent_joint[j.child] = j.name
+    roots = [n for n in links if n not in parent_joint]
     if not roots:
         raise FormatError("every link is some joint's child: the joints form a loop", file=path, key="joint")
-    return Robot(root.get("name") or path.stem, path, NAME, links, joints, roots[0])
+    children: dict = {}
+    for j in joints:
+        children.setdefault(j.parent, []).append(j.child)
+    seen, stack = set(roots), list(roots)
+    while stack:
+        for c in children.get(stack.pop(), []):
+            if c not in seen:
+                seen.add(c)
+                stack.append(c)
+    looped = [n for n in links if n not in seen]
+    if looped:
+        raise FormatError(f"the joints of links {', '.join(map(repr, looped[:5]))} form a loop that no root "
+                          "link reaches; a URDF's links form a tree", file=path, key="joint")
