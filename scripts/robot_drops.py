@@ -6,7 +6,8 @@ vtcore.robot.reach.free_configurations; vtcore.robot.drops) and count the drops 
     python scripts/robot_drops.py OUT_DIR [--drops 24] [--robots g1,allegro]
 
 Prints, per robot, the drops on any taxel of today's fills and on the taxels the export classes as
-readable; writes OUT_DIR/drops.json.
+readable, and apart the draws where another link stood within a ball's width over the taxel at the drawn
+configuration (the ball would start inside it: no drop; another is drawn); writes OUT_DIR/drops.json.
 """
 
 from __future__ import annotations
@@ -72,14 +73,20 @@ def run(name: str, out: Path, drops: int, seed: int = 0) -> dict:
     sites = {m.site(k).name for k in range(m.nsite)}
     readable = drop_many(path, skinned, drops, configurations=configs, seed=seed + 1,
                          readable=sites - unreadable - sometimes)
-    ok = lambda rows: sum(abs(r["ratio"] - 1) <= TOLERANCE for r in rows)  # noqa: E731
+    ok = lambda rows: sum(r["blocked"] is None and abs(r["ratio"] - 1) <= TOLERANCE for r in rows)  # noqa: E731
+    placed = lambda rows: sum(r["blocked"] is None for r in rows)  # noqa: E731
+    blocked = lambda rows: sum(r["blocked"] is not None for r in rows)  # noqa: E731
     summary = {"robot": name, "seed": seed, "configurations": configs, "taxels": sum(len(x) for x in layouts), "unreadable": len(unreadable),
                "covered_at_some_poses": len(sometimes),
                "drops": drops, "ok_any_taxel": ok(every), "ok_readable": ok(readable),
+               "placed_any_taxel": placed(every), "placed_readable": placed(readable),
+               "blocked_any_taxel": blocked(every), "blocked_readable": blocked(readable),
                "rows_any": every, "rows_readable": readable}
     print(f"{name}: {summary['taxels']} taxels, {len(unreadable)} named unreadable by the export (and "
           f"{len(sometimes)} covered at some poses); m g within 5 % on "
-          f"{ok(every)}/{drops} drops on any taxel, {ok(readable)}/{drops} on readable taxels (read at every probed pose)")
+          f"{ok(every)}/{placed(every)} drops on any taxel, {ok(readable)}/{placed(readable)} on readable taxels "
+          f"(read at every probed pose); draws where another link stood over the taxel, so that no ball could "
+          f"be placed (drawn again): {blocked(every)} and {blocked(readable)}")
     return summary
 
 

@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .reach import is_module_body, site_link
+
 #: kg and m: the ball of the issue's check, 20 g; 8.5 mm is a 20 g steel ball's radius (7850 kg/m^3)
 BALL_KG, BALL_RADIUS = 0.02, 0.0085
 #: m/s^2
@@ -62,10 +64,14 @@ def _quat(r) -> np.ndarray:
 
 
 def drop(spec, site: str, sensors, *, mass: float = BALL_KG, radius: float = BALL_RADIUS, steps: int = 1500,
-         settle: int = 1000) -> float:
+         settle: int = 1000):
     """The touch sensors ``sensors`` (names) summed at rest, newtons (mean over the steps after
     ``settle``), when a ball of ``mass`` kg and ``radius`` m is dropped on the site ``site`` of the
-    frozen robot ``spec`` (:func:`frozen`) along the site's axis, gravity against it."""
+    frozen robot ``spec`` (:func:`frozen`) along the site's axis, gravity against it.
+
+    Returns ``(force, blocked)``: ``blocked`` names the body of another link the ball would start inside
+    (that link stands within a ball's width over the taxel at this configuration: no ball can be placed
+    there, and ``force`` is None), else None."""
     import mujoco
 
     spec = spec.copy()
@@ -82,6 +88,9 @@ def drop(spec, site: str, sensors, *, mass: float = BALL_KG, radius: float = BAL
     m.opt.timestep = 1e-3
     m.opt.gravity[:] = -G * n
     d = mujoco.MjData(m)
+    blocked = _start_inside(m, d, m.body("vtcore_drop_ball").id, site_link(m, m.site(site).id))
+    if blocked is not None:
+        return None, blocked
     ids = np.array([m.sensor(s).id for s in sensors])
     adr = m.sensor_adr[ids]
     total = 0.0
@@ -89,15 +98,34 @@ def drop(spec, site: str, sensors, *, mass: float = BALL_KG, radius: float = BAL
         mujoco.mj_step(m, d)
         if step >= settle:
             total += float(d.sensordata[adr].sum())
-    return total / max(steps - settle, 1)
+    return total / max(steps - settle, 1), None
 
 
-def drop_many(path, links, n_drops: int, *, configurations=((),), seed: int = 0, readable=None) -> list[dict]:
+def _start_inside(m, d, ball: int, link: int):
+    """The name of a body other than the link ``link`` and its skin's module bodies that the ball (body id)
+    overlaps where it starts, or None."""
+    import mujoco
+
+    mujoco.mj_forward(m, d)
+    for c in d.contact[:d.ncon]:
+        bodies = {int(m.geom_bodyid[c.geom1]), int(m.geom_bodyid[c.geom2])}
+        if ball not in bodies or c.dist >= 0:
+            continue
+        (other,) = bodies - {ball}
+        if other != link and not (int(m.body_parentid[other]) == link and is_module_body(m, other)):
+            return m.body(other).name
+    return None
+
+
+def drop_many(path, links, n_drops: int, *, configurations=((),), seed: int = 0, readable=None,
+              tries: int = 4) -> list[dict]:
     """``n_drops`` drops on the merged MJCF at ``path``: each on a taxel drawn uniformly from all the
     taxels of ``links`` (site prefix ``<link>_vtskin_``), at a random one of ``configurations`` (dicts joint ->
     value; ``()``: the zero pose). readable : optional set of site names to draw from (the export's
-    reach check). Returns one record per drop: ``link``, ``site``, ``config`` (index), ``force_n``,
-    ``ratio`` (force / m g)."""
+    reach check). Returns one record per draw: ``link``, ``site``, ``config`` (index), ``force_n``,
+    ``ratio`` (force / m g), ``blocked`` (None, or the other link the ball would start inside: that
+    draw is no drop, its force and ratio are None, and another is drawn, at most ``tries`` x
+    ``n_drops`` draws in all)."""
     import mujoco
 
     rng = np.random.default_rng(seed)
@@ -110,9 +138,12 @@ def drop_many(path, links, n_drops: int, *, configurations=((),), seed: int = 0,
     frozen_specs = [frozen(spec, dict(q))[0] for q in configurations]
     rows = []
     pool = [(ln, s) for ln, v in sites.items() for s in v]  # every taxel as likely: a big link is hit more
-    for _ in range(n_drops):
+    draws = 0
+    while sum(r["blocked"] is None for r in rows) < n_drops and draws < tries * n_drops:
+        draws += 1
         ln, site = pool[int(rng.integers(len(pool)))]
         c = int(rng.integers(len(frozen_specs)))
-        f = drop(frozen_specs[c], site, [s + "_touch" for s in every[ln]])
-        rows.append({"link": ln, "site": site, "config": c, "force_n": f, "ratio": f / (BALL_KG * G)})
+        f, blocked = drop(frozen_specs[c], site, [s + "_touch" for s in every[ln]])
+        rows.append({"link": ln, "site": site, "config": c, "force_n": f, "blocked": blocked,
+                     "ratio": None if f is None else f / (BALL_KG * G)})
     return rows

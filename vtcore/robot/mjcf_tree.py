@@ -11,11 +11,13 @@ import os
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
+import numpy as np
+
 from .._io import write_xml
 from ..errors import InputError
 from ..layout import Layout
 from ..layout.io.common import skin_prefix, taxel_labels
-from ..layout.io.mjcf import add_skin
+from ..layout.io.mjcf import add_skin, module_body
 from .robot_xml import indent_added, read_robot_xml, refuse_clash
 
 
@@ -182,7 +184,8 @@ def merge_into_tree(layout: Layout, tree: ET.ElementTree, body: str | None, mode
     labels = taxel_labels(layout)
     names = [f"{prefix}{lab}" for lab in labels]
     suffixes = ("", "_touch", "_pad", "_cell")
-    refuse_clash(taken, [n + s for n in names for s in suffixes], model, "elements", prefix)
+    refuse_clash(taken, [n + s for n in names for s in suffixes]
+                 + [module_body(prefix, m) for m in np.unique(layout.module_ids)], model, "elements", prefix)
     pos, nrm = _body_frame(layout)
     sensor = root.find("sensor")
     if sensor is None:

@@ -97,6 +97,25 @@ RING_FRACTIONS = (0.5, 0.9)
 _IGNORED_GROUP = 5
 
 
+def site_link(m, site: int) -> int:
+    """The body id of the link the site ``site`` of the MuJoCo model ``m`` lies on: its own body, or
+    that body's parent where the site sits in its module's body (a robot export with pads:
+    :func:`vtcore.layout.io.mjcf.module_body`)."""
+    b = int(m.site_bodyid[site])
+    return int(m.body_parentid[b]) if is_module_body(m, b) else b
+
+
+def is_module_body(m, body: int) -> bool:
+    """Whether the body ``body`` of the MuJoCo model ``m`` is a skin module's (``<prefix>module_<id>``
+    holding sites named ``<prefix>...``)."""
+    name = m.body(body).name
+    head, sep, tail = name.rpartition("module_")
+    if not sep or not tail.lstrip("-").isdigit():
+        return False
+    sites = np.flatnonzero(m.site_bodyid == body)
+    return bool(len(sites)) and m.site(int(sites[0])).name.startswith(head)
+
+
 #: joint configurations (seeded, uniform within the limits, collision-free: :func:`free_qpos`) the export also
 #: probes every site at
 POSES = 8
@@ -216,7 +235,7 @@ def _probe(m, d, ids, qpos) -> dict:
         if abs(s) > m.site_size[k][2]:
             out[name] = f"its link's contact surface is {s * 1e3:.1f} mm along its normal, beyond its site"
             continue
-        other = _beside(m, d, p, n, s, int(m.site_bodyid[k]), groups, hit)
+        other = _beside(m, d, p, n, s, site_link(m, k), groups, hit)
         if other is not None:
             out[name] = f"a ball {2e3 * PROBE_RADIUS_M:.0f} mm wide rests on {other} beside it"
     return out
@@ -226,8 +245,11 @@ def _beside(m, d, p, n, surface: float, body: int, groups, hit):
     """The name of another body a ball of radius :data:`PROBE_RADIUS_M` coming down the axis ``n`` onto
     the point ``p`` (its link's surface ``surface`` m along ``n``) meets before it reaches that surface,
     found by rays round the axis (a body at lateral distance rho blocks when it stands higher than the
-    ball's underside there); None if none does."""
+    ball's underside there); None if none does. The link ``body`` and its skin's module bodies (their pads
+    sense for the link) are passed through."""
     import mujoco
+
+    own = {body} | {int(c) for c in np.flatnonzero(m.body_parentid == body) if is_module_body(m, int(c))}
 
     a = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
     a /= np.linalg.norm(a)
@@ -238,7 +260,24 @@ def _beside(m, d, p, n, surface: float, body: int, groups, hit):
         lift = r - np.sqrt(r * r - rho * rho)  # the ball's underside this far above its lowest point at rho
         for ang in np.linspace(0, 2 * np.pi, RING_RAYS, endpoint=False):
             o = p + rho * (np.cos(ang) * a + np.sin(ang) * b) + PROBE_M * n
-            dist = mujoco.mj_ray(m, d, o, -n, groups, 1, body, hit)  # the link itself excluded
-            if hit[0] >= 0 and PROBE_M - dist > surface + lift:
-                return m.body(int(m.geom_bodyid[hit[0]])).name
+            top = _first_other(m, d, o, -n, groups, body, own, hit)
+            if top is not None and PROBE_M - top[0] > surface + lift:
+                return m.body(top[1]).name
+    return None
+
+
+def _first_other(m, d, o, u, groups, body: int, own: set, hit):
+    """``(distance, body id)`` of the first geom along the ray ``o + t u`` (t >= 0, metres) of a body
+    not in ``own`` (the link ``body`` itself excluded by MuJoCo, its module bodies stepped over), or None."""
+    import mujoco
+
+    t = 0.0
+    for _ in range(64):  # each step passes one pad at least; a ray meets a few
+        dist = mujoco.mj_ray(m, d, o + t * u, u, groups, 1, body, hit)
+        if hit[0] < 0:
+            return None
+        b = int(m.geom_bodyid[hit[0]])
+        if b not in own:
+            return t + dist, b
+        t += dist + 1e-6
     return None

@@ -138,12 +138,14 @@ def check_mjcf(path, link_meshes: dict, configs) -> dict:
     against ``link_meshes[body]`` (a trimesh in the body's frame) placed where MuJoCo puts the body."""
     import mujoco
 
+    from .reach import site_link
+
     m = mujoco.MjModel.from_xml_path(str(path))
     d = mujoco.MjData(m)
     sites: dict = {}
     for s in range(m.nsite):
         if SKIN_MARK in m.site(s).name:
-            sites.setdefault(m.body(int(m.site_bodyid[s])).name, []).append(s)
+            sites.setdefault(m.body(site_link(m, s)).name, []).append(s)
     stats: dict = {}
     for q in configs:
         d.qpos[:] = m.qpos0

@@ -8,7 +8,10 @@ sense only in a body that has collision geoms. Two ways to get there:
   body itself, placed by the layout's ``transform`` (the pose of the layout frame in that
   body; a CySkin ``tf_matrix``), and the sensors appended: :func:`vtcore.robot.export_skinned`
   (``vtcore robot export``, ``vtcore layout export --model``; the merge is
-  :mod:`vtcore.robot.mjcf_tree`). The body's own collision geoms are what the ball touches.
+  :mod:`vtcore.robot.mjcf_tree`). The body's own collision geoms are what the ball touches; where the
+  export gives the skin pads, each module's pads and sites go into a welded child body
+  (:func:`module_body`), so that a touch sensor counts only its own module's pads (MuJoCo's ray from a
+  contact along its normal goes on through the link to sites on its far side).
 - the fragment (this module's :func:`write`): a ``<mujoco>`` file with one body named after the
   layout frame, at the layout's ``transform``, holding the sites and, by default, its
   own contact pad (see ``pad``). Attach it to a robot link with
@@ -137,9 +140,11 @@ def add_skin(layout: Layout, parent: ET.Element, sensor: ET.Element, *, position
         taxel). Each site reaches that far either way, so a contact on that surface counts; a tile's
         pad (its own body's contact surface) is raised to just above it.
     pad_radius : m, the ``"taxel"`` footprint's pads at most this wide (None: each covers its share
-        of the skin, :func:`cover_radii`; a robot export's pads stay under their own taxel, so that a wide
-        pad on a curved link does not stand over its neighbours; the site then stays centred on its taxel,
-        the taxel's frame on the link, and reaches over the pad).
+        of the skin, :func:`cover_radii`). Given (a robot export, with ``pad``), each module's pads and
+        sites go into a welded child body of ``parent`` at its origin (:func:`module_body`): a pad stays
+        under its own taxel, so that a wide pad on a curved link does not stand over its neighbours, and
+        rises over the link's contact surface where that lies above the taxel; the site stays centred on
+        its taxel (the taxel's frame on the link) and reaches over the pad.
     Returns the site names in taxel order.
     """
     if footprint not in FOOTPRINTS:
@@ -159,8 +164,20 @@ def add_skin(layout: Layout, parent: ET.Element, sensor: ET.Element, *, position
     h = pad_thickness / 2
     reach = np.zeros(len(names)) if reach is None else np.asarray(reach, dtype=np.float64).reshape(len(names))
     green = "0.2 0.8 0.2 0.5"
+    modules: dict = {}
     for k, name in enumerate(names):
         p, n = positions[k], normals[k]
+        if pad and pad_radius is not None and footprint == "taxel":
+            # a module's own body: MuJoCo's touch sensor counts a contact of its site's body whose normal ray
+            # crosses the site, and that ray goes on through the link: with the sites in the link itself, a
+            # ball on one face of the G1's torso was also counted by the sites on the opposite face (2 to 3 m g
+            # in the drop check). One body per module, not per taxel: MuJoCo's broadphase holds a pair list
+            # over bodies (a G1 with a cell per taxel overflowed its 16 MB arena)
+            mid = int(layout.module_ids[k])
+            if mid not in modules:
+                modules[mid] = ET.SubElement(parent, "body", name=module_body(prefix, mid))
+            _robot_taxel(modules[mid], name, p, n, cover[k], h, reach[k])
+            continue
         if footprint == "tile":  # the pad is the contact surface of its own body: on, or just over, the link's
             hk = h + max(reach[k], 0.0) / 2
             cell = ET.SubElement(parent, "body", name=f"{name}_cell", pos=_vec(p), zaxis=_vec(n))
@@ -176,13 +193,28 @@ def add_skin(layout: Layout, parent: ET.Element, sensor: ET.Element, *, position
                           size=f"{_fmt(cover[k])} {_fmt(h)}", density="0", contype="1", conaffinity="1",
                           rgba="0.85 0.85 0.8 1")
         half = (h if pad else 0.0) + abs(reach[k]) + SITE_MARGIN  # the link's contact surface within it
-        if pad_radius is not None and pad:  # a robot's taxel frame stays on its link: the site reaches the pad's top
-            centre, half = p, half + h
         ET.SubElement(parent, "site", name=name, type="cylinder", pos=_vec(centre), zaxis=_vec(n),
                       size=f"{_fmt(r_taxel)} {_fmt(half)}", rgba=green)
     for name in names:
         ET.SubElement(sensor, "touch", name=f"{name}_touch", site=name)
     return names
+
+
+def _robot_taxel(body: ET.Element, name: str, p, n, radius: float, h: float, reach: float) -> None:
+    """A robot export's taxel in its module's body (:func:`module_body`): its pad (``radius`` m, raised
+    to ``2 h`` over the link's contact surface where that lies ``reach`` > 0 m above the taxel ``p``,
+    along ``n``) and its site, centred on the taxel (its frame on the link) and reaching the pad's top."""
+    top = 2 * h + max(float(reach), 0.0)
+    ET.SubElement(body, "geom", name=f"{name}_pad", type="cylinder", pos=_vec(p + top / 2 * n), zaxis=_vec(n),
+                  size=f"{_fmt(radius)} {_fmt(top / 2)}", density="0", contype="1", conaffinity="1",
+                  rgba="0.85 0.85 0.8 1")
+    ET.SubElement(body, "site", name=name, type="cylinder", pos=_vec(p), zaxis=_vec(n),
+                  size=f"{_fmt(radius)} {_fmt(top + SITE_MARGIN)}", rgba="0.2 0.8 0.2 0.5")
+
+
+def module_body(prefix: str, module: int) -> str:
+    """The name of the welded child body that holds one module's pads and sites in a robot export."""
+    return f"{prefix}module_{int(module)}"
 
 
 def write(layout: Layout, path, *, footprint: str = "taxel", pad: bool | None = None,
