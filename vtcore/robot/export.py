@@ -35,7 +35,7 @@ from ..layout.io.common import identifier
 from ..layout.io.mjcf import taxel_radius
 from . import mjcf_tree, urdf_tree
 from .model import Robot, read_xml
-from .reach import POSES, contact_reach, unreadable_sites
+from .reach import POSES, ball_reach, contact_reach, unreadable_sites
 from .robot_xml import read_robot_xml
 
 FORMATS = ("urdf", "mjcf")
@@ -378,6 +378,8 @@ def _merge_mjcf_skins(robot_path: Path, layouts: list, prefixes: list, tree, lin
                 contact_geoms += geoms
             parts, rebuilt = contact[link]
             reach = contact_reach(robot, link, *taxel_frames(lay), parts=parts)
+            if rebuilt:  # each pad rises over where a ball coming down onto its taxel would rest on the parts
+                reach = np.maximum(reach, ball_reach(parts, *taxel_frames(lay), BALL_M))
         # on a rebuilt link the skin brings its own contact surface: pads under the taxels, where the
         # decomposition's parts (a few mm off the mesh) may lie below it or not reach it
         opts = {**mjcf_options, "pad": mjcf_options.get("pad") if mjcf_options.get("pad") is not None

@@ -84,6 +84,31 @@ def contact_reach(robot: Robot, link: str, positions, normals, parts=None) -> np
     return reach_to(collision_hulls(robot, link) if parts is None else parts, positions, normals)[0]
 
 
+def ball_reach(parts, positions, normals, radius: float, rings=(0.35, 0.7, 0.95), rays: int = 8) -> np.ndarray:
+    """(N,) metres: how far along each taxel's normal (positions, normals (N, 3), the parts' frame) the
+    lowest point of a ball of ``radius`` m stops when it comes down the normal line onto the convex
+    ``parts`` alone (not onto the skin): the highest of the parts' surface (:func:`reach_to`) less the
+    ball's rise over its lowest point there, on the axis and on ``rays`` rays round it at each of
+    ``rings`` (fractions of the radius); 0 where no part ends within :data:`REACH_MAX` of any ray.
+    Positive where the link stands beside the taxel higher than the ball's underside: a ball coming
+    down onto that taxel rests on the link there, not on the taxel's pad."""
+    p = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
+    u = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
+    u = u / np.linalg.norm(u, axis=1, keepdims=True)
+    a = np.cross(u, np.where(np.abs(u[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]]))
+    a /= np.linalg.norm(a, axis=1, keepdims=True)
+    b = np.cross(u, a)
+    reach, met = reach_to(parts, p, u)
+    rest = np.where(met, reach, -np.inf)
+    for frac in rings:
+        rho = frac * radius
+        lift = radius - np.sqrt(radius * radius - rho * rho)  # the ball's underside this far above its lowest point
+        for ang in np.linspace(0, 2 * np.pi, rays, endpoint=False):
+            r, m = reach_to(parts, p + rho * (np.cos(ang) * a + np.sin(ang) * b), u)
+            rest = np.maximum(rest, np.where(m, r - lift, -np.inf))
+    return np.where(np.isfinite(rest), rest, 0.0)
+
+
 #: metres: a probe comes from this far out along a taxel's normal (a fingertip's reach over the skin); a
 #: geom of another body on that line, or of the link itself farther out, takes the touch instead
 PROBE_M = 0.02
