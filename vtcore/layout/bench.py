@@ -261,6 +261,27 @@ def _error_of(res) -> tuple[float, str]:
     return res.get("strain_max", float("nan")), "flat module shape, max strain"
 
 
+def _designer_cases():
+    """``(name, fill, distance to the analytic surface or None)`` for the meshes designers have: a CAD
+    link's side, a 200-triangle hull, a sphere and a full cylinder's side (:mod:`.cadmeshes`)."""
+    from . import cadmeshes
+    from .tiling import fill
+
+    link = cadmeshes.cad_link()
+    lside = (np.abs(link.face_normals[:, 2]) < 0.3) & (np.abs(link.triangles_center[:, 2]) < 0.08)
+    hull = cadmeshes.convex_hull_link()
+    sph = cadmeshes.sphere(0.04, 4)
+    cyl = cadmeshes.full_cylinder(0.02, 0.1, 0.003)
+    cside = np.abs(cyl.face_normals[:, 2]) < 0.5
+    cases = [("CAD link (non-manifold, slivers), side", lambda: fill(link, (0.036, 0, 0), (0, 0, 1), region=lside),
+              None),
+             ("200-triangle convex hull", lambda: fill(hull, (0, 0, hull.bounds[1, 2]), (1, 0, 0)), None),
+             ("sphere r=40 mm", lambda: fill(sph, (0, 0, 0.04), (1, 0, 0)),
+              lambda p: np.abs(np.linalg.norm(p, axis=1) - 0.04)),
+             ("full cylinder r=20 mm, side", lambda: fill(cyl, (0.02, 0, 0), (0, 1, 0), region=cside), _cyl(0.02, 0.1))]
+    return cases
+
+
 def _fill_rows(quick, on_row=None):
     from . import cadmeshes
     from .placement import place
@@ -305,18 +326,7 @@ def _fill_rows(quick, on_row=None):
                 n_mod, lambda rad=rad: _fill_summary(*fill_one_chart(big, (0.18, 0, 0), (0, 1, 0), radius=rad),
                                                      _cyl(0.18, 0.7)))
     # 3. the meshes designers have
-    link = cadmeshes.cad_link()
-    lside = (np.abs(link.face_normals[:, 2]) < 0.3) & (np.abs(link.triangles_center[:, 2]) < 0.08)
-    hull = cadmeshes.convex_hull_link()
-    sph = cadmeshes.sphere(0.04, 4)
-    cyl = cadmeshes.full_cylinder(0.02, 0.1, 0.003)
-    cside = np.abs(cyl.face_normals[:, 2]) < 0.5
-    cases = [("CAD link (non-manifold, slivers), side", lambda: fill(link, (0.036, 0, 0), (0, 0, 1), region=lside),
-              None),
-             ("200-triangle convex hull", lambda: fill(hull, (0, 0, hull.bounds[1, 2]), (1, 0, 0)), None),
-             ("sphere r=40 mm", lambda: fill(sph, (0, 0, 0.04), (1, 0, 0)),
-              lambda p: np.abs(np.linalg.norm(p, axis=1) - 0.04)),
-             ("full cylinder r=20 mm, side", lambda: fill(cyl, (0.02, 0, 0), (0, 1, 0), region=cside), _cyl(0.02, 0.1))]
+    cases = _designer_cases()
     for name, fn, dist in (cases[-1:] if quick else cases):
         row("fill_meshes", "grow", name, 0, lambda fn=fn, dist=dist: _fill_summary(*fn(), dist))
     # 4. a real 200-triangle collision hull (Panda's link 7) and a selection of many islands (the
