@@ -23,3 +23,23 @@ def test_table_cell_rows_are_measured_against_press_by_press_solves():
     # a coarser cell is no closer to the reference
     thr = [r["threshold_err_pct_max"] for r in rows]
     assert thr[2] >= thr[0] and np.isfinite(thr).all()
+
+
+def test_resolution_rows_have_a_time_and_an_error_against_press_by_press():
+    """Every ``resolution`` row (seed 001 Fig. 10 as design maps) carries its map's time and its error
+    against press-by-press solves with the same dead taxels, finite (issue 34; no timing asserted)."""
+    import numpy as np
+
+    from vtcore.contact import SoftLayer
+    from vtcore.evaluate import bench
+    from vtcore.evaluate.noise import sensor_noise
+    from vtcore.layout import seed001_disc
+
+    disc, hexagon = seed001_disc()
+    rows = bench.resolution_rows(disc, hexagon, SoftLayer(thickness=0.003), sensor_noise(), True)
+    assert len(rows) >= 3
+    for r in rows:
+        vals = [r["map_s"], r["press_s_per_point"], r["threshold_err_pct_max"], r["loc_noise_free_err_mm_max"]]
+        assert np.isfinite(vals).all() and r["map_s"] > 0 and r["points"] >= 2, r
+        # the maps are a shortcut of the same physics: close to the solves, but measured, not the same model
+        assert r["threshold_err_pct_max"] < 20 and r["loc_noise_free_err_mm_max"] < 0.5, r

@@ -296,3 +296,25 @@ def test_a_press_past_the_read_out_ceiling_reads_a_flat_top(hexagon):
     # a ceiling below k sigma: nothing is ever detected, clearly
     deaf = SensorNoise(191.16, 5.0, 10.0, max_counts=900.0)
     assert deaf.threshold_pa == np.inf
+
+
+@pytest.mark.slow
+def test_press_by_press_on_a_sparse_skin_wrapped_round_a_link():
+    """The reference presses on the taxels near its point: 30 scattered modules of a fill round a 72 mm
+    link (+-110 degrees, the benchmark's --quick link_1000 skin) once made one height field of both
+    flanks whose fit rose above the surface under the probe, and the press read 1.4 % of the map's
+    reading on the taxel next to the one pressed (the map, a flat table, is right there: the pad lies
+    along the link's straight axis)."""
+    from vtcore.evaluate.bench import link_skin
+    from vtcore.evaluate.maps import neighbours, readings
+
+    _, lay = link_skin(10_000, 30)
+    t = int(np.argmin(np.linalg.norm(lay.positions - [0.003, -0.072, -0.053], axis=1)))
+    pts, nrm = lay.positions[t:t + 1] + [0.0, 0.0, 0.0008], lay.normals[t:t + 1]
+    st = Settings(two_point=False, draws=4, probe_axis=(0, 0, 1))
+    noise = sensor_noise()
+    pm = evaluate_points(lay, pts, nrm, LAYER, st, noise)
+    ref = reference_points(lay, pts, nrm, LAYER, st, noise)
+    nb = neighbours(lay.positions, lay.normals, pts, nrm, pm.table.reach, st.probe.yaw, axis=st.probe_axis)
+    mine = noise.counts(readings(pm.table, pm.table.index(st.reference_force), nb))
+    assert np.abs(mine - ref.readings).max() <= 0.05 * ref.readings.max(), (mine[0, :4], ref.readings[0, :4])

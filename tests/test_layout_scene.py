@@ -104,3 +104,12 @@ def test_bench_quick(tmp_path):
     by = {(r["case"], r["method"]): r for r in rows}
     assert by[("place_100", "logmap")]["accuracy"] < by[("place_100", "project")]["accuracy"]
     assert all(np.isfinite(r["accuracy"]) for r in rows)
+    # issue 34: every row has a time and an error against a closed form (never the method itself)
+    assert all(np.isfinite([r["seconds"], r["error"]]).all() and r["error_vs"] for r in rows)
+    place = [r for r in rows if r["case"] == "place_100"]
+    assert len(place) >= 3 and max(r["error"] for r in place if r["method"] == "logmap") < 1.0  # mm off the wrap
+    assert by[("place_100", "project")]["error"] > 10  # projection shrinks the wrapped patch: tens of mm
+    fills = [r for r in rows if r["case"] == "fill_faces" and r["method"] == "grow"]
+    # the taxels lie on the facets: their distance to the true cylinder is the facets' sag, which halves
+    # as the faces double
+    assert len(fills) >= 3 and fills[0]["error"] > fills[-1]["error"] > 0

@@ -19,7 +19,10 @@ Rows:
   modules on a 10k-face link. Errors: the first layout's maps against press-by-press
   solves (:func:`map_error`) at the covered samples nearest 8 random taxels (3 with ``--quick``),
   thresholds at 3 (2) of them; rows of one spacing share those samples and solves.
-- ``resolution`` seed 001's Fig. 10 study as design maps: random subsets of s of the hexagon's 60 taxels.
+- ``resolution`` seed 001's Fig. 10 study as design maps: random subsets of s of the hexagon's 60 taxels
+  (2 subsets per size with ``--quick``, 5 in full), each size's wall and CPU seconds per design map, and
+  the first subset's maps against press-by-press solves with the same dead taxels at the samples
+  nearest 6 of its live taxels (3 with ``--quick``), thresholds at 3 (2).
 
 Every row states the machine's load average when it ran (2 shared cores): wall times move with it,
 process CPU times much less.
@@ -42,8 +45,9 @@ from .noise import sensor_noise
 from .reference import reference_points
 
 #: What this benchmark measures its error against (the closing note of ``vtcore bench`` lists it).
-REFERENCE = ("full press-by-press contact solves at the same points (the maps are a response table and "
-             "superposition), for every row with an error: shortcut, table_spacing, link_1000")
+REFERENCE = ("full press-by-press contact solves at the same points (vtcore.evaluate.reference_points: one "
+             "contact solve per point and force on the taxels near the point; the maps are a response table and "
+             "superposition), on every row: shortcut, table_spacing, link_1000, resolution")
 
 
 def _load() -> float:
@@ -81,7 +85,8 @@ def shortcut_row(case, layout, points, normals, layer, st, noise, *, n_thr, n_tp
     le = np.abs(pm.localisation.error - ref.localisation.error)[loc_ok]
     rel = le / np.maximum(ref.localisation.error[loc_ok], 1e-4) * 100
     nf = np.abs(pm.localisation.error_noise_free - ref.localisation.error_noise_free) * 1e3
-    thr = np.abs(pm.detection.threshold[:n_thr] / ref.threshold[:n_thr] - 1) * 100 if n_thr else np.zeros(1)
+    # no threshold asked for (the ring rows at --quick): no error to show, not a 0 % one
+    thr = np.abs(pm.detection.threshold[:n_thr] / ref.threshold[:n_thr] - 1) * 100 if n_thr else None
     if n_tp and pm.two_point is not None:
         # the map's worst over the reference's orientations, computed for those orientations only
         sub = evaluate_points(layout, points[:n_tp], normals[:n_tp], layer,
@@ -95,7 +100,7 @@ def shortcut_row(case, layout, points, normals, layer, st, noise, *, n_thr, n_tp
             "loc_noise_free_err_mm_max": float(nf.max()),
             "loc_expected_err_pct_median": float(np.median(rel)) if len(rel) else None,
             "loc_expected_err_pct_max": float(rel.max()) if len(rel) else None,
-            "threshold_err_pct_max": float(thr.max()), "two_point_within_1mm": agree}
+            "threshold_err_pct_max": None if thr is None else float(thr.max()), "two_point_within_1mm": agree}
 
 
 def link_skin(faces: int, modules: int):
@@ -220,30 +225,51 @@ def knob_rows(hexagon, layer, noise, quick) -> list[dict]:
 
 def resolution_rows(mesh, hexagon, layer, noise, quick) -> list[dict]:
     """Seed 001 Fig. 10: random subsets of s taxels of the hexagon, median maps over the covered surface
-    of the full hexagon (the subset's blind spots count)."""
+    of the full hexagon (the subset's blind spots count), each size's time (wall and CPU per design map)
+    and its error against press-by-press solves with the same dead taxels (:func:`_resolution_error`)."""
+    from .design import table_for
     from .samples import sample_surface
 
+    table_for(Settings(draws=8, two_point=False), layer)  # the response table, so no size's time includes it
     s = sample_surface(mesh, hexagon.positions, hexagon.normals, spacing=0.003, margin=0.0)
     cov = s.covered
+    pts, nrm, a = s.positions[cov], s.normals[cov], s.areas[cov]
     rows = []
     seeds = range(2 if quick else 5)
     for size in (6, 12, 18, 24, 30, 36, 60):
-        med = []
+        med, wall, cpu = [], 0.0, 0.0
         for seed in seeds:
             rng = np.random.default_rng(seed)
             keep = rng.choice(len(hexagon), size=size, replace=False)
-            dead = tuple(int(i) for i in np.delete(hexagon.taxel_ids, keep))
-            pm = evaluate_points(hexagon, s.positions[cov], s.normals[cov], layer,
-                                 Settings(dead=dead, draws=8, two_point=False, seed=seed), noise)
-            a = s.areas[cov]
+            st = Settings(dead=tuple(int(i) for i in np.delete(hexagon.taxel_ids, keep)), draws=8, two_point=False,
+                          seed=seed)
+            t, c, pm = _timed(lambda st=st: evaluate_points(hexagon, pts, nrm, layer, st, noise))
+            wall, cpu = wall + t, cpu + c
             med.append((np.median(pm.detection.threshold), np.median(pm.localisation.error) * 1e3,
                         float(a[pm.blind].sum() / a.sum() * 100)))
+            if seed == 0:
+                err = _resolution_error(pm, hexagon, keep, pts, nrm, layer, st, noise, quick)
         med = np.asarray(med)
         rows.append({"case": "resolution", "setting": f"s = {size} taxels", "load": _load(),
+                     "map_s": wall / len(seeds), "cpu_s": cpu / len(seeds), "samples": len(pts),
                      "threshold_median_n": float(med[:, 0].mean()), "localisation_median_mm": float(med[:, 1].mean()),
                      "blind_pct": float(med[:, 2].mean()), "blind_pct_std": float(med[:, 2].std()),
-                     "subsets": len(seeds)})
+                     "subsets": len(seeds), **err})
     return rows
+
+
+def _resolution_error(pm, hexagon, keep, pts, nrm, layer, st, noise, quick) -> dict:
+    """The first subset's maps ``pm`` against press-by-press solves with the same dead taxels at the
+    samples nearest 3 (``quick``) or 6 of its live taxels (``keep``), thresholds at 2 (3) of them."""
+    from scipy.spatial import cKDTree
+
+    k, n_thr = (3, 2) if quick else (6, 3)
+    taxels = np.random.default_rng(7).choice(keep, size=min(k, len(keep)), replace=False)
+    idx = np.unique(cKDTree(pts).query(hexagon.positions[taxels])[1])
+    t_ref, _, ref = _timed(lambda: reference_points(hexagon, pts[idx], nrm[idx], layer, st, noise,
+                                                    threshold_points=range(n_thr)))
+    return {"points": len(idx), "press_s_per_point": t_ref / len(idx),
+            **_errors_against(pm.localisation, pm.detection, idx, ref, n_thr)}
 
 
 def run(out: Path, quick: bool = False) -> list[dict]:
@@ -290,7 +316,7 @@ def run(out: Path, quick: bool = False) -> list[dict]:
     cols = ["case", "setting", "load", "points", "map_s_per_point", "press_s_per_point", "reading_err_pct_median",
             "reading_err_pct_max", "loc_noise_free_err_mm_max", "loc_expected_err_pct_median",
             "loc_expected_err_pct_max", "threshold_err_pct_max", "two_point_within_1mm", "table_s", "table_cells",
-            "taxels", "faces", "samples", "wall_s", "cpu_s", "peak_mb", "steps", "threshold_median_n",
+            "taxels", "faces", "samples", "map_s", "wall_s", "cpu_s", "peak_mb", "steps", "threshold_median_n",
             "localisation_median_mm", "blind_pct", "blind_pct_std", "subsets"]
     write_table(out, rows, title="Design maps (vtcore.evaluate): the shortcut against press-by-press solves, and "
                                  "its cost", columns=cols, notes=[
@@ -303,7 +329,9 @@ def run(out: Path, quick: bool = False) -> list[dict]:
         "comparison at the covered samples nearest a few random taxels (`points`; `press_s_per_point` is the "
         "reference's cost). table_spacing rows: each cell's maps against press-by-press solves at 12 of their 64 "
         "points (thresholds at 4), not against the finest cell; the reference's own 0.5 mm grid and 1 % "
-        "bisection bound how closely a cell can agree with it."])
+        "bisection bound how closely a cell can agree with it. resolution rows: `map_s` and `cpu_s` are one design map's "
+        "wall and CPU seconds (mean over the subsets), the errors the first subset's maps against press-by-press "
+        "solves with the same dead taxels."])
     return rows
 
 
