@@ -93,6 +93,14 @@ PROBE_RADIUS_M = 0.0085
 #: rays round the axis, on rings at these fractions of the ball's radius
 RING_RAYS = 8
 RING_FRACTIONS = (0.5, 0.9)
+#: the rays of :func:`_beside` in the order tried (ring by ring): (R, 2) in-plane offsets from the axis, metres,
+#: and (R,) the ball's underside there above its lowest point (computed once: the per-ray numpy arithmetic was
+#: half of the export's contact check, 4.4 CPU s for the G1 with 1,020 taxels)
+_RING_ANGLES = np.linspace(0, 2 * np.pi, RING_RAYS, endpoint=False)
+_RING_RHO = np.repeat(np.asarray(RING_FRACTIONS) * PROBE_RADIUS_M, RING_RAYS)
+RING_OFFSETS = _RING_RHO[:, None] * np.column_stack([np.cos(_RING_ANGLES), np.sin(_RING_ANGLES)])[
+    np.tile(np.arange(RING_RAYS), len(RING_FRACTIONS))]
+RING_LIFTS = PROBE_RADIUS_M - np.sqrt(PROBE_RADIUS_M ** 2 - _RING_RHO ** 2)
 #: MuJoCo geom group the check parks non-colliding geoms in, out of its rays' way
 _IGNORED_GROUP = 5
 
@@ -231,14 +239,10 @@ def _beside(m, d, p, n, surface: float, body: int, groups, hit):
 
     a = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
     a /= np.linalg.norm(a)
-    b = np.cross(n, a)
-    r = PROBE_RADIUS_M
-    for frac in RING_FRACTIONS:
-        rho = frac * r
-        lift = r - np.sqrt(r * r - rho * rho)  # the ball's underside this far above its lowest point at rho
-        for ang in np.linspace(0, 2 * np.pi, RING_RAYS, endpoint=False):
-            o = p + rho * (np.cos(ang) * a + np.sin(ang) * b) + PROBE_M * n
-            dist = mujoco.mj_ray(m, d, o, -n, groups, 1, body, hit)  # the link itself excluded
-            if hit[0] >= 0 and PROBE_M - dist > surface + lift:
-                return m.body(int(m.geom_bodyid[hit[0]])).name
+    origins = p + PROBE_M * n + RING_OFFSETS @ np.vstack([a, np.cross(n, a)])  # (R, 3), the rays' starts
+    down = np.ascontiguousarray(-n)
+    for o, lift in zip(origins, RING_LIFTS):
+        dist = mujoco.mj_ray(m, d, o, down, groups, 1, body, hit)  # the link itself excluded
+        if hit[0] >= 0 and PROBE_M - dist > surface + lift:
+            return m.body(int(m.geom_bodyid[hit[0]])).name
     return None
