@@ -142,8 +142,8 @@ def g1_export_rows(out: Path, rows: list, quick: bool = False) -> None:
     fill in a forked child (``g1_fill_link`` rows); the export into a fresh folder
     (``export_mjcf_g1_cold``: the contact-geometry step, a CoACD decomposition of each skinned link
     and of the links crowding a skin, and the contact check of every site at the zero pose and 8
-    configurations), then again beside it (``export_mjcf_g1``: the decompositions read back), each in
-    a forked child (wall, CPU, peak MB, the machine's load); accuracy side by side: the largest taxel
+    configurations), then again over it (``export_mjcf_g1``: the decompositions read back), each
+    timed in this process (wall and CPU seconds, the machine's load: :func:`_g1_export_row`); accuracy side by side: the largest taxel
     distance to its link's mesh and angle to its normal in MuJoCo (zero pose and 5 random
     configurations) and how many taxels the export's contact check says cannot read."""
     import shutil
@@ -167,8 +167,12 @@ def g1_export_rows(out: Path, rows: list, quick: bool = False) -> None:
 
 
 def _g1_export_row(robot, layouts, case: str, path: Path) -> dict:
-    """One row of :func:`g1_export_rows`: ``export_skinned`` of ``layouts`` to ``path`` in a forked child,
-    then MuJoCo's reading of the file it wrote."""
+    """One row of :func:`g1_export_rows`: ``export_skinned`` of ``layouts`` to ``path`` (wall and CPU
+    seconds of this process, CoACD's threads included), then MuJoCo's reading of the file it wrote.
+
+    In this process, not a forked child (:func:`vtcore._bench.in_child`): CoACD's OpenMP runtime
+    (libgomp) hangs in a child forked after its parent has run CoACD, as the UR10 export rows do
+    in this process (the quick run waited 13 minutes in ``coacd::Compute``)."""
     import os
 
     from .export import export_skinned
@@ -178,10 +182,14 @@ def _g1_export_row(robot, layouts, case: str, path: Path) -> dict:
     path.parent.mkdir(parents=True, exist_ok=True)
     taxels = sum(len(x) for x in layouts)
     load0 = os.getloadavg()[0]
-    sec, cpu, mb, res, err = in_child(lambda: export_skinned(robot.path, layouts, path))
+    t0, c0 = time.perf_counter(), time.process_time()
+    try:
+        res, err = export_skinned(robot.path, layouts, path), None
+    except Exception as exc:  # noqa: BLE001  (reported in the row, as in_child does)
+        res, err = None, f"{type(exc).__name__}: {exc}"
     row = {"case": case, "geometry": "visual", "link": f"{robot.name}: {len(layouts)} links", "taxels": taxels,
-           "seconds": sec, "cpu_seconds": cpu, "peak_mb": mb, "load": f"{load0:.1f}-{os.getloadavg()[0]:.1f}",
-           "extra": err or ""}
+           "seconds": time.perf_counter() - t0, "cpu_seconds": time.process_time() - c0, "peak_mb": None,
+           "load": f"{load0:.1f}-{os.getloadavg()[0]:.1f}", "extra": err or ""}
     if res is None:
         return row
     # the second export overwrites the first: its decompositions (the same meshes) are read back
