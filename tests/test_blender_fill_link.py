@@ -82,6 +82,31 @@ def test_fill_on_a_link_keeps_to_its_exposed_surface_and_shows_it(arm):
     legend = wrist.vtskin.exposure_legend.splitlines()
     assert legend[0].startswith("green: exposed, ")
     assert any(line.startswith("dark red: covered by another link at every sampled pose") for line in legend)
+    # the panels, the link active: the Robot panel's legend box, the Fill box's Anywhere on the link
+    from addon import panel
+
+    bpy.context.view_layer.objects.active = wrist
+    s = bpy.context.scene.vtskin
+    log = []
+    panel.VTSKIN_PT_robot.draw_more(None, Recorder(log), s, bpy.context)
+    labels = [k.get("text") for name, _, k in log if name == "label"]
+    assert labels[0] == "Link wrist (visual)" and labels[1:1 + len(legend)] == legend
+    log.clear()
+    panel.VTSKIN_PT_layout.draw_more(None, Recorder(log), s, bpy.context)
+    assert ("prop", (s, "fill_anywhere"), {}) in log
+
+
+class Recorder:
+    """Stands for a panel's layout: records each call (name, args, kwargs) and returns another."""
+
+    def __init__(self, log):
+        self.log = log
+
+    def __getattr__(self, name):
+        def call(*args, **kwargs):
+            self.log.append((name, args, kwargs))
+            return Recorder(self.log)
+        return call
 
 
 def test_fill_anywhere_on_a_link_and_on_a_plain_mesh_lays_over_the_mating_faces(arm):
