@@ -69,6 +69,36 @@ def _say(op, ob, edit, what):
                         f"{ob.vtskin.overlaps} overlaps")
 
 
+def _link_input(ee, s):
+    """A Fill on a link object of an imported robot: the robot, link and geometry it holds (vtcore
+    fills the link's exposed surface only, as ``vtcore layout fill ROBOT --link``); None for any other
+    mesh (filled as it is)."""
+    from vtcore.scene import interactive
+
+    if not ee.vtskin.link or not ee.vtskin.robot_file:
+        return None
+    with failing("Cannot lay the patch"):
+        packages = interactive.parse_packages(s.robot_packages)
+    return {"robot": bpy.path.abspath(ee.vtskin.robot_file), "link": ee.vtskin.link, "geometry": ee.vtskin.geometry,
+            "packages": packages, "anywhere": s.fill_anywhere}
+
+
+def _show_exposure(op, ee, ob, shown):
+    """The exposure a Fill on a link judged: ``ee``'s faces coloured by it with its legend (the Robot
+    panel), what the fill left out in the skin's report and the Info log."""
+    from vtcore.robot import exposure
+
+    faces = triangle_faces(ee)
+    if shown.reason is not None and len(faces) == len(shown.reason):  # (a modifier changes the triangles)
+        colours = np.zeros((len(ee.data.polygons), 4))
+        colours[faces] = exposure.face_colours(shown.reason)  # per triangle -> its polygon
+        display.show_exposure(ee.data, colours)
+        ee.vtskin.exposure_legend = "\n".join(shown.legend)
+    ob.vtskin.report = "\n".join([ob.vtskin.report, *shown.excluded]).strip("\n")
+    for line in shown.excluded:
+        op.report({"INFO"}, f"{ee.name}: {line}")
+
+
 def _fill_settings(s):
     """lay_patch's strain limit, crease angle, islands and force from the scene's settings."""
     return dict(max_strain=(s.max_strain / 100.0) or None, crease_angle=float(np.degrees(s.crease_angle)),
@@ -123,11 +153,14 @@ class VTSKIN_OT_lay_patch(Op, bpy.types.Operator):
             module = get_module(s.module, mirror=s.mirror)
         args = dict(vertices=verts, triangles=tri, at=at, existing=base, patch=patch, module=module,
                     direction=patch_direction(s.rotation), offset=s.offset, method=s.method, fill_region=region,
-                    max_faces=s.solve_faces or None, **extra, **_fill_settings(s))
+                    max_faces=s.solve_faces or None, link=_link_input(ee, s) if self.fill else None,
+                    **extra, **_fill_settings(s))
         return ee, existing, frame, args
 
     def _write(self, context, ee, existing, frame, edit):
         ob = _write_edit(context, ee, existing, frame, edit, context.scene.vtskin.module)
+        if edit.exposure is not None:  # a Fill on a robot's link
+            _show_exposure(self, ee, ob, edit.exposure)
         _say(self, ob, edit, "filled" if self.fill else "patch laid")
         return {"FINISHED"}
 

@@ -98,6 +98,9 @@ class VTSKIN_PT_layout(_Panel, bpy.types.Panel):
             _row(fill, s, "facing")
             fill.prop(s, "within")
         _row(fill, s, "islands")
+        ob = context.active_object
+        if ob is not None and ob.vtskin.link:  # a robot's link: exposed surface only unless this
+            fill.prop(s, "fill_anywhere")
         fill.prop(s, "crease_angle")
         _button(fill, "vtskin.lay_patch", "MOD_TRIANGULATE", {"fill": True}, text="Fill")
         _row(col, s, "max_strain", "keep_refused")

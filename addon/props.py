@@ -177,6 +177,11 @@ class VTSKIN_PG_scene(bpy.types.PropertyGroup):
                                                       "(in the end-effector's frame)")
     within: FloatProperty(name="Within", default=0.7853981633974483, min=1e-3, max=3.141592653589793,
                           subtype="ANGLE", description="Cone round the facing direction")
+    fill_anywhere: BoolProperty(name="Anywhere on the link", default=False,
+                                description="Fill on a robot's link object (Import Robot): fill the whole region "
+                                            "as on any mesh, also where another link covers the surface or no "
+                                            "fingertip reaches (off: the link's exposed surface only, as vtcore "
+                                            "layout fill ROBOT --link)")
     islands: EnumProperty(name="Islands", default="each", items=[
         ("each", "Each its own", "Every connected part of the region gets its own lattice (most modules)"),
         ("one", "One lattice", "Parts within two pitches of each other share one lattice (rows line up)")])

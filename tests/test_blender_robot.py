@@ -153,7 +153,7 @@ def test_skin_on_a_moved_turned_scaled_link_is_in_the_link_frame_and_exports_int
 def test_fill_on_an_imported_link_is_vtcores_fill_and_the_skinned_robot_survives_reload(arm, tmp_path):
     """Import Robot at a joint configuration, the upper arm moved and turned in the scene (its
     children follow), Fill round the cursor through the operator: the same skin as vtcore's fill of
-    the link's geometry in its own frame; Export Skinned Robot writes what vtcore's export writes,
+    the link's geometry (its exposed surface) in its own frame; Export Skinned Robot writes what vtcore's export writes,
     every taxel on the link in yourdfpy and MuJoCo; after save and reload the export is the same file."""
     from vtcore.robot import export_skinned, link_mesh, load_robot
     from vtcore.robot.verify import check_mjcf, check_urdf
@@ -175,8 +175,10 @@ def test_fill_on_an_imported_link_is_vtcores_fill_and_the_skinned_robot_survives
     verts, tri = opbase.mesh_in_frame(upper, opbase.skin_frame(upper))
     np.testing.assert_allclose(verts, link_mesh(robot, "l_upper_arm").vertices, atol=1e-6)
     cursor = np.linalg.inv(M(upper)) @ np.r_[np.array(bpy.context.scene.cursor.location, dtype=np.float64), 1.0]
+    # a Fill on a link is vtcore's fill of that link's exposed surface (issue 33; test_blender_fill_link.py)
+    link = {"robot": str(arm), "link": "l_upper_arm", "geometry": "visual", "packages": {}, "anywhere": False}
     ref = interactive.lay_patch(verts, tri, cursor[:3], direction=[1.0, 0, 0], radius=0.035, max_faces=s.solve_faces,
-                                crease_angle=float(np.degrees(s.crease_angle)), islands=s.islands)
+                                crease_angle=float(np.degrees(s.crease_angle)), islands=s.islands, link=link)
     assert len(ref.layout) >= 40  # several modules: a fill, not a patch
     np.testing.assert_allclose(co(ob), ref.layout.positions, atol=1e-6)
     np.testing.assert_array_equal(bridge.get_attribute(ob.data, "taxel_id"), ref.layout.taxel_ids)

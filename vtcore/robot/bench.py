@@ -26,7 +26,12 @@ REFERENCE = ("the exported skins as two other libraries load and pose them (your
 
 GOALS = ("Goals (issue 25): every UR10 link skinned from its URDF in < 60 s in all; merged URDF and MJCF export < 5 s. "
          "(issue 33): exposure of every G1 link (visual) at the zero pose and 32 sampled configurations < 20 s; "
-         "adds < 20 % to a link's fill.")
+         "adds < 20 % to a link's fill; MJCF export of a robot with 1,000 taxels including the contact-geometry "
+         "step < 10 s (export_mjcf_g1_cold).")
+
+#: the G1 links filled (visual, exposed surface) for the 1,000-taxel export: 1,020 taxels (head 630,
+#: left shoulder yaw 190, left shoulder roll 100, left elbow 100); the quick run fills the first only
+G1_EXPORT_LINKS = ("left_shoulder_yaw_link", "head_link", "left_shoulder_roll_link", "left_elbow_link")
 
 
 def _robot():
@@ -140,6 +145,82 @@ def exposure_rows(rows, quick: bool = False) -> None:
                      "peak_mb": mb, "extra": err or ""})
 
 
+def _g1():
+    from .export import load_robot
+    from .samples import example_robot_data
+
+    return load_robot(example_robot_data() / "g1_description" / "urdf" / "g1_29dof_with_hand_rev_1_0.urdf")
+
+
+def g1_export_rows(out: Path, rows: list, quick: bool = False) -> None:
+    """Issue 33's export goal: the merged MJCF of the G1 with about 1,000 taxels (fills of
+    :data:`G1_EXPORT_LINKS`, visual geometry, exposed surface; the quick run: the first link), each
+    fill in a forked child (``g1_fill_link`` rows); the export into a fresh folder
+    (``export_mjcf_g1_cold``: the contact-geometry step, a CoACD decomposition of each skinned link
+    and of the links crowding a skin, and the contact check of every site at the zero pose and 8
+    configurations), then again over it (``export_mjcf_g1``: the decompositions read back), each
+    timed in this process (wall and CPU seconds, the machine's load: :func:`_g1_export_row`); accuracy side by side: the largest taxel
+    distance to its link's mesh and angle to its normal in MuJoCo (zero pose and 5 random
+    configurations) and how many taxels the export's contact check says cannot read."""
+    import shutil
+
+    from .skin import lay_on_link
+
+    robot = _g1()
+    layouts = []
+    for link in G1_EXPORT_LINKS[:1] if quick else G1_EXPORT_LINKS:
+        sec, cpu, mb, res, err = in_child(lambda link=link: lay_on_link(robot, link, "fill", geometry="visual"))
+        if res is not None:
+            layouts.append(res[0])
+        rows.append({"case": "g1_fill_link", "geometry": "visual", "link": link,
+                     "modules": None if res is None else res[0].n_modules, "taxels": None if res is None else
+                     len(res[0]), "seconds": sec, "cpu_seconds": cpu, "peak_mb": mb, "extra": err or ""})
+    if layouts:
+        folder = out / "g1_export"
+        shutil.rmtree(folder, ignore_errors=True)  # a fresh folder: the first export decomposes every link
+        for case in ("export_mjcf_g1_cold", "export_mjcf_g1"):  # the second over the first: parts read back
+            rows.append(_g1_export_row(robot, layouts, case, folder / "g1_skinned.xml"))
+
+
+def _g1_export_row(robot, layouts, case: str, path: Path) -> dict:
+    """One row of :func:`g1_export_rows`: ``export_skinned`` of ``layouts`` to ``path`` (wall and CPU
+    seconds of this process, CoACD's threads included), then MuJoCo's reading of the file it wrote.
+
+    In this process, not a forked child (:func:`vtcore._bench.in_child`): CoACD's OpenMP runtime
+    (libgomp) hangs in a child forked after its parent has run CoACD, as the UR10 export rows do
+    in this process (the quick run waited 13 minutes in ``coacd::Compute``)."""
+    import os
+
+    from .export import export_skinned
+    from .meshes import link_mesh
+    from .verify import check_mjcf
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    taxels = sum(len(x) for x in layouts)
+    load0 = os.getloadavg()[0]
+    t0, c0 = time.perf_counter(), time.process_time()
+    try:
+        res, err = export_skinned(robot.path, layouts, path), None
+    except Exception as exc:  # noqa: BLE001  (reported in the row, as in_child does)
+        res, err = None, f"{type(exc).__name__}: {exc}"
+    row = {"case": case, "geometry": "visual", "link": f"{robot.name}: {len(layouts)} links", "taxels": taxels,
+           "seconds": time.perf_counter() - t0, "cpu_seconds": time.process_time() - c0, "peak_mb": None,
+           "load": f"{load0:.1f}-{os.getloadavg()[0]:.1f}", "extra": err or ""}
+    if res is None:
+        return row
+    # the second export overwrites the first: its decompositions (the same meshes) are read back
+    row["extra"] = ("contact parts decomposed (CoACD)" if case.endswith("_cold") else
+                    "contact parts read back from the first export")
+    row["extra"] += f"; {sum(len(r['unreadable']) for r in res)} of {taxels} taxels cannot read (contact check)"
+    rng = np.random.default_rng(0)
+    configs = [{}] + [robot.random_configuration(rng) for _ in range(5)]
+    configs = [{j.name: robot.joint_value(j, q) for j in robot.joints if j.type != "fixed"} for q in configs]
+    mj = check_mjcf(path, {x.frame: link_mesh(robot, x.frame, "visual") for x in layouts}, configs)
+    for key in ("max_mm", "max_deg", "footprint_deg"):
+        row[key] = max(v.get(key, 0.0) for v in mj.values())
+    return row
+
+
 def picture(robot, layouts, geometry, path, q=None) -> None:
     """The skinned robot at joint values ``q``: link meshes grey, taxels coloured by link."""
     import matplotlib.pyplot as plt
@@ -245,7 +326,8 @@ def run(out: Path, quick: bool = False, geometries=None, cases: str | None = Non
     """Run the robot benchmark into ``out``; ``geometries``: which of the links' "collision" and
     "visual" meshes to skin (default: both; the quick run: collision); ``cases``: only the groups of
     rows whose case matches (``fill_link``: the per-link fills and the exports; ``exposure_all_links``;
-    ``skin_command``, ``skin_command_1worker``: the whole-robot command with 2 and 1 workers)."""
+    ``skin_command``, ``skin_command_1worker``: the whole-robot command with 2 and 1 workers;
+    ``export_mjcf_g1``: the G1's MJCF export with about 1,000 taxels, :func:`g1_export_rows`)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -275,6 +357,8 @@ def run(out: Path, quick: bool = False, geometries=None, cases: str | None = Non
             _export_rows(robot, skins[geometry], geometry, out, rows, quick)
     if _wanted(cases, "exposure_all_links", "fill_exposed", "fill_anywhere"):
         exposure_rows(rows, quick)
+    if _wanted(cases, "export_mjcf_g1", "export_mjcf_g1_cold", "g1_fill_link"):
+        g1_export_rows(out, rows, quick)
     tried = tuple(w for w, c in ((1, "skin_command_1worker"), (2, "skin_command")) if _wanted(cases, c))
     if not quick and tried:  # the whole-robot command, the same links filled in parallel
         _command_rows(out, kinds, rows, tried)

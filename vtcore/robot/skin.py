@@ -156,6 +156,23 @@ def exposure_mesh(mesh, region=None):
     return fine, region
 
 
+def reasons_on(mesh, fine, reason) -> np.ndarray:
+    """(F,) int8: the exposure ``reason`` codes of ``fine``'s faces (a split copy of ``mesh`` from
+    :func:`exposure_mesh`, or ``mesh`` itself) carried back to ``mesh``'s own faces, to colour the
+    mesh a user sees: each face takes the reason of most of its area (a 50 mm face of a collision
+    box two-thirds under a neighbour shows as covered)."""
+    from ..layout.surface import closest_points
+    from .exposure import COLOURS
+
+    reason = np.asarray(reason, dtype=np.int64)
+    if fine is mesh:
+        return reason.astype(np.int8)
+    owner = closest_points(mesh, np.asarray(fine.triangles_center))[1]  # each split face lies on one face
+    k = len(COLOURS)
+    area = np.bincount(owner * k + reason, weights=np.asarray(fine.area_faces), minlength=len(mesh.faces) * k)
+    return area.reshape(-1, k).argmax(axis=1).astype(np.int8)
+
+
 def exposure_of(robot: Robot, link: str, geometry: str, mesh, exposure, probe_radius=None):
     """``(exposure, surfaces)``: the :class:`.exposure.Exposure` of ``link`` on ``mesh`` (``exposure``
     itself when it is one, computed by the caller for this mesh; else computed, ``probe_radius``

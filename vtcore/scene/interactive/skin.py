@@ -12,6 +12,7 @@ from ..._progress import keep_going
 from ...errors import InputError, for_users
 from ...layout import Layout, skin_mesh
 from .common import as_trimesh
+from .link import LinkExposure, fill_on_link
 
 
 def merge(base: Layout | None, extra: Layout) -> Layout:
@@ -69,6 +70,9 @@ class LayoutEdit:
     overlap : (N,) bool, taxels closer than OVERLAP_FRACTION pitch to another module's.
     kept : (N,) int, the index of each taxel in the skin before the edit (-1: new or moved, so
         results computed for the old skin, a simulated response, do not hold for it).
+    exposure : a fill on a robot's link (``lay_patch(link=...)``): the link's exposed surface per
+        face of the mesh filled, its legend and what the fill left out (:class:`.link.LinkExposure`);
+        None otherwise.
     """
 
     layout: Layout
@@ -78,6 +82,7 @@ class LayoutEdit:
     strain: np.ndarray = None
     overlap: np.ndarray = None
     kept: np.ndarray = None
+    exposure: LinkExposure | None = None
 
 
 def _module_of(layout: Layout, module=None):
@@ -138,7 +143,7 @@ def lay_patch(vertices, triangles, at, *, existing: Layout | None = None, patch:
               module: str = "cyskin10", direction=None, offset: float = 0.0, method: str = "logmap",
               fill_region=None, max_faces: int | None = 20_000, progress=None, radius: float | None = None,
               facing=None, within: float = 45.0, crease_angle: float = 40.0, max_strain: float | None = None,
-              islands: str = "each", force: bool = False) -> LayoutEdit:
+              islands: str = "each", force: bool = False, link: dict | None = None) -> LayoutEdit:
     """Conform a patch (or fill a face region with modules) onto a mesh, added to ``existing``.
 
     vertices : (V, 3) metres and triangles : (F, 3) of the end-effector surface, in
@@ -154,6 +159,10 @@ def lay_patch(vertices, triangles, at, *, existing: Layout | None = None, patch:
         the defaults (fill 0.05, a patch 0.10: ``vtcore.layout.report``).
     force : keep a patch or fill that :func:`vtcore.layout.report.check_trust` refuses (taxels off
         the surface, over-strained, ``at`` far off the surface); its reasons become warnings.
+    link : the mesh is a robot's link in its frame: {"robot": file, "link": name, "geometry", "packages",
+        "anywhere"} (:func:`.link.fill_on_link`). A fill then lays modules only on the link's exposed
+        surface, as ``vtcore layout fill ROBOT --link NAME`` does, and the edit carries the exposure
+        (``LayoutEdit.exposure``); a placed patch is laid as on any mesh.
     max_faces : the log map is solved on a copy simplified to about this many faces
         (vtcore.layout.place's speed/accuracy knob; None: the full mesh). A fill sizes its copy
         by the module pitch instead (``fill(max_faces="auto")``) unless this is None.
@@ -173,6 +182,7 @@ def lay_patch(vertices, triangles, at, *, existing: Layout | None = None, patch:
     at = np.asarray(at, dtype=np.float64).reshape(3)
     filling = fill_region is not None or radius is not None or facing is not None
     limit = max_strain or (DEFAULT_MAX_STRAIN if filling else PLACE_MAX_STRAIN)
+    shown = None
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         if filling:
@@ -185,9 +195,13 @@ def lay_patch(vertices, triangles, at, *, existing: Layout | None = None, patch:
                 if not region.any():
                     raise InputError(f"no selected face faces that way (within {within:g} deg)", key="facing")
             keep_going(progress, 0.0, "the fill")
-            new, rep = fill(mesh, at, direction, module=module, region=region, offset=offset, radius=radius,
-                            max_faces=None if max_faces is None else "auto", existing=existing, progress=progress,
-                            max_strain=limit, crease_angle=crease_angle, islands=islands)
+            opts = dict(module=module, region=region, offset=offset, radius=radius, existing=existing,
+                        max_faces=None if max_faces is None else "auto", progress=progress, max_strain=limit,
+                        crease_angle=crease_angle, islands=islands)
+            if link is not None:  # a robot's link: its exposed surface only
+                new, rep, shown = fill_on_link(mesh, at, direction, link, **opts)
+            else:
+                new, rep = fill(mesh, at, direction, **opts)
             keep_going(progress, 1.0, "the fill")
         else:
             new, rep = place(mesh, patch, at, direction, module=module, offset=offset, method=method,
@@ -207,8 +221,10 @@ def lay_patch(vertices, triangles, at, *, existing: Layout | None = None, patch:
     merged = merge(existing, new)
     merged.meta.setdefault("module_type", new.meta.get("module_type"))
     merged.meta.setdefault("module_mirror", new.meta.get("module_mirror"))
-    return _whole(merged, report, kept, caught, module=module,
+    edit = _whole(merged, report, kept, caught, module=module,
                   extra=[f"kept though refused (forced): {p}" for p in forced])
+    edit.exposure = shown
+    return edit
 
 
 def remove_modules(layout: Layout, modules, module=None) -> LayoutEdit:
