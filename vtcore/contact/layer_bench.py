@@ -121,13 +121,49 @@ def timed_press(model: str, n: int = 256, force: float = 2.0, h: float = 0.003, 
     return best[0], best[1], float(s.approach)
 
 
-def reference_curves(ind: Indenter, layer: SoftLayer, compressions=COMPRESSIONS, fine: float | None = None) -> dict:
-    """The finite-element reference as a dict (c, f, p, a, seconds, dofs); ``fine`` as in reference_press."""
+def reference_curves(ind: Indenter, layer: SoftLayer, compressions=COMPRESSIONS, fine: float | None = None,
+                     max_seconds: float | None = None) -> dict:
+    """The finite-element reference as a dict (c, f, p, a, seconds, dofs); ``fine`` and ``max_seconds`` as in
+    reference_press."""
     from .fem_reference import reference_press
 
-    r = reference_press(ind, layer.thickness, layer.young_modulus, layer.poisson, compressions, fine=fine)
+    r = reference_press(ind, layer.thickness, layer.young_modulus, layer.poisson, compressions, fine=fine,
+                        max_seconds=max_seconds)
     return {"c": list(r.compression), "f": list(r.force), "p": list(r.peak_pressure), "a": list(r.contact_radius),
             "seconds": r.seconds, "cpu_seconds": r.cpu_seconds, "dofs": int(r.dofs)}
+
+
+#: the reference sweeps as the bench runs them (not the quick run), computed once: 100-250 s each on the
+#: shared machine, so the fit and the bench read them from here (``python -m vtcore.contact.layer_bench``)
+REFERENCE_FILE = Path(__file__).with_name("layer_reference.json")
+
+
+def load_references(path: Path = REFERENCE_FILE) -> dict:
+    """``"<kind>_<h>"`` -> reference dict (:func:`reference_curves`) stored in ``path``; {} when absent."""
+    import json
+
+    path = Path(path)
+    return json.loads(path.read_text())["cases"] if path.exists() else {}
+
+
+def store_reference(key: str, ref: dict, path: Path = REFERENCE_FILE, command: str = "") -> None:
+    """Add (or replace) one case in the reference file, with the scikit-fem version, the command that
+    made it and the date; written to a temporary file and moved in (never half-written)."""
+    import json
+    import os
+    from datetime import datetime, timezone
+    from importlib.metadata import version
+
+    path = Path(path)
+    data = json.loads(path.read_text()) if path.exists() else {"about": "neo-Hookean FE reference sweeps "
+                                                                "(vtcore.contact.fem_reference), Ecoflex 00-20 "
+                                                                "defaults, bonded base", "cases": {}}
+    data["cases"][key] = dict(ref, scikit_fem=version("scikit-fem"), command=command,
+                              date=datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
+                              load=os.getloadavg()[0])
+    tmp = path.with_suffix(".tmp")
+    tmp.write_text(json.dumps(data, indent=1) + "\n")
+    tmp.replace(path)
 
 
 def run(out: Path, quick: bool = False, refs: dict | None = None) -> list[dict]:
@@ -227,3 +263,26 @@ def _plots(out: Path, curves: dict, rows: list[dict], timing: dict) -> None:
     fig.tight_layout()
     save_png(fig, out / "layer_accuracy_vs_time.png")
     plt.close(fig)
+
+
+def main(argv=None) -> None:
+    """``python -m vtcore.contact.layer_bench KIND H_MM [--max-seconds S]``: compute one reference sweep at the
+    bench's compressions and mesh and store it in :data:`REFERENCE_FILE`."""
+    import argparse
+    import sys
+
+    ap = argparse.ArgumentParser(prog="python -m vtcore.contact.layer_bench")
+    ap.add_argument("kind", choices=tuple(CASES))
+    ap.add_argument("h_mm", type=float)
+    ap.add_argument("--max-seconds", type=float, default=None)
+    ap.add_argument("--file", type=Path, default=REFERENCE_FILE)
+    a = ap.parse_args(argv)
+    h = a.h_mm * 1e-3
+    ref = reference_curves(CASES[a.kind], SoftLayer(thickness=h), COMPRESSIONS, max_seconds=a.max_seconds)
+    store_reference(f"{a.kind}_{h:g}", ref, a.file, "python -m vtcore.contact.layer_bench " + " ".join(
+        sys.argv[1:] if argv is None else argv))
+    print(f"{a.kind} {a.h_mm:g} mm: reached {ref['c'][-1] if ref['c'] else 0:.0%} in {ref['seconds']:.0f} s")
+
+
+if __name__ == "__main__":
+    main()
