@@ -31,7 +31,7 @@ def fast_grid(ind: Indenter, h: float, n: int, cmax: float = 0.6):
     """(gap (nx, ny) m, dx, dy, middle row index or None): the reference case on an FFT grid.
 
     Axisymmetric: n x n cells over the largest contact radius plus 4 h each side. Plane: n cells
-    across and a body 16 h long along y in cells of h / 2 (its middle row is in plane strain).
+    across and a body max(16 h, 6 a) long along y in 32 cells (its middle row is in plane strain).
     """
     a = ind.radius if ind.kind in ("punch", "cube_edge") else min(ind.radius, 1.3 * np.sqrt(2 * ind.radius * cmax * h))
     half = a + 4 * h
@@ -40,8 +40,11 @@ def fast_grid(ind: Indenter, h: float, n: int, cmax: float = 0.6):
     if ind.geometry == "axisymmetric":
         X, Y = np.meshgrid(x, x, indexing="ij")
         return ind.gap(X, Y), dx, dx, None
-    dy = h / 2
+    # long enough that its middle row is in plane strain: 16 h, and 6 contact half-widths for a wide face (a
+    # bonded layer's pressure under a face much wider than h spans the whole face: 16 h left the cube's edge
+    # on 3 mm 8 % softer than plane strain at 5 %)
     ny = 32
+    dy = max(16 * h, 6 * a) / ny
     y = (np.arange(ny) - ny / 2 + 0.5) * dy
     X, Y = np.meshgrid(x, y, indexing="ij")
     return ind.gap(X, Y), dx, dy, ny // 2
@@ -219,7 +222,18 @@ def load_references(path: Path = REFERENCE_FILE) -> dict:
                 base[q][int(i[0])] = v[q][j]
             if i.size:
                 base["refined"] = sorted(set(base.get("refined", [])) | {c})
+                base.setdefault("mesh_at", {})[c] = key.split("@")[1]
     return out
+
+
+def mesh_label(ref: dict) -> str:
+    """Which reference mesh each compression's values come from, e.g. ``"h/8"`` or ``"h/16 5-50 %, h/8 60 %"``."""
+    at = [ref.get("mesh_at", {}).get(c, "h/8") for c in ref["c"]]
+    parts = []
+    for m in dict.fromkeys(at):
+        cs = [c for c, x in zip(ref["c"], at) if x == m]
+        parts.append(f"{m} {cs[0] * 100:.0f}" + (f"-{cs[-1] * 100:.0f} %" if len(cs) > 1 else " %"))
+    return parts[0].split(" ")[0] if len(parts) == 1 else ", ".join(parts)
 
 
 def store_reference(key: str, ref: dict, path: Path = REFERENCE_FILE, command: str = "") -> None:
@@ -299,7 +313,8 @@ def _row(key: str, ref: dict, n: int, curves: dict) -> dict:
     kind, h = key.rsplit("_", 1)
     lay = SoftLayer(thickness=float(h))
     row = {"indenter": kind, "h_mm": float(h) * 1e3, "fit": "fitted" if key in FIT_CASES else "held out",
-           "reached": f"{ref['c'][-1]:.0%}", "reference_s": round(ref.get("seconds", ref.get("s", 0)), 1)}
+           "reached": f"{ref['c'][-1]:.0%}", "reference_mesh": mesh_label(ref),
+           "reference_s": round(ref.get("seconds", ref.get("s", 0)), 1)}
     curves[key] = {"ref": ref}
     for model in FAST_MODELS:
         t = time.perf_counter()
