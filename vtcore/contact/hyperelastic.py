@@ -52,10 +52,10 @@ from .materials import LargeDeformationWarning, compression_note
 #: under a sphere or a punch) and under a long strip (it flows out sideways only: plane strain, as under a
 #: cylinder or a cube's edge); fitted to the finite-element reference, see :func:`law`
 ORDER_ROUND = 1.0
-ORDER_STRIP = 0.239
+ORDER_STRIP = 0.278
 #: k of the local stiffening ``(1 - c)^-k`` of the pressure where the layer is compressed by c: a
 #: thinner layer under the deepest point carries more of the load than the linear kernel spreads there
-CONCENTRATION = 0.116
+CONCENTRATION = 0.095
 #: compression (share of the thickness) beyond which a target is refused: the object bottoms out
 BOTTOM_OUT = 0.90
 
