@@ -233,3 +233,22 @@ def test_unrolled_geometry_takes_the_model_too():
     flat = press(FLAT, m, pose, lay, force=5.0, model="hyperelastic", geometry="unrolled")
     assert flat.force == pytest.approx(5.0, rel=1e-3)
     assert flat.indentation == pytest.approx(plane.indentation, rel=0.02)
+
+
+def test_reference_cache_merges_finer_meshes_and_holds_the_fitted_cases(tmp_path):
+    """The cached FE sweeps: a rerun on a finer mesh replaces the h/8 values at its compressions (and
+    says so), and the shipped file holds every case the law was fitted on, to 60 %."""
+    from vtcore.contact.layer_bench import FIT_CASES, load_references, mesh_label, store_reference
+
+    f = tmp_path / "refs.json"
+    base = {"c": [0.05, 0.1, 0.2], "f": [1.0, 2.0, 3.0], "p": [10.0, 20.0, 30.0], "a": [1e-3, 2e-3, 3e-3]}
+    store_reference("sphere_0.003", base, f, "test")
+    store_reference("sphere_0.003@h/16", {"c": [0.05, 0.1], "f": [1.1, 2.1], "p": [9.0, 19.0], "a": [1e-3, 2e-3],
+                                          "fine": 0.003 / 16}, f, "test")
+    ref = load_references(f)["sphere_0.003"]
+    assert ref["p"] == [9.0, 19.0, 30.0] and ref["f"] == [1.1, 2.1, 3.0] and ref["refined"] == [0.05, 0.1]
+    assert mesh_label(ref) == "h/16 5-10 %, h/8 20 %" and set(load_references(f)) == {"sphere_0.003"}
+    assert load_references(tmp_path / "none.json") == {}
+    shipped = load_references()
+    for key in FIT_CASES:
+        assert shipped[key]["c"][-1] == pytest.approx(0.6) and np.isfinite(shipped[key]["p"]).all()
