@@ -8,7 +8,7 @@ import pytest
 
 from vtcore.contact import SoftLayer, make_object, placement_pose, press
 from vtcore.contact.elastic import compliance_operator, solve_pk
-from vtcore.contact.hyperelastic import BOTTOM_OUT, solve_large, strain
+from vtcore.contact.hyperelastic import BOTTOM_OUT, elongation, solve_large, strain
 from vtcore.contact.indenters import CASES, Indenter
 from vtcore.errors import InputError, UnreachableTargetError
 from vtcore.layout import Layout, hexagon_flat, wrap_on_sphere
@@ -173,7 +173,8 @@ plots = false
 
 def test_same_numbers_in_both_python_lanes():
     """The py311 and py313 lanes (numpy 1.26 / 2, scipy's FFTs) agree to 1e-9: the values were computed
-    in the py311 lane (order 0.4) and agree there and in py313 to ~1e-15."""
+    in the py311 lane (order 0.4, the single-order model ``order=`` still selects) and agree there and in
+    py313 to ~1e-15."""
     lay = SoftLayer(thickness=0.003)
     n = 48
     dx = 0.024 / n
@@ -188,6 +189,41 @@ def test_same_numbers_in_both_python_lanes():
         assert (s.approach, s.pressure.max(), (s.pressure**2).sum()) == pytest.approx((d, peak, p2), rel=1e-9)
 
 
+def test_same_numbers_in_both_python_lanes_with_the_fitted_law():
+    """The round/strip law with its local stiffening (a finger pad 16 mm long: an elongated footprint):
+    computed in the py311 lane, equal in py313 to ~1e-15."""
+    lay = SoftLayer(thickness=0.003)
+    n = 48
+    dx = 0.024 / n
+    x = (np.arange(n) - n / 2 + 0.5) * dx
+    X, Y = np.meshgrid(x, x, indexing="ij")
+    want = {"sphere": (0.0010555061950975068, 53720.96614879233, 434255572438.2581),
+            "punch": (0.0007535381547990421, 50345.13177496441, 489303414353.88354),
+            "finger": (0.0007468251555403661, 59361.1895116487, 402614030904.57385)}
+    for kind, (d, peak, p2) in want.items():
+        g = CASES[kind].gap(X, Y)
+        if kind == "finger":
+            g = np.where(np.abs(Y) < 0.008, g, np.inf)
+        s = solve_large(g, compliance_operator(g.shape, dx, dx, lay, "finite_layer"), dx * dx, 0.003, force=3.0)
+        assert s.pressure.sum() * dx * dx == pytest.approx(3.0, rel=1e-6)
+        assert (s.approach, s.pressure.max(), (s.pressure**2).sum()) == pytest.approx((d, peak, p2), rel=1e-9)
+
+
+def test_elongation_of_discs_ellipses_and_strips():
+    """0 for a disc (on square or oblong cells), 1 - b/a for an ellipse, near 1 for a long strip; each
+    connected contact its own (two discs side by side are two round contacts, not one long one)."""
+    x = (np.arange(200) - 99.5) * 1e-4
+    X, Y = np.meshgrid(x, x, indexing="ij")
+    assert elongation(np.hypot(X, Y) < 5e-3, (1e-4, 1e-4)).max() < 0.02
+    Xs, Ys = np.meshgrid(x, x[::2], indexing="ij")  # cells twice as long along y
+    assert elongation(np.hypot(Xs, Ys) < 5e-3, (1e-4, 2e-4)).max() < 0.02  # a disc in metres
+    e = elongation(np.hypot(X / 2, Y) < 4e-3, (1e-4, 1e-4))
+    assert e.max() == pytest.approx(0.5, abs=0.02) and e[0, 0] == 0
+    assert elongation(np.abs(X) < 5e-4, (1e-4, 1e-4)).max() > 0.9
+    two = (np.hypot(X - 5e-3, Y) < 3e-3) | (np.hypot(X + 5e-3, Y) < 3e-3)
+    assert elongation(two, (1e-4, 1e-4)).max() < 0.02
+
+
 def test_unrolled_geometry_takes_the_model_too():
     """On a flat patch the unrolled solve equals the plane one (as for the linear models)."""
     m = make_object("sphere")
@@ -197,3 +233,22 @@ def test_unrolled_geometry_takes_the_model_too():
     flat = press(FLAT, m, pose, lay, force=5.0, model="hyperelastic", geometry="unrolled")
     assert flat.force == pytest.approx(5.0, rel=1e-3)
     assert flat.indentation == pytest.approx(plane.indentation, rel=0.02)
+
+
+def test_reference_cache_merges_finer_meshes_and_holds_the_fitted_cases(tmp_path):
+    """The cached FE sweeps: a rerun on a finer mesh replaces the h/8 values at its compressions (and
+    says so), and the shipped file holds every case the law was fitted on, to 60 %."""
+    from vtcore.contact.layer_bench import FIT_CASES, load_references, mesh_label, store_reference
+
+    f = tmp_path / "refs.json"
+    base = {"c": [0.05, 0.1, 0.2], "f": [1.0, 2.0, 3.0], "p": [10.0, 20.0, 30.0], "a": [1e-3, 2e-3, 3e-3]}
+    store_reference("sphere_0.003", base, f, "test")
+    store_reference("sphere_0.003@h/16", {"c": [0.05, 0.1], "f": [1.1, 2.1], "p": [9.0, 19.0], "a": [1e-3, 2e-3],
+                                          "fine": 0.003 / 16}, f, "test")
+    ref = load_references(f)["sphere_0.003"]
+    assert ref["p"] == [9.0, 19.0, 30.0] and ref["f"] == [1.1, 2.1, 3.0] and ref["refined"] == [0.05, 0.1]
+    assert mesh_label(ref) == "h/16 5-10 %, h/8 20 %" and set(load_references(f)) == {"sphere_0.003"}
+    assert load_references(tmp_path / "none.json") == {}
+    shipped = load_references()
+    for key in FIT_CASES:
+        assert shipped[key]["c"][-1] == pytest.approx(0.6) and np.isfinite(shipped[key]["p"]).all()
