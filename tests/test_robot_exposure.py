@@ -6,6 +6,8 @@ trimesh's own proximity queries on meshes built here, not with the code that com
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 import trimesh
@@ -415,3 +417,20 @@ def test_convex_parts_are_cut_to_the_hull_mujoco_collided():
     assert len(cut) == 2
     assert cut[0].bounds[1][0] == pytest.approx(0.05, abs=1e-9) and cut[0].volume == pytest.approx(0.06 * 0.04 * 0.04)
     assert cut[1].volume == pytest.approx(inner.volume)
+
+
+def test_fill_of_a_covered_link_in_blender_names_the_fill_box_option(arm):
+    """The add-on's Fill on a link covered all over: the same one-line refusal, naming the Fill box's
+    'Anywhere on the link' (the way round it there), not the CLI's --anywhere."""
+    from vtcore.robot.meshes import link_mesh
+    from vtcore.scene.interactive import lay_patch
+    from vtcore.scene.interactive.link import ANYWHERE_OPTION
+
+    m = link_mesh(load_robot(arm), "cap")
+    with pytest.raises(InputError, match="link 'cap' .* has no exposed surface") as err:
+        lay_patch(m.vertices, m.faces, m.triangles_center[0], fill_region=np.ones(len(m.faces), bool),
+                  link={"robot": str(arm), "link": "cap", "geometry": "visual"})
+    msg = str(err.value)
+    assert f"'{ANYWHERE_OPTION}' lays it there anyway" in msg and "--anywhere" not in msg and "\n" not in msg
+    props = (Path(__file__).parents[1] / "addon" / "props.py").read_text(encoding="utf-8")
+    assert f'fill_anywhere: BoolProperty(name="{ANYWHERE_OPTION}"' in props  # the box shows that name

@@ -194,10 +194,14 @@ class NoExposedSurface(InputError):
     refusal of that link (``vtcore robot skin`` reports it "refused", not "failed")."""
 
 
+#: how the refusal names the way round it (the CLI's option; the add-on names its own)
+ANYWHERE_HINT = "--anywhere lays it there anyway"
+
+
 def no_exposed_surface(robot: Robot, link: str, geometry: str, exp, where: str = "") -> InputError:
     """The one-line refusal of a link (or a region of it) with no exposed face."""
     return NoExposedSurface(f"link {link!r} ({geometry} geometry) has no exposed surface{where} to lay skin on: "
-                      f"{exp.excluded_text().split(': ', 1)[1]}; --anywhere lays it there anyway",
+                      f"{exp.excluded_text().split(': ', 1)[1]}; {ANYWHERE_HINT}",
                       file=robot.path, key="--link")
 
 

@@ -14,6 +14,10 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 
+#: the Fill box's option (the add-on's ``fill_anywhere``, addon/props.py) that lays a fill on covered faces too
+ANYWHERE_OPTION = "Anywhere on the link"
+
+
 @dataclass
 class LinkExposure:
     """What a fill on a link left out and the exposure to show on the link's mesh.
@@ -48,7 +52,7 @@ def fill_on_link(mesh, at, direction, link: dict, *, module, region, radius, off
     """
     from ...robot import lay_on_link, load_robot
     from ...robot.exposure import legend
-    from ...robot.skin import exposure_mesh, exposure_of, reasons_on
+    from ...robot.skin import ANYWHERE_HINT, NoExposedSurface, exposure_mesh, exposure_of, reasons_on
 
     robot = load_robot(link["robot"], link.get("packages") or None)
     name, geometry = link["link"], link.get("geometry") or "visual"
@@ -66,8 +70,12 @@ def fill_on_link(mesh, at, direction, link: dict, *, module, region, radius, off
     n = len(reason)  # the legend of the colours shown (a split face's minority reason shows on no face)
     shown = LinkExposure(reason, legend(replace(exp, reason=reason, area=np.asarray(mesh.area_faces, np.float64),
                                                 sometimes=np.zeros(n, bool), covered_by=np.full(n, -1))))
-    layout, report = lay_on_link(robot, name, "fill", at, direction, mesh=fine, exposure=exp, region=fine_region,
-                                 probe_radius=exp.probe_radius, **args)
+    try:
+        layout, report = lay_on_link(robot, name, "fill", at, direction, mesh=fine, exposure=exp, region=fine_region,
+                                     probe_radius=exp.probe_radius, **args)
+    except NoExposedSurface as exc:  # the way round it, as the Fill box names it (not the CLI's --anywhere)
+        raise NoExposedSurface(exc.reason.replace(ANYWHERE_HINT, f"{ANYWHERE_OPTION!r} lays it there anyway"),
+                               file=exc.file) from None
     info = layout.meta.get("exposure") or {}
     shown.excluded = [line for line in (info.get("excluded"), info.get("taxel_check")) if line]
     return layout, report, shown
