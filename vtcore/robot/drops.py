@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .reach import is_module_body, site_link
+from .reach import body_links
 
 #: kg and m: the ball of the issue's check, 20 g; 8.5 mm is a 20 g steel ball's radius (7850 kg/m^3)
 BALL_KG, BALL_RADIUS = 0.02, 0.0085
@@ -88,7 +88,8 @@ def drop(spec, site: str, sensors, *, mass: float = BALL_KG, radius: float = BAL
     m.opt.timestep = 1e-3
     m.opt.gravity[:] = -G * n
     d = mujoco.MjData(m)
-    blocked = _start_inside(m, d, m.body("vtcore_drop_ball").id, site_link(m, m.site(site).id))
+    links = body_links(m)
+    blocked = _start_inside(m, d, m.body("vtcore_drop_ball").id, int(links[m.site_bodyid[m.site(site).id]]), links)
     if blocked is not None:
         return None, blocked
     ids = np.array([m.sensor(s).id for s in sensors])
@@ -101,9 +102,9 @@ def drop(spec, site: str, sensors, *, mass: float = BALL_KG, radius: float = BAL
     return total / max(steps - settle, 1), None
 
 
-def _start_inside(m, d, ball: int, link: int):
-    """The name of a body other than the link ``link`` and its skin's module bodies that the ball (body id)
-    overlaps where it starts, or None."""
+def _start_inside(m, d, ball: int, link: int, links):
+    """The name of a body of another link than ``link`` (``links``: :func:`.reach.body_links`) that the
+    ball (body id) overlaps where it starts, or None."""
     import mujoco
 
     mujoco.mj_forward(m, d)
@@ -112,7 +113,7 @@ def _start_inside(m, d, ball: int, link: int):
         if ball not in bodies or c.dist >= 0:
             continue
         (other,) = bodies - {ball}
-        if other != link and not (int(m.body_parentid[other]) == link and is_module_body(m, other)):
+        if links[other] != link:
             return m.body(other).name
     return None
 

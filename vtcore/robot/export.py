@@ -377,9 +377,10 @@ def _merge_mjcf_skins(robot_path: Path, layouts: list, prefixes: list, tree, lin
                 contact[link] = (parts, bool(geoms))
                 contact_geoms += geoms
             parts, rebuilt = contact[link]
-            reach = contact_reach(robot, link, *taxel_frames(lay), parts=parts)
+            frames = taxel_frames(lay)
+            reach = contact_reach(robot, link, *frames, parts=parts)
             if rebuilt:  # each pad rises over where a ball coming down onto its taxel would rest on the parts
-                reach = np.maximum(reach, ball_reach(parts, *taxel_frames(lay), BALL_M))
+                reach = np.maximum(reach, ball_reach(parts, *frames, BALL_M))
         # on a rebuilt link the skin brings its own contact surface: pads under the taxels, where the
         # decomposition's parts (a few mm off the mesh) may lie below it or not reach it
         opts = {**mjcf_options, "pad": mjcf_options.get("pad") if mjcf_options.get("pad") is not None

@@ -130,28 +130,11 @@ RING_LIFTS = PROBE_RADIUS_M - np.sqrt(PROBE_RADIUS_M ** 2 - _RING_RHO ** 2)
 _IGNORED_GROUP = 5
 
 
-def site_link(m, site: int) -> int:
-    """The body id of the link the site ``site`` of the MuJoCo model ``m`` lies on: its own body, or
-    that body's parent where the site sits in its module's body (a robot export with pads:
-    :func:`vtcore.layout.io.mjcf.module_body`)."""
-    b = int(m.site_bodyid[site])
-    return int(m.body_parentid[b]) if is_module_body(m, b) else b
-
-
-def is_module_body(m, body: int) -> bool:
-    """Whether the body ``body`` of the MuJoCo model ``m`` is a skin module's (``<prefix>module_<id>``
-    holding sites named ``<prefix>...``)."""
-    name = m.body(body).name
-    head, sep, tail = name.rpartition("module_")
-    if not sep or not tail.lstrip("-").isdigit():
-        return False
-    sites = np.flatnonzero(m.site_bodyid == body)
-    return bool(len(sites)) and m.site(int(sites[0])).name.startswith(head)
-
-
 def body_links(m) -> np.ndarray:
-    """(nbody,) int: each body's link, itself, or its parent for a skin module's body (:func:`is_module_body`).
-    Built once per model: the reach probe asks it for every site and ring ray."""
+    """(nbody,) int: the link each body of the MuJoCo model ``m`` belongs to: itself, or its parent for a
+    skin module's body (a robot export with pads, :func:`vtcore.layout.io.mjcf.module_body`: named
+    ``<prefix>module_<id>``, holding sites named ``<prefix>...``). Built once per model: the reach probe,
+    the surface check and the drop ask it for every site and ray."""
     bodies, first = np.unique(np.asarray(m.site_bodyid), return_index=True)
     links = np.arange(m.nbody)
     for b, k in zip(bodies, first):

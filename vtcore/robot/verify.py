@@ -138,14 +138,15 @@ def check_mjcf(path, link_meshes: dict, configs) -> dict:
     against ``link_meshes[body]`` (a trimesh in the body's frame) placed where MuJoCo puts the body."""
     import mujoco
 
-    from .reach import site_link
+    from .reach import body_links
 
     m = mujoco.MjModel.from_xml_path(str(path))
     d = mujoco.MjData(m)
     sites: dict = {}
+    links = body_links(m)  # a module's site lies on its body's parent link
     for s in range(m.nsite):
         if SKIN_MARK in m.site(s).name:
-            sites.setdefault(m.body(site_link(m, s)).name, []).append(s)
+            sites.setdefault(m.body(int(links[m.site_bodyid[s]])).name, []).append(s)
     stats: dict = {}
     for q in configs:
         d.qpos[:] = m.qpos0
