@@ -102,3 +102,28 @@ def test_cases_run_only_the_matching_rows(tmp_path):
     cases = {line.split(",")[0] for line in (out / "layout" / "table.csv").read_text().splitlines()[1:]}
     assert cases == {"exp_sphere"}
     assert (out / "layout" / "accuracy_vs_time.png").is_file()
+
+
+def test_jobs_run_areas_in_their_own_processes_into_one_report(tmp_path):
+    """``--jobs 2``: the areas run two at a time, each in its own process, and make the same one
+    report (each area's folder, its log, the note that the wall times overlap)."""
+    out = tmp_path / "out"
+    r = _vtcore("bench", "can", "control", "--quick", "--jobs", "2", "--out", str(out), cwd=tmp_path)
+    assert r.returncode == 0, r.stderr[-3000:]
+    report = (out / "README.md").read_text()
+    assert report.index("## can") < report.index("## control")
+    assert "(`--jobs 2`)" in report and "Ran in " in report
+    for area in ("can", "control"):
+        assert (out / area / "table.csv").is_file() and (out / area / "accuracy_vs_time.png").is_file()
+        assert (out / area / "bench.log").is_file()
+    assert not (out / ".areas").exists()
+
+
+def test_jobs_report_an_area_that_failed_and_exit_nonzero(tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / ".areas").write_text("not a folder")  # the area's process cannot write its output
+    r = _vtcore("bench", "can", "--quick", "--jobs", "2", "--out", str(out), cwd=tmp_path)
+    assert r.returncode == 1
+    assert "benchmark can failed" in r.stderr and "bench.log" in r.stderr
+    assert "No `table.md`" in (out / "README.md").read_text()

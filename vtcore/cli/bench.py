@@ -16,6 +16,9 @@ import importlib
 import inspect
 import os
 import pkgutil
+import shutil
+import subprocess
+import sys
 import time
 from pathlib import Path
 
@@ -72,9 +75,11 @@ def closing_note(references: dict[str, str]) -> list[str]:
     return lines + [""]
 
 
-def write_report(out: Path, sections: list[list[str]], quick: bool, references: dict[str, str] | None = None) -> Path:
+def write_report(out: Path, sections: list[list[str]], quick: bool, references: dict[str, str] | None = None,
+                 jobs: int = 1) -> Path:
     """Write ``out/README.md`` from the sections (atomically), closing with what each area's error is
-    measured against (``references``: area -> its REFERENCE); return its path."""
+    measured against (``references``: area -> its REFERENCE); return its path. ``jobs`` > 1 says the
+    areas ran that many at a time (their wall times then include each other's load)."""
     from .._io import atomic_write
 
     head = ["# Benchmarks", "",
@@ -82,6 +87,8 @@ def write_report(out: Path, sections: list[list[str]], quick: bool, references: 
             "its table of time next to accuracy, the paper numbers it is measured against "
             "(in the notes above each table) and its accuracy-vs-time plot. "
             "Each folder also holds the table as CSV.", "",
+            *([f"The areas ran {jobs} at a time, each in its own process (`--jobs {jobs}`): their wall times "
+               "include each other's load.", ""] if jobs > 1 else []),
             "Areas: " + ", ".join(f"[{s[0][3:]}](#{s[0][3:].lower()})" for s in sections) + ".", ""]
     out.mkdir(parents=True, exist_ok=True)
     path = out / "README.md"
@@ -89,6 +96,78 @@ def write_report(out: Path, sections: list[list[str]], quick: bool, references: 
         tail = closing_note(references) if references else []
         fh.write("\n".join(head + [ln for s in sections for ln in s] + tail).rstrip("\n") + "\n")
     return path
+
+
+# Started first under --jobs, so the hour-long areas do not start last (measured full runs: robot
+# ~50 min, contact ~45, layout ~15; every other area a few minutes).
+LONGEST_FIRST = ("robot", "contact", "layout")
+
+
+def _area_kwargs(module, args) -> dict:
+    """The options an area's ``run`` takes beyond ``out`` and ``quick``."""
+    params = inspect.signature(module.run).parameters
+    # --peers goes only to the benchmarks that run other solvers side by side (contact)
+    kw = {"peers": True} if args.peers and "peers" in params else {}
+    if args.cases and "cases" in params:  # the benchmarks that run their rows in groups (layout, robot)
+        kw["cases"] = args.cases
+    return kw
+
+
+def _run_in_process(names, benches, out, args) -> dict[str, float]:
+    """Run the areas one after another in this process; area -> wall seconds."""
+    seconds = {}
+    for n in names:
+        module = importlib.import_module(benches[n])
+        print(f"bench {n} ...", flush=True)
+        t0 = time.perf_counter()
+        module.run(out / n, quick=args.quick, **_area_kwargs(module, args))
+        seconds[n] = time.perf_counter() - t0
+    return seconds
+
+
+def _child_command(name: str, out: Path, args) -> list[str]:
+    """``vtcore bench NAME`` with this run's options, for a separate process; its own report goes to a
+    scratch folder, its area's folder to ``out/NAME`` as in-process."""
+    cmd = [sys.executable, "-m", "vtcore", "bench", name, "--out", str(out)]
+    cmd += ["--quick"] * args.quick + ["--peers"] * args.peers
+    return cmd + (["--cases", args.cases] if args.cases else [])
+
+
+def _run_in_processes(names, out, args) -> tuple[dict[str, float], list[str]]:
+    """Run the areas ``args.jobs`` at a time, each in its own process (``vtcore bench NAME``), its
+    output in ``out/NAME/bench.log``; (area -> wall seconds, areas that failed).
+
+    Separate processes rather than a fork pool: CoACD and the robot benchmark's own forked children
+    hang in a forked worker, and each area then starts from a fresh interpreter as it does alone.
+    """
+    queue = sorted(names, key=lambda n: (n not in LONGEST_FIRST, LONGEST_FIRST.index(n)
+                                         if n in LONGEST_FIRST else 0))
+    running, seconds, failed = {}, {}, []
+    scratch = out / ".areas"
+    while queue or running:
+        while queue and len(running) < args.jobs:
+            n = queue.pop(0)
+            (out / n).mkdir(parents=True, exist_ok=True)
+            log = open(out / n / "bench.log", "w", encoding="utf-8")
+            proc = subprocess.Popen(_child_command(n, scratch / n, args), stdout=log,
+                                    stderr=subprocess.STDOUT)
+            running[n] = (proc, log, time.perf_counter())
+            print(f"bench {n} ... (log: {out / n / 'bench.log'})", flush=True)
+        time.sleep(0.5)
+        for n, (proc, log, t0) in list(running.items()):
+            if proc.poll() is None:
+                continue
+            log.close()
+            del running[n]
+            seconds[n] = time.perf_counter() - t0
+            if proc.returncode == 0:
+                shutil.copytree(scratch / n / n, out / n, dirs_exist_ok=True)
+            else:
+                failed.append(n)
+            print(f"bench {n}: {'done' if proc.returncode == 0 else f'FAILED (exit {proc.returncode})'} "
+                  f"in {seconds[n]:.0f} s", flush=True)
+    shutil.rmtree(scratch, ignore_errors=True)
+    return seconds, failed
 
 
 def cmd_bench(args) -> int:
@@ -99,30 +178,30 @@ def cmd_bench(args) -> int:
     for n in names:
         if n not in benches:
             raise InputError(f"unknown benchmark {n!r}; available: {', '.join(benches)}")
+    if args.jobs < 1:
+        raise InputError(f"--jobs {args.jobs}: must be at least 1")
     extra = [Path(d) for d in args.with_dirs]
     for d in extra:
         if not (d / TABLE).is_file():
             raise InputError(f"--with {d}: no {TABLE} there (run that benchmark first)")
     out = Path(args.out)
-    sections, references = [], {}
-    for n in names:
-        module = importlib.import_module(benches[n])
-        references[n] = getattr(module, "REFERENCE", None)
-        print(f"bench {n} ...", flush=True)
-        t0 = time.perf_counter()
-        # --peers goes only to the benchmarks that run other solvers side by side (contact)
-        params = inspect.signature(module.run).parameters
-        extra_kw = {"peers": True} if args.peers and "peers" in params else {}
-        if args.cases and "cases" in params:  # the benchmarks that run their rows in groups (layout, robot)
-            extra_kw["cases"] = args.cases
-        module.run(out / n, quick=args.quick, **extra_kw)
-        sections.append(section(out / n, n, n, time.perf_counter() - t0))
+    references = {n: getattr(importlib.import_module(benches[n]), "REFERENCE", None) for n in names}
+    failed = []
+    if args.jobs == 1:
+        seconds = _run_in_process(names, benches, out, args)
+    else:
+        seconds, failed = _run_in_processes(names, out, args)
+    sections = [section(out / n, n, n, seconds[n]) for n in names]
     for d in extra:
         # Linked relative to the report, wherever the folder is.
         rel = Path(os.path.relpath(d.resolve(), out.resolve())).as_posix()
         sections.append(section(d, d.name, rel))
-    path = write_report(out, sections, args.quick, references)
+    path = write_report(out, sections, args.quick, references, jobs=args.jobs)
     print(f"benchmarks written to {out}/ (report: {path})")
+    if failed:
+        logs = ", ".join(str(out / n / "bench.log") for n in failed)
+        print(f"vtcore: error: benchmark {', '.join(failed)} failed; see {logs}", file=sys.stderr)
+        return 1
     return 0
 
 
@@ -140,4 +219,7 @@ def register(sub) -> None:
     p.add_argument("--cases", default=None, metavar="PATTERNS",
                    help="layout, robot: only the groups of rows whose case matches one of these comma-separated "
                         "patterns (e.g. 'fill_scale', 'skin_command'); the others run everything")
+    p.add_argument("--jobs", type=int, default=1, metavar="N",
+                   help="run N areas at a time, each in its own process (its output in OUT/AREA/bench.log); "
+                        "wall times then include the others' load")
     p.set_defaults(func=cmd_bench)
