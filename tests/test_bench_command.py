@@ -127,3 +127,38 @@ def test_jobs_report_an_area_that_failed_and_exit_nonzero(tmp_path):
     assert r.returncode == 1
     assert "benchmark can failed" in r.stderr and "bench.log" in r.stderr
     assert "No `table.md`" in (out / "README.md").read_text()
+
+
+def test_jobs_interrupted_take_their_area_processes_with_them(tmp_path):
+    """SIGTERM to ``vtcore bench --jobs``: the areas' processes stop with it (none left running in the
+    background, writing into the output)."""
+    import os
+    import signal
+    import time
+
+    out = tmp_path / "out"
+    env = {"PYTHONPATH": str(ROOT), "MPLBACKEND": "Agg", "PATH": "/usr/bin:/bin"}
+    proc = subprocess.Popen([sys.executable, "-m", "vtcore", "bench", "layout", "robot", "--jobs", "2",
+                             "--out", str(out)], cwd=tmp_path, env=env, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 120
+    while not ((out / "layout" / "bench.log").exists() and (out / "robot" / "bench.log").exists()):
+        assert time.monotonic() < deadline and proc.poll() is None
+        time.sleep(0.2)
+    time.sleep(1.0)
+    proc.send_signal(signal.SIGTERM)
+    proc.wait(timeout=120)
+
+    def still_running():
+        found = []
+        for d in Path("/proc").iterdir():
+            try:
+                cmd = (d / "cmdline").read_bytes().replace(b"\0", b" ").decode(errors="replace")
+            except OSError:
+                continue
+            if str(out) in cmd and d.name != str(os.getpid()):
+                found.append(cmd)
+        return found
+
+    assert still_running() == []
+    assert not (out / ".areas").exists()

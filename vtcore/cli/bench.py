@@ -144,30 +144,66 @@ def _run_in_processes(names, out, args) -> tuple[dict[str, float], list[str]]:
                                          if n in LONGEST_FIRST else 0))
     running, seconds, failed = {}, {}, []
     scratch = out / ".areas"
-    while queue or running:
-        while queue and len(running) < args.jobs:
-            n = queue.pop(0)
-            (out / n).mkdir(parents=True, exist_ok=True)
-            log = open(out / n / "bench.log", "w", encoding="utf-8")
-            proc = subprocess.Popen(_child_command(n, scratch / n, args), stdout=log,
-                                    stderr=subprocess.STDOUT)
-            running[n] = (proc, log, time.perf_counter())
-            print(f"bench {n} ... (log: {out / n / 'bench.log'})", flush=True)
-        time.sleep(0.5)
-        for n, (proc, log, t0) in list(running.items()):
-            if proc.poll() is None:
-                continue
+    try:
+        while queue or running:
+            while queue and len(running) < args.jobs:
+                n = queue.pop(0)
+                running[n] = _start_area(n, out, scratch, args)
+            time.sleep(0.5)
+            for n, (proc, log, t0) in list(running.items()):
+                if proc.poll() is None:
+                    continue
+                log.close()
+                del running[n]
+                seconds[n] = time.perf_counter() - t0
+                if proc.returncode == 0:
+                    shutil.copytree(scratch / n / n, out / n, dirs_exist_ok=True)
+                else:
+                    failed.append(n)
+                print(f"bench {n}: {'done' if proc.returncode == 0 else f'FAILED (exit {proc.returncode})'} "
+                      f"in {seconds[n]:.0f} s", flush=True)
+    finally:
+        # interrupted (Ctrl-C, SIGTERM): the areas' processes, and the children they fork for their rows,
+        # go with the command instead of running on in the background
+        for proc, log, _ in running.values():
+            _stop_group(proc)
             log.close()
-            del running[n]
-            seconds[n] = time.perf_counter() - t0
-            if proc.returncode == 0:
-                shutil.copytree(scratch / n / n, out / n, dirs_exist_ok=True)
-            else:
-                failed.append(n)
-            print(f"bench {n}: {'done' if proc.returncode == 0 else f'FAILED (exit {proc.returncode})'} "
-                  f"in {seconds[n]:.0f} s", flush=True)
-    shutil.rmtree(scratch, ignore_errors=True)
+        shutil.rmtree(scratch, ignore_errors=True)
     return seconds, failed
+
+
+def _start_area(name: str, out: Path, scratch: Path, args):
+    """Start ``vtcore bench NAME`` in its own process, its output in ``out/NAME/bench.log``;
+    (process, open log, start time)."""
+    (out / name).mkdir(parents=True, exist_ok=True)
+    log = open(out / name / "bench.log", "w", encoding="utf-8")
+    # its own process group: an interrupted run stops the area with every child it forked (_stop_group)
+    proc = subprocess.Popen(_child_command(name, scratch / name, args), stdout=log, stderr=subprocess.STDOUT,
+                            start_new_session=True)
+    print(f"bench {name} ... (log: {out / name / 'bench.log'})", flush=True)
+    return proc, log, time.perf_counter()
+
+
+def _stop_group(proc, grace_s: float = 10.0) -> None:
+    """Stop an area's process group: SIGTERM (its runs clean up), SIGKILL after ``grace_s`` seconds (a
+    C extension, or a forked row, that does not answer SIGTERM)."""
+    import signal
+
+    for sig in (signal.SIGTERM, signal.SIGKILL):
+        try:
+            os.killpg(proc.pid, sig)
+        except ProcessLookupError:
+            break
+        try:
+            proc.wait(timeout=grace_s)
+            if sig == signal.SIGTERM:
+                os.killpg(proc.pid, signal.SIGKILL)  # what it forked and left behind
+        except ProcessLookupError:
+            pass
+        except subprocess.TimeoutExpired:
+            continue
+        break
+    proc.wait()
 
 
 def cmd_bench(args) -> int:
