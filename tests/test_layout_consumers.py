@@ -192,8 +192,8 @@ def grid_skin(n, pitch=0.005):
 
 
 def test_a_2000_taxel_tiled_skin_loads_and_steps(tmp_path):
-    """The tile footprint's body per taxel: MuJoCo's broadphase takes a pair list over all bodies from the
-    arena's stack, and its default arena (15 MiB here) does not grow with it: a 2,000-taxel tile skin
+    """The tile footprint's body per taxel: MuJoCo's collision step takes two lists of all body pairs from
+    the arena's stack, and its default arena (15 MiB here) does not grow with them: a 2,000-taxel tile skin
     stopped at the first step (mj_stackAlloc: out of memory). The export sizes the arena; a ball resting
     on the skin reads its weight."""
     import mujoco
@@ -212,7 +212,7 @@ def test_a_2000_taxel_tiled_skin_loads_and_steps(tmp_path):
     tree.getroot().remove(tree.getroot().find("size"))  # what MuJoCo gives the same model by itself
     tree.write(tmp_path / "default.xml")
     default = mujoco.MjModel.from_xml_path(str(tmp_path / "default.xml")).narena
-    assert m.narena >= default + 4 * m.nbody * (m.nbody - 1) // 2  # its own guess, and the pair list over it
+    assert m.narena >= default + 8 * m.nbody * (m.nbody - 1) // 2  # its own guess, and the two pair lists
 
 
 def test_the_arena_is_merged_with_the_robots_own_size(tmp_path):

@@ -29,7 +29,15 @@ Footprints (``footprint=``):
   largest circumradius of the triangles around it: the file's faces, else the skin mesh, so the discs cover every
   triangle) and a site of the same size. Each contact lands on some taxel's pad and is
   counted by that taxel alone, so the readings sum to the contact force wherever it
-  lands. The pads are the contact surface (``pad`` is implied).
+  lands. The pads are the contact surface (``pad`` is implied). A body per taxel costs MuJoCo arena
+  memory: its collision step takes two lists of all body pairs (8 bytes a pair) from the arena's stack at
+  every step, and its default arena (13-18 MiB) does not grow with bodies. A plate with a 1,500-taxel
+  tile skin stepped; with 2,000 (2,004 bodies, 16 MB of pairs) it stopped at its first step with
+  ``mj_stackAlloc: out of memory``, and the UR10 skinned all over (7,670 taxels) failed in the export's own
+  MuJoCo check (its first 118 MB list asked of 17 MiB). So a tile export sizes the arena (:func:`size_arena`:
+  ``<size memory>``, the robot's own value raised, never lowered). A fragment carries its own
+  ``<size>``, but MuJoCo keeps the parent's on attach (it warns "Attach conflict ... memory"): the robot
+  that attaches it needs a ``<size memory>`` at least the fragment's plus its own.
 
 ``pad=True`` (``"taxel"`` footprint) adds the same covering discs as geoms of the
 sites' own body: the contact surface for a link without collision geoms, or for the
@@ -60,11 +68,13 @@ SUFFIXES = (".xml", ".mjcf")
 read = None  # export only
 FOOTPRINTS = ("taxel", "tile")
 SITE_MARGIN = 2e-3  # m, half-height of a site beyond its pad: contact points of soft contacts sit within it
-#: bytes of MuJoCo's broadphase pair list per pair of bodies: one int, for nbody (nbody - 1) / 2 pairs, taken
-#: from the arena's stack at every collision step (measured, MuJoCo 4.0: 2,004 bodies asked for 8,020,012 bytes)
-PAIR_BYTES = 4
+#: bytes of arena stack per pair of bodies at every collision step: two lists of one int a pair over
+#: nbody (nbody - 1) / 2 pairs, mj_collision's and mj_broadphase's own (measured, MuJoCo 4.0: the UR10 with
+#: 7,681 bodies asked 117,980,160 bytes in mj_collision, then 117,888,012 more in mj_broadphase)
+PAIR_BYTES = 8
 #: bytes of arena per tile for its contacts when every tile is pressed at once (measured, a plate lying on a
-#: 1,000 / 3,000-tile skin: 3.6 / 3.1 contacts a tile, 6.9 / 5.6 KB a tile beyond the pair list, nv 12)
+#: 1,000 / 3,000-tile skin, nv 12: 3.6 / 3.1 contacts a tile; the arena's peak use, 8.8 / 34.7 MB, less one
+#: 4-byte pair list: 6.9 / 5.6 KB a tile)
 TILE_CONTACT_BYTES = 8 << 10
 
 
@@ -240,8 +250,8 @@ def size_arena(root: ET.Element, tiles: int, file=None) -> int | None:
     """Size MuJoCo's arena (``<size memory>``) of the MJCF ``root`` for its ``tiles`` tile bodies (the
     ``"tile"`` footprint's welded child body per taxel); returns the bytes written, None where nothing was.
 
-    MuJoCo's broadphase takes a pair list over all bodies from the arena's stack at every step
-    (:data:`PAIR_BYTES` x nbody (nbody - 1) / 2) and its default arena does not grow with it: a plate with
+    MuJoCo's collision step takes two lists of all body pairs from the arena's stack at every step
+    (:data:`PAIR_BYTES` x nbody (nbody - 1) / 2) and its default arena does not grow with them: a plate with
     a 2,000-taxel tile skin (2,004 bodies) stops at its first step with ``mj_stackAlloc: out of memory``.
     The arena written: the robot's own ``memory`` (else :func:`default_arena`, above MuJoCo's own guess), plus
     the pair list of every body in the file, plus :data:`TILE_CONTACT_BYTES` a tile, rounded up to a MiB;
