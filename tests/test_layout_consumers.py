@@ -215,6 +215,27 @@ def test_a_2000_taxel_tiled_skin_loads_and_steps(tmp_path):
     assert m.narena >= default + 8 * m.nbody * (m.nbody - 1) // 2  # its own guess, and the two pair lists
 
 
+def test_a_drop_on_a_tiled_link_is_no_other_links(tmp_path):
+    """The drop check (vtcore.robot.drops) on a tile export: each tile's welded body belongs to its link
+    (reach.body_links), so a ball over a taxel, touching its neighbours' pads, is dropped, not refused
+    as starting inside another link ('<site>_cell'), and reads its weight."""
+    from vtcore.robot.drops import drop_many
+    from vtcore.robot.reach import body_links
+
+    lay, width = grid_skin(100)
+    link = f'<geom name="plate" type="box" size="{width / 2 + 0.01} {width / 2 + 0.01} 0.005" pos="0 0 -0.005"/>'
+    robot = robot_xml(tmp_path / "robot.xml", link, "<freejoint/>")
+    mjcf_tree.write_skinned(lay, tmp_path / "tile.xml", robot, body="forearm", footprint="tile")
+    import mujoco
+
+    m = mujoco.MjModel.from_xml_path(str(tmp_path / "tile.xml"))
+    cells = [b for b in range(m.nbody) if m.body(b).name.endswith("_cell")]
+    assert len(cells) == 100 and np.all(body_links(m)[cells] == m.body("forearm").id)
+    rows = drop_many(tmp_path / "tile.xml", ["forearm"], 3)
+    assert [r["blocked"] for r in rows] == [None] * 3
+    assert all(abs(r["ratio"] - 1) < 0.05 for r in rows), [r["ratio"] for r in rows]
+
+
 def test_the_arena_is_merged_with_the_robots_own_size(tmp_path):
     """A robot's own ``<size memory>`` is raised by what the tiles add, never lowered; a legacy
     ``njmax``/``nstack`` (MuJoCo refuses ``memory`` beside it) is left as it is, with a warning."""
