@@ -240,7 +240,7 @@ def test_the_arena_is_merged_with_the_robots_own_size(tmp_path):
     """A robot's own ``<size memory>`` is raised by what the tiles add, never lowered; a legacy
     ``njmax``/``nstack`` (MuJoCo refuses ``memory`` beside it) is left as it is, with a warning."""
     from vtcore.layout import LayoutWarning
-    from vtcore.layout.io.mjcf import PAIR_BYTES, TILE_CONTACT_BYTES, size_arena
+    from vtcore.layout.io.mjcf import PAIR_BYTES, TILE_CONTACT_BYTES, default_arena, size_arena
 
     lay = make_patch("hexagon").flat_layout()
     link = '<geom name="plate" type="box" size="0.05 0.05 0.005" pos="0 0 -0.005"/>'
@@ -263,6 +263,12 @@ def test_the_arena_is_merged_with_the_robots_own_size(tmp_path):
     assert size_arena(root, 1) == -(-((12 << 10) + TILE_CONTACT_BYTES) // (1 << 20)) << 20  # world only: no pair
     mjcf_tree.write_skinned(lay, tmp_path / "taxel.xml", tmp_path / "robot.xml", body="forearm")
     assert ET.parse(tmp_path / "taxel.xml").getroot().find("size").attrib == {"njmax": "500"}  # taxel: as it was
+    save(lay, tmp_path / "frag.xml", "mjcf", footprint="tile")  # the fragment sizes its own arena
+    nbody = 2 + len(lay)  # world, the frame's body, a cell per taxel
+    want = default_arena(0, nbody) + PAIR_BYTES * nbody * (nbody - 1) // 2 + TILE_CONTACT_BYTES * len(lay)
+    assert ET.parse(tmp_path / "frag.xml").getroot().find("size").get("memory") == f"{-(-want // (1 << 20))}M"
+    save(lay, tmp_path / "frag_taxel.xml", "mjcf")
+    assert ET.parse(tmp_path / "frag_taxel.xml").getroot().find("size") is None
 
 
 def test_fragment_attached_to_a_link_senses_through_its_pads(tmp_path, forearm_skin):

@@ -256,7 +256,9 @@ def size_arena(root: ET.Element, tiles: int, file=None) -> int | None:
     The arena written: the robot's own ``memory`` (else :func:`default_arena`, above MuJoCo's own guess), plus
     the pair list of every body in the file, plus :data:`TILE_CONTACT_BYTES` a tile, rounded up to a MiB;
     never below what the file asked for. A robot sizing its arena the legacy way (``njmax``/``nstack``, which
-    MuJoCo refuses beside ``memory``) keeps its ``<size>``, with a warning.
+    MuJoCo refuses beside ``memory``) keeps its ``<size>``, with a warning. Bodies and joints are counted in
+    ``root`` itself: those of an ``<include>``d or attached file that is not inlined are not (the tiles'
+    pairs, 8 KiB a tile for contacts and the margin of :func:`default_arena` stand for a few of them).
     """
     if tiles <= 0:
         return None
