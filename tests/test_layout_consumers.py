@@ -179,6 +179,98 @@ def test_free_ball_on_a_tiled_flat_link_anywhere(tmp_path):
         assert abs(d.sensordata.sum() - BALL_MASS * G) < 0.05 * BALL_MASS * G, (xy, d.sensordata.sum())
 
 
+def grid_skin(n, pitch=0.005):
+    """An ``n``-taxel flat skin on a square grid (rows offset by half a pitch), 10 taxels a module."""
+    from vtcore.layout import Layout
+
+    side = int(np.ceil(np.sqrt(n)))
+    ij = np.stack(np.divmod(np.arange(n), side), axis=1).astype(float)
+    xy = (ij - (side - 1) / 2) * pitch
+    xy[:, 0] += pitch / 2 * (ij[:, 1] % 2)
+    return Layout(positions=np.column_stack([xy, np.zeros(n)]), normals=np.tile([0.0, 0, 1], (n, 1)),
+                  taxel_ids=np.arange(n), module_ids=np.arange(n) // 10, frame="forearm"), side * pitch
+
+
+def test_a_2000_taxel_tiled_skin_loads_and_steps(tmp_path):
+    """The tile footprint's body per taxel: MuJoCo's collision step takes two lists of all body pairs from
+    the arena's stack, and its default arena (15 MiB here) does not grow with them: a 2,000-taxel tile skin
+    stopped at the first step (mj_stackAlloc: out of memory). The export sizes the arena; a ball resting
+    on the skin reads its weight."""
+    import mujoco
+
+    lay, width = grid_skin(2000)
+    link = f'<geom name="plate" type="box" size="{width / 2 + 0.01} {width / 2 + 0.01} 0.005" pos="0 0 -0.005"/>'
+    robot = robot_xml(tmp_path / "robot.xml", link, "<freejoint/>")
+    mjcf_tree.write_skinned(lay, tmp_path / "tile.xml", robot, body="forearm", footprint="tile")
+    m = mujoco.MjModel.from_xml_path(str(tmp_path / "tile.xml"))
+    d = mujoco.MjData(m)
+    d.qpos[:3] = [0.0011, 0.0007, 0.5 + 1e-3 + 0.01]  # at rest on the pads (1 mm thick), off-centre
+    for _ in range(300):
+        mujoco.mj_step(m, d)
+    assert abs(d.sensordata.sum() - BALL_MASS * G) < 0.05 * BALL_MASS * G, d.sensordata.sum()
+    tree = ET.parse(tmp_path / "tile.xml")
+    tree.getroot().remove(tree.getroot().find("size"))  # what MuJoCo gives the same model by itself
+    tree.write(tmp_path / "default.xml")
+    default = mujoco.MjModel.from_xml_path(str(tmp_path / "default.xml")).narena
+    assert m.narena >= default + 8 * m.nbody * (m.nbody - 1) // 2  # its own guess, and the two pair lists
+
+
+def test_a_drop_on_a_tiled_link_is_no_other_links(tmp_path):
+    """The drop check (vtcore.robot.drops) on a tile export: each tile's welded body belongs to its link
+    (reach.body_links), so a ball over a taxel, touching its neighbours' pads, is dropped, not refused
+    as starting inside another link ('<site>_cell'), and reads its weight."""
+    from vtcore.robot.drops import drop_many
+    from vtcore.robot.reach import body_links
+
+    lay, width = grid_skin(100)
+    link = f'<geom name="plate" type="box" size="{width / 2 + 0.01} {width / 2 + 0.01} 0.005" pos="0 0 -0.005"/>'
+    robot = robot_xml(tmp_path / "robot.xml", link, "<freejoint/>")
+    mjcf_tree.write_skinned(lay, tmp_path / "tile.xml", robot, body="forearm", footprint="tile")
+    import mujoco
+
+    m = mujoco.MjModel.from_xml_path(str(tmp_path / "tile.xml"))
+    cells = [b for b in range(m.nbody) if m.body(b).name.endswith("_cell")]
+    assert len(cells) == 100 and np.all(body_links(m)[cells] == m.body("forearm").id)
+    rows = drop_many(tmp_path / "tile.xml", ["forearm"], 3)
+    assert [r["blocked"] for r in rows] == [None] * 3
+    assert all(abs(r["ratio"] - 1) < 0.05 for r in rows), [r["ratio"] for r in rows]
+
+
+def test_the_arena_is_merged_with_the_robots_own_size(tmp_path):
+    """A robot's own ``<size memory>`` is raised by what the tiles add, never lowered; a legacy
+    ``njmax``/``nstack`` (MuJoCo refuses ``memory`` beside it) is left as it is, with a warning."""
+    from vtcore.layout import LayoutWarning
+    from vtcore.layout.io.mjcf import PAIR_BYTES, TILE_CONTACT_BYTES, default_arena, size_arena
+
+    lay = make_patch("hexagon").flat_layout()
+    link = '<geom name="plate" type="box" size="0.05 0.05 0.005" pos="0 0 -0.005"/>'
+    robot = robot_xml(tmp_path / "robot.xml", link, "<freejoint/>")
+    text = robot.read_text()
+    robot.write_text(text.replace("<worldbody>", '<size memory="300M" nkey="2"/>\n  <worldbody>'))
+    mjcf_tree.write_skinned(lay, tmp_path / "tile.xml", robot, body="forearm", footprint="tile")
+    sizes = ET.parse(tmp_path / "tile.xml").getroot().findall("size")
+    assert len(sizes) == 1 and sizes[0].get("nkey") == "2"
+    nbody = 3 + len(lay)  # world, link, ball and a cell per taxel
+    want = (300 << 20) + PAIR_BYTES * nbody * (nbody - 1) // 2 + TILE_CONTACT_BYTES * len(lay)
+    assert sizes[0].get("memory") == f"{-(-want // (1 << 20))}M"
+    robot.write_text(text.replace("<worldbody>", '<size njmax="500"/>\n  <worldbody>'))
+    with pytest.warns(LayoutWarning, match="njmax"):
+        mjcf_tree.write_skinned(lay, tmp_path / "legacy.xml", robot, body="forearm", footprint="tile")
+    assert ET.parse(tmp_path / "legacy.xml").getroot().find("size").attrib == {"njmax": "500"}
+    root = ET.fromstring('<mujoco><size memory="12k"/><worldbody/></mujoco>')
+    with pytest.raises(InputError, match="memory"):
+        size_arena(ET.fromstring('<mujoco><size memory="lots"/></mujoco>'), 10)
+    assert size_arena(root, 1) == -(-((12 << 10) + TILE_CONTACT_BYTES) // (1 << 20)) << 20  # world only: no pair
+    mjcf_tree.write_skinned(lay, tmp_path / "taxel.xml", tmp_path / "robot.xml", body="forearm")
+    assert ET.parse(tmp_path / "taxel.xml").getroot().find("size").attrib == {"njmax": "500"}  # taxel: as it was
+    save(lay, tmp_path / "frag.xml", "mjcf", footprint="tile")  # the fragment sizes its own arena
+    nbody = 2 + len(lay)  # world, the frame's body, a cell per taxel
+    want = default_arena(0, nbody) + PAIR_BYTES * nbody * (nbody - 1) // 2 + TILE_CONTACT_BYTES * len(lay)
+    assert ET.parse(tmp_path / "frag.xml").getroot().find("size").get("memory") == f"{-(-want // (1 << 20))}M"
+    save(lay, tmp_path / "frag_taxel.xml", "mjcf")
+    assert ET.parse(tmp_path / "frag_taxel.xml").getroot().find("size") is None
+
+
 def test_fragment_attached_to_a_link_senses_through_its_pads(tmp_path, forearm_skin):
     import mujoco
 

@@ -32,7 +32,7 @@ import numpy as np
 from ..errors import FormatError, InputError
 from ..layout import Layout
 from ..layout.io.common import identifier
-from ..layout.io.mjcf import taxel_radius
+from ..layout.io.mjcf import size_arena, taxel_radius
 from . import mjcf_tree, urdf_tree
 from .model import Robot, read_xml
 from .reach import POSES, ball_reach, contact_reach, unreadable_sites
@@ -307,6 +307,8 @@ def _export_skinned(robot_path, layouts, out, staged, *, format: str | None = No
     tree, model_dir, links = _mjcf_tree(robot_path, source, out, staged, packages)
     records, sites, contact_geoms = _merge_mjcf_skins(robot_path, layouts, prefixes, tree, links, out, staged,
                                                       packages, mjcf_options)
+    if mjcf_options.get("footprint") == "tile":  # a body per taxel: MuJoCo's broadphase needs the room
+        size_arena(tree.getroot(), sum(len(lay) for lay in layouts), robot_path)
     mjcf_tree.rebase(tree.getroot(), model_dir, out.parent)
     mjcf_tree.relative_contact_files(tree.getroot(), contact_geoms, out.parent)
     mjcf_tree.write_tree(tree, staged)

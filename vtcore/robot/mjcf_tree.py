@@ -17,7 +17,7 @@ from .._io import write_xml
 from ..errors import InputError
 from ..layout import Layout
 from ..layout.io.common import skin_prefix, taxel_labels
-from ..layout.io.mjcf import add_skin, module_body
+from ..layout.io.mjcf import add_skin, module_body, size_arena
 from .robot_xml import indent_added, read_robot_xml, refuse_clash
 
 
@@ -209,5 +209,7 @@ def write_skinned(layout: Layout, path, model, body: str | None = None, *, pad: 
     that does not hug the skin, and checks that MuJoCo reads every site). pad : default False.
     options : ``footprint``, ``site_radius``, ``pad_thickness`` of :func:`vtcore.layout.io.mjcf.add_skin`."""
     tree = merge_into_model(layout, model, body, pad=bool(pad), prefix=prefix, **options)
+    if options.get("footprint") == "tile":  # a body per taxel: MuJoCo's broadphase needs the room
+        size_arena(tree.getroot(), len(layout), model)
     rebase(tree.getroot(), Path(model).parent, Path(path).parent)
     write_tree(tree, path)

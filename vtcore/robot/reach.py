@@ -133,13 +133,15 @@ _IGNORED_GROUP = 5
 def body_links(m) -> np.ndarray:
     """(nbody,) int: the link each body of the MuJoCo model ``m`` belongs to: itself, or its parent for a
     skin module's body (a robot export with pads, :func:`vtcore.layout.io.mjcf.module_body`: named
-    ``<prefix>module_<id>``, holding sites named ``<prefix>...``). Built once per model: the reach probe,
+    ``<prefix>module_<id>``, holding sites named ``<prefix>...``) and for a tile's body (the ``"tile"``
+    footprint: ``<site>_cell``, holding the site ``<site>``). Built once per model: the reach probe,
     the surface check and the drop ask it for every site and ray."""
     bodies, first = np.unique(np.asarray(m.site_bodyid), return_index=True)
     links = np.arange(m.nbody)
     for b, k in zip(bodies, first):
-        head, sep, tail = m.body(int(b)).name.rpartition("module_")
-        if sep and tail.lstrip("-").isdigit() and m.site(int(k)).name.startswith(head):
+        name, site = m.body(int(b)).name, m.site(int(k)).name
+        head, sep, tail = name.rpartition("module_")
+        if (sep and tail.lstrip("-").isdigit() and site.startswith(head)) or name == f"{site}_cell":
             links[b] = m.body_parentid[b]
     return links
 

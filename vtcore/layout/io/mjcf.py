@@ -29,7 +29,15 @@ Footprints (``footprint=``):
   largest circumradius of the triangles around it: the file's faces, else the skin mesh, so the discs cover every
   triangle) and a site of the same size. Each contact lands on some taxel's pad and is
   counted by that taxel alone, so the readings sum to the contact force wherever it
-  lands. The pads are the contact surface (``pad`` is implied).
+  lands. The pads are the contact surface (``pad`` is implied). A body per taxel costs MuJoCo arena
+  memory: its collision step takes two lists of all body pairs (8 bytes a pair) from the arena's stack at
+  every step, and its default arena (13-18 MiB) does not grow with bodies. A plate with a 1,500-taxel
+  tile skin stepped; with 2,000 (2,004 bodies, 16 MB of pairs) it stopped at its first step with
+  ``mj_stackAlloc: out of memory``, and the UR10 skinned all over (7,670 taxels) failed in the export's own
+  MuJoCo check (its first 118 MB list asked of 17 MiB). So a tile export sizes the arena (:func:`size_arena`:
+  ``<size memory>``, the robot's own value raised, never lowered). A fragment carries its own
+  ``<size>``, but MuJoCo keeps the parent's on attach (it warns "Attach conflict ... memory"): the robot
+  that attaches it needs a ``<size memory>`` at least the fragment's plus its own.
 
 ``pad=True`` (``"taxel"`` footprint) adds the same covering discs as geoms of the
 sites' own body: the contact surface for a link without collision geoms, or for the
@@ -60,6 +68,14 @@ SUFFIXES = (".xml", ".mjcf")
 read = None  # export only
 FOOTPRINTS = ("taxel", "tile")
 SITE_MARGIN = 2e-3  # m, half-height of a site beyond its pad: contact points of soft contacts sit within it
+#: bytes of arena stack per pair of bodies at every collision step: two lists of one int a pair over
+#: nbody (nbody - 1) / 2 pairs, mj_collision's and mj_broadphase's own (measured, MuJoCo 4.0: the UR10 with
+#: 7,681 bodies asked 117,980,160 bytes in mj_collision, then 117,888,012 more in mj_broadphase)
+PAIR_BYTES = 8
+#: bytes of arena per tile for its contacts when every tile is pressed at once (measured, a plate lying on a
+#: 1,000 / 3,000-tile skin, nv 12: 3.6 / 3.1 contacts a tile; the arena's peak use, 8.8 / 34.7 MB, less one
+#: 4-byte pair list: 6.9 / 5.6 KB a tile)
+TILE_CONTACT_BYTES = 8 << 10
 
 
 def _fmt(v) -> str:
@@ -212,6 +228,67 @@ def _robot_taxel(body: ET.Element, name: str, p, n, radius: float, h: float, rea
                   size=f"{_fmt(radius)} {_fmt(top + SITE_MARGIN)}", rgba="0.2 0.8 0.2 0.5")
 
 
+def default_arena(nv: int, nbody: int) -> int:
+    """Bytes: an upper bound of the arena MuJoCo gives a model that sets no ``<size memory>`` (its guess:
+    room for 100 contacts and 500 constraints; measured, MuJoCo 4.0: 13 MiB at nv 6, 14 at nv 12-24, 16 at
+    48, 18 at 96; +1 MiB from 100 to 4,000 bodies), for ``nv`` degrees of freedom and ``nbody`` bodies."""
+    return (16 << 20) + (64 << 10) * int(nv) + (1 << 10) * int(nbody)
+
+
+def _memory_bytes(text: str) -> int:
+    """Bytes of an MJCF ``memory`` value: digits, optionally followed by K, M, G, T, P or E (powers of 1024)."""
+    t = str(text).strip()
+    unit = "KMGTPE".find(t[-1:].upper()) + 1 if t and t[-1:].isalpha() else 0
+    digits = t[:-1] if unit else t
+    if not digits.isdigit():
+        raise InputError(f"memory must be a byte count (digits, then K, M, G, T, P or E), got {text!r}",
+                         key="size/memory")
+    return int(digits) << (10 * unit)
+
+
+def size_arena(root: ET.Element, tiles: int, file=None) -> int | None:
+    """Size MuJoCo's arena (``<size memory>``) of the MJCF ``root`` for its ``tiles`` tile bodies (the
+    ``"tile"`` footprint's welded child body per taxel); returns the bytes written, None where nothing was.
+
+    MuJoCo's collision step takes two lists of all body pairs from the arena's stack at every step
+    (:data:`PAIR_BYTES` x nbody (nbody - 1) / 2) and its default arena does not grow with them: a plate with
+    a 2,000-taxel tile skin (2,004 bodies) stops at its first step with ``mj_stackAlloc: out of memory``.
+    The arena written: the robot's own ``memory`` (else :func:`default_arena`, above MuJoCo's own guess), plus
+    the pair list of every body in the file, plus :data:`TILE_CONTACT_BYTES` a tile, rounded up to a MiB;
+    never below what the file asked for. A robot sizing its arena the legacy way (``njmax``/``nstack``, which
+    MuJoCo refuses beside ``memory``) keeps its ``<size>``, with a warning. Bodies and joints are counted in
+    ``root`` itself: those of an ``<include>``d or attached file that is not inlined are not (the tiles'
+    pairs, 8 KiB a tile for contacts and the margin of :func:`default_arena` stand for a few of them).
+    """
+    if tiles <= 0:
+        return None
+    sizes = root.findall("size")
+    legacy = [k for el in sizes for k in ("njmax", "nstack") if el.get(k) is not None]
+    if legacy:
+        import warnings
+
+        from ..mesh import LayoutWarning
+
+        warnings.warn(f"{file or 'the model'}: <size {legacy[0]}> sizes MuJoCo's arena the legacy way, and "
+                      "MuJoCo refuses 'memory' beside it: the arena was left as it is; with "
+                      f"{tiles} tile bodies it may run out at the first step (set <size memory> instead)",
+                      LayoutWarning, stacklevel=3)
+        return None
+    own = [_memory_bytes(el.get("memory")) for el in sizes if el.get("memory") not in (None, "-1")]
+    nbody = 1 + sum(1 for _ in root.iter("body"))  # and the world
+    nv = sum({"free": 6, "ball": 3}.get(j.get("type", "hinge"), 1) for j in root.iter("joint")) \
+        + 6 * sum(1 for _ in root.iter("freejoint"))
+    base = own[-1] if own else default_arena(nv, nbody)
+    need = base + PAIR_BYTES * nbody * (nbody - 1) // 2 + TILE_CONTACT_BYTES * int(tiles)
+    mib = -(-need // (1 << 20))
+    target = sizes[-1] if sizes else ET.Element("size")
+    if not sizes:
+        target.tail = root.text if (root.text or "").strip() == "" else None  # the file's own indentation
+        root.insert(0, target)
+    target.set("memory", f"{mib}M")
+    return mib << 20
+
+
 def module_body(prefix: str, module: int) -> str:
     """The name of the welded child body that holds one module's pads and sites in a robot export."""
     return f"{prefix}module_{int(module)}"
@@ -240,6 +317,8 @@ def write(layout: Layout, path, *, footprint: str = "taxel", pad: bool | None = 
     sensor = ET.SubElement(root, "sensor")
     add_skin(layout, frame, sensor, positions=layout.positions, normals=layout.normals,
              prefix=prefix or "taxel_", pad=True if pad is None else bool(pad), **opts)
+    if footprint == "tile":  # a body per taxel: the broadphase's pair list over them needs the room
+        size_arena(root, len(layout))
     tree = ET.ElementTree(root)
     ET.indent(tree, space="  ")
     write_xml(tree, path)
