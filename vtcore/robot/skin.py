@@ -99,11 +99,9 @@ def outer_region(mesh) -> np.ndarray:
     """(F,) bool: the faces of the connected part of ``mesh`` with the largest area (after merging
     coincident vertices). A maker's visual mesh is often many parts (a shell, screws, inner
     mechanics: the UR10 shoulder's COLLADA file has dozens); the skin goes on the outer shell."""
-    import trimesh
+    from .exposure import body_labels
 
-    m = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False, validate=False)
-    m.merge_vertices()
-    labels = trimesh.graph.connected_component_labels(m.face_adjacency, node_count=len(m.faces))
+    labels = body_labels(mesh)
     area = np.bincount(labels, weights=mesh.area_faces)
     return labels == int(np.argmax(area))
 
