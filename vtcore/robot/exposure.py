@@ -666,7 +666,8 @@ def taxel_reasons(robot: Robot, link: str, positions, normals, geometry: str = "
     zero = robot.link_poses({})
     hit, _ = surfaces.nearest_others(link, p, zero, reach=clearance, within=clearance)
     blocked = probe_blocked(surfaces, link, p, n, zero, probe_radius, tolerance)
-    if len(p) and surfaces.bodies(link).max() > 0:  # a taxel between the link's own bodies
+    bodies = surfaces.bodies(link)
+    if len(p) and bodies is not None and bodies.max() > 0:  # a taxel between the link's own bodies
         hit |= own_covered(surfaces, link, p, n, surfaces.faces_under(link, p, n), clearance)
     out = np.full(len(p), EXPOSED, np.int8)
     out[blocked] = UNREACHABLE

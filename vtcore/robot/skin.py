@@ -224,7 +224,8 @@ def check_taxels(robot: Robot, link: str, geometry: str, mesh, layout, exp, *, w
     if not bad.any():
         return layout, None
     n_cov, n_unr = int((why == COVERED).sum()), int((why == UNREACHABLE).sum())
-    parts = ([f"{n_cov} within {1e3 * exp.clearance:g} mm of or inside another link"] if n_cov else []) + (
+    parts = ([f"{n_cov} within {1e3 * exp.clearance:g} mm of or inside another link or another body of "
+              "this one"] if n_cov else []) + (
         [f"{n_unr} where no {1e3 * exp.probe_radius:g} mm probe reaches"] if n_unr else [])
     text = f"{int(bad.sum())} of {len(layout)} taxels would lie on covered or unreachable surface ({', '.join(parts)})"
     if what != "fill":
@@ -246,8 +247,8 @@ def lay_on_link(robot: Robot, link: str, patch: str = "fill", at=None, direction
     geometry : "visual" or "collision". mesh : the link's surface if already loaded
     (:func:`.meshes.link_mesh`).
     exposure : True (default): only the link's exposed surface (:mod:`.exposure`: not within 2 mm
-        of or inside another link at the zero pose, reachable by a ``probe_radius`` sphere, default
-        8 mm) takes modules: a fill's region is cut to it, the default start lies on it, a fill
+        of or inside another link at the zero pose, not between two bodies of the link itself,
+        reachable by a ``probe_radius`` sphere, default 8 mm) takes modules: a fill's region is cut to it, the default start lies on it, a fill
         leaves out modules with a taxel off it and a placed patch there is refused unless
         ``force``; an :class:`.exposure.Exposure` of ``mesh`` computed by the caller works the same;
         False: anywhere on the surface (the behaviour before issue 33).
