@@ -129,3 +129,23 @@ def test_ur10_forearm_tube_cap_between_its_bodies_is_covered():
     assert (exp.reason[caps] == ALWAYS_COVERED).all()
     side = (c[:, 2] > 0.15) & (c[:, 2] < 0.45) & (np.abs(n[:, 2]) < 0.1)  # the tube's middle
     assert side.sum() >= 20 and (exp.reason[side] == EXPOSED).all()
+
+
+def test_overlapping_boxes_flush_keep_their_common_outer_surface(tmp_path):
+    """Two S-cubes overlapping by 20 mm along x with the same section: where their sides coincide (x 40
+    .. 60 mm, both bodies' faces, turned the same way) is the link's outer surface: exposed; the end
+    faces inside the other box are covered."""
+    a, b = trimesh.creation.box(extents=(S, S, S)), trimesh.creation.box(extents=(S, S, S))
+    a.apply_translation([S / 2, 0, 0])
+    b.apply_translation([S / 2 + 0.04, 0, 0])
+    trimesh.util.concatenate([a, b]).export(tmp_path / "flush.stl")
+    (tmp_path / "flush.urdf").write_text('<?xml version="1.0"?><robot name="f"><link name="f"><collision><geometry>'
+                                         '<mesh filename="flush.stl"/></geometry></collision></link></robot>')
+    robot = load_robot(tmp_path / "flush.urdf")
+    mesh, _ = exposure_mesh(link_mesh(robot, "f", "collision"))
+    exp = exposed_faces(robot, "f", "collision", mesh=mesh, poses=0)
+    c, n = mesh.triangles_center, mesh.face_normals
+    sides = np.abs(n[:, 0]) < 0.01
+    assert (exp.reason[sides] == EXPOSED).all() and (sides & (c[:, 0] > 0.043) & (c[:, 0] < 0.057)).sum() >= 16
+    inner_ends = (np.isclose(c[:, 0], S) & (n[:, 0] > 0.99)) | (np.isclose(c[:, 0], 0.04) & (n[:, 0] < -0.99))
+    assert inner_ends.sum() >= 8 and (exp.reason[inner_ends] == ALWAYS_COVERED).all()

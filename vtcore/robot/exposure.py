@@ -356,7 +356,10 @@ def body_labels(mesh) -> np.ndarray:
 OWN_OFFSET = 1e-5
 #: the own-body inside test's rays besides the face normal: fixed unit directions off a mesh's axes and
 #: diagonals (a ray through an edge counts both its faces, so one ray's parity can be wrong: a majority
-#: of three decides, as ``INSIDE_RAYS`` does for other links)
+#: of three decides, as ``INSIDE_RAYS`` does for other links), each turned into the face's outer
+#: half-space and halfway to its normal: a ray that crossed the face's own plane again would meet two
+#: bodies' coincident faces (a flush outer surface) at the very same distance, and open3d lists only one
+#: of two hits that close
 OWN_DIRECTIONS = np.array([[0.5377, 0.8212, -0.1903], [-0.6531, 0.2237, 0.7234]])
 OWN_DIRECTIONS = OWN_DIRECTIONS / np.linalg.norm(OWN_DIRECTIONS, axis=1, keepdims=True)
 #: points per open3d ray query of the own-body test (the hits of one query are held at once)
@@ -368,8 +371,8 @@ def own_covered(surfaces: "RobotSurfaces", link: str, points: np.ndarray, normal
     """(P,) bool: whether another body of ``link`` (:meth:`RobotSurfaces.bodies`) covers each point
     (P, 3, link frame) lying on face ``faces`` (P,) of its surface with unit outward ``normals`` (P, 3):
     the point :data:`OWN_OFFSET` in front of it lies inside another body (parity of that body's faces
-    alone along the normal and :data:`OWN_DIRECTIONS`, a majority of the three: bodies that overlap each
-    count), or the line along the normal meets a face of another body turned towards it within
+    alone along the normal and :data:`OWN_DIRECTIONS` turned outwards, a majority of the three: bodies
+    that overlap each count), or the line along the normal meets a face of another body turned towards it within
     ``clearance`` metres, either side of :data:`OWN_OFFSET` (two bodies face to face: the coplanar start
     face of the next body, a hair behind the point or a millimetre in front). A link of one body, and a
     point without a normal: False."""
@@ -390,7 +393,11 @@ def own_covered(surfaces: "RobotSurfaces", link: str, points: np.ndarray, normal
         c, nk = len(p[sl]), n[ok[sl]]
         # ray k * c + i is point i's: along the normal from behind the face, then the others from in front
         origins = np.concatenate([p[sl] - OWN_OFFSET * nk] + [p[sl] + OWN_OFFSET * nk] * len(OWN_DIRECTIONS))
-        dirs = np.concatenate([nk] + [np.broadcast_to(d, (c, 3)) for d in OWN_DIRECTIONS])
+        dirs = [nk]
+        for d in OWN_DIRECTIONS:  # into the face's outer half-space, halfway to its normal
+            v = np.where((nk @ d < 0)[:, None], -d, d) + nk
+            dirs.append(v / np.linalg.norm(v, axis=1, keepdims=True))
+        dirs = np.concatenate(dirs)
         hits = {k: v.numpy() for k, v in e["scene"].list_intersections(
             o3d.core.Tensor(np.column_stack([origins, dirs]).astype(np.float32))).items()}
         ray, prim = hits["ray_ids"].astype(np.int64), hits["primitive_ids"].astype(np.int64)
