@@ -363,7 +363,7 @@ OWN_OFFSET = 1e-5
 OWN_DIRECTIONS = np.array([[0.5377, 0.8212, -0.1903], [-0.6531, 0.2237, 0.7234]])
 OWN_DIRECTIONS = OWN_DIRECTIONS / np.linalg.norm(OWN_DIRECTIONS, axis=1, keepdims=True)
 #: points per open3d ray query of the own-body test (the hits of one query are held at once)
-OWN_CHUNK = 50_000
+OWN_CHUNK = 20_000
 
 
 def own_covered(surfaces: "RobotSurfaces", link: str, points: np.ndarray, normals: np.ndarray, faces: np.ndarray,
