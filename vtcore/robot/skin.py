@@ -248,10 +248,11 @@ def lay_on_link(robot: Robot, link: str, patch: str = "fill", at=None, direction
     (:func:`.meshes.link_mesh`).
     exposure : True (default): only the link's exposed surface (:mod:`.exposure`: not within 2 mm
         of or inside another link at the zero pose, not between two bodies of the link itself,
-        reachable by a ``probe_radius`` sphere, default 8 mm) takes modules: a fill's region is cut to it, the default start lies on it, a fill
-        leaves out modules with a taxel off it and a placed patch there is refused unless
-        ``force``; an :class:`.exposure.Exposure` of ``mesh`` computed by the caller works the same;
-        False: anywhere on the surface (the behaviour before issue 33).
+        reachable by a ``probe_radius`` sphere, default 8 mm) takes modules: a fill's region is
+        cut to it, the default start lies on it, a fill leaves out modules with a taxel off it and
+        a placed patch there is refused unless ``force``; an :class:`.exposure.Exposure` of
+        ``mesh`` computed by the caller works the same; False: anywhere on the surface (the
+        behaviour before issue 33).
     options : passed to :func:`vtcore.layout.fill` (``region``, ``max_faces``, ``progress``, ...); a
     fill's region defaults to the link's outer shell (:func:`outer_region`).
     Returns ``(layout, report)``; the layout is in the link's frame, ``meta["exposure"]`` the
