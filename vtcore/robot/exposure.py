@@ -14,10 +14,17 @@ no fingertip reaches. :func:`exposed_faces` says, per face of a link's surface:
   face at its centroid along its normal (centre ``p + r n``) would cut into the link itself or
   another link at the zero pose (its centre closer than ``r -`` :data:`PROBE_TOLERANCE` to them).
 
+A link made of several bodies (separate collision elements, the geoms of one MJCF body, the disconnected
+parts of one mesh file: :func:`body_labels`) covers itself where they meet: a face with another body of
+the same link just in front of it (inside it, or face to face within :data:`CLEARANCE`: the UR10
+forearm's tube ends in a cap coplanar with the next body's start face) is covered at every pose, like a
+mating face (:func:`own_covered`; the link names itself in ``covered_by``).
+
 Distances and inside tests are open3d's ``RaycastingScene`` (one per link, in its own frame, built
 once: :class:`RobotSurfaces`); the other links are culled by bounding spheres and boxes, so a query
 touches only the points near a neighbour, and memory grows with faces x poses (booleans), never
-faces x faces. :func:`taxel_reasons` judges placed taxels the same way (the check after a fill).
+faces x faces; a link's own bodies are told apart by the face each ray hits in the link's one scene
+(rays x hits, in chunks). :func:`taxel_reasons` judges placed taxels the same way (the check after a fill).
 """
 
 from __future__ import annotations
@@ -48,7 +55,8 @@ INSIDE_RAYS = 3
 #: reason codes of :attr:`Exposure.reason`
 EXPOSED, COVERED, ALWAYS_COVERED, UNREACHABLE = 0, 1, 2, 3
 REASONS = {EXPOSED: "exposed", COVERED: "covered by another link at the zero pose",
-           ALWAYS_COVERED: "covered by another link at every sampled pose", UNREACHABLE: "unreachable by the probe"}
+           ALWAYS_COVERED: "covered by another link at every sampled pose, or by another body of the link",
+           UNREACHABLE: "unreachable by the probe"}
 #: the colour of each reason (RGBA, 0..1) and its name in a legend: the add-on's Import Robot and the docs' picture
 COLOURS = {EXPOSED: ((0.55, 0.80, 0.55, 1.0), "green"), COVERED: ((0.95, 0.45, 0.35, 1.0), "red"),
            ALWAYS_COVERED: ((0.65, 0.10, 0.10, 1.0), "dark red"), UNREACHABLE: ((0.98, 0.75, 0.25, 1.0), "orange")}
@@ -76,10 +84,12 @@ class Exposure:
     """The exposed surface of one link (per face of its mesh, in the order of ``mesh.faces``).
 
     reason : (F,) int8, :data:`EXPOSED`, :data:`COVERED` (at the zero pose, free at some sampled
-        pose), :data:`ALWAYS_COVERED` (at the zero pose and every sampled one) or :data:`UNREACHABLE`
-        (covered first: a covered face is not also called unreachable). area : (F,) m^2.
+        pose), :data:`ALWAYS_COVERED` (at the zero pose and every sampled one, or by another body of
+        the link itself: :func:`own_covered`) or :data:`UNREACHABLE` (covered first: a covered face
+        is not also called unreachable). area : (F,) m^2.
     sometimes : (F,) bool, covered at some sampled pose but not at the zero pose (kept, reported).
-    covered_by : (F,) int, index into ``neighbours`` of a link covering the face at the zero pose, -1.
+    covered_by : (F,) int, index into ``neighbours`` of a link covering the face at the zero pose (the
+        link itself where only its own other bodies do), -1.
     poses : configurations sampled besides the zero pose. probe_radius, clearance : metres.
     notes : links whose geometry could not be loaded (left out of the check), and the like.
     """
@@ -124,7 +134,8 @@ class Exposure:
         parts = []
         n_cov, a_cov = s["covered_faces"] + s["always_covered_faces"], s["covered_m2"] + s["always_covered_m2"]
         if n_cov:
-            by = ", ".join(sorted(s["covered_by"], key=lambda k: -s["covered_by"][k])[:3])
+            by = ", ".join("its own other bodies" if k == self.link else k
+                           for k in sorted(s["covered_by"], key=lambda k: -s["covered_by"][k])[:3])
             every = (f", {s['always_covered_faces']} of them at every one of {self.poses} sampled poses"
                      if self.poses and s["always_covered_faces"] else "")
             parts.append(f"{n_cov} faces ({1e6 * a_cov:.0f} mm2) within {1e3 * self.clearance:g} mm of or inside "
@@ -215,6 +226,45 @@ class RobotSurfaces:
         q = o3d.core.Tensor((points - e["centre"]).astype(np.float32))
         return e["scene"].compute_signed_distance(q, nsamples=INSIDE_RAYS).numpy().astype(np.float64)
 
+    def bodies(self, name: str):
+        """(F,) int64: the body of each face of link ``name``'s surface (:func:`body_labels`), found
+        once per surface; None for a link without one."""
+        e = self.entry(name)
+        if e is None:
+            return None
+        if "bodies" not in e:
+            e["bodies"] = body_labels(e["mesh"])
+        return e["bodies"]
+
+    def nearest_faces(self, name: str, points: np.ndarray) -> np.ndarray:
+        """(P,) int64: the face of link ``name``'s surface nearest each of ``points`` (P, 3, link frame)."""
+        import open3d as o3d
+
+        e = self.entry(name)
+        q = o3d.core.Tensor((points - e["centre"]).astype(np.float32))
+        return e["scene"].compute_closest_points(q)["primitive_ids"].numpy().astype(np.int64)
+
+    def faces_under(self, name: str, points: np.ndarray, normals: np.ndarray, depth: float = 1e-3) -> np.ndarray:
+        """(P,) int64: the face of link ``name``'s surface each point (P, 3, link frame) with unit
+        ``normals`` (P, 3) lies on: of the faces that the line along its normal meets within ``depth``
+        metres either side, the one turned most its way (where two bodies' faces coincide, a taxel on
+        the end cap of one is on that cap, not on the other's start face); else the nearest face."""
+        import open3d as o3d
+
+        e = self.entry(name)
+        out = self.nearest_faces(name, points)
+        n = np.asarray(normals, dtype=np.float64)
+        rays = np.column_stack([points - e["centre"] + depth * n, -n]).astype(np.float32)
+        hits = {k: v.numpy() for k, v in e["scene"].list_intersections(o3d.core.Tensor(rays)).items()}
+        ray, prim = hits["ray_ids"].astype(np.int64), hits["primitive_ids"].astype(np.int64)
+        near = hits["t_hit"] <= 2 * depth
+        ray, prim = ray[near], prim[near]
+        turned = np.einsum("ij,ij->i", np.asarray(e["mesh"].face_normals, dtype=np.float64)[prim], n[ray])
+        order = np.lexsort((-turned, ray))  # per point, the face turned most its way first
+        first = order[np.r_[True, ray[order][1:] != ray[order][:-1]]] if len(order) else order
+        out[ray[first]] = prim[first]
+        return out
+
     def distance(self, name: str, points: np.ndarray) -> np.ndarray:
         """(P,) metres from ``points`` (P, 3, link frame) to link ``name``'s surface (unsigned)."""
         import open3d as o3d
@@ -285,6 +335,83 @@ def rigid_inverse(t: np.ndarray) -> np.ndarray:
     out = np.eye(4)
     out[:3, :3] = t[:3, :3].T
     out[:3, 3] = -t[:3, :3].T @ t[:3, 3]
+    return out
+
+
+def body_labels(mesh) -> np.ndarray:
+    """(F,) int64: which body, 0 .. B-1, each face of ``mesh`` belongs to: its connected parts after
+    merging coincident vertices (a link's separate collision elements, the geoms of one MJCF body, the
+    disconnected parts of one mesh file). Faces join over edges of exactly two faces (trimesh's
+    adjacency), so two bodies sharing a face's corners stay two."""
+    import trimesh
+
+    m = trimesh.Trimesh(np.asarray(mesh.vertices), np.asarray(mesh.faces), process=False, validate=False)
+    m.merge_vertices()
+    return trimesh.graph.connected_component_labels(m.face_adjacency, node_count=len(m.faces)).astype(np.int64)
+
+
+#: metres: the own-body test looks from this far in front of a point on a face: off the face itself, and
+#: off a coplanar face of another body turned the same way (the bodies' common outer surface stays
+#: exposed); the scenes hold float32 coordinates (~1e-7 m on a link)
+OWN_OFFSET = 1e-5
+#: the own-body inside test's rays besides the face normal: fixed unit directions off a mesh's axes and
+#: diagonals (a ray through an edge counts both its faces, so one ray's parity can be wrong: a majority
+#: of three decides, as ``INSIDE_RAYS`` does for other links), each turned into the face's outer
+#: half-space and halfway to its normal: a ray that crossed the face's own plane again would meet two
+#: bodies' coincident faces (a flush outer surface) at the very same distance, and open3d lists only one
+#: of two hits that close
+OWN_DIRECTIONS = np.array([[0.5377, 0.8212, -0.1903], [-0.6531, 0.2237, 0.7234]])
+OWN_DIRECTIONS = OWN_DIRECTIONS / np.linalg.norm(OWN_DIRECTIONS, axis=1, keepdims=True)
+#: points per open3d ray query of the own-body test (the hits of one query are held at once)
+OWN_CHUNK = 20_000
+
+
+def own_covered(surfaces: "RobotSurfaces", link: str, points: np.ndarray, normals: np.ndarray, faces: np.ndarray,
+                clearance: float = CLEARANCE) -> np.ndarray:
+    """(P,) bool: whether another body of ``link`` (:meth:`RobotSurfaces.bodies`) covers each point
+    (P, 3, link frame) lying on face ``faces`` (P,) of its surface with unit outward ``normals`` (P, 3):
+    the point :data:`OWN_OFFSET` in front of it lies inside another body (parity of that body's faces
+    alone along the normal and :data:`OWN_DIRECTIONS` turned outwards, a majority of the three: bodies
+    that overlap each count), or the line along the normal meets a face of another body turned towards it within
+    ``clearance`` metres, either side of :data:`OWN_OFFSET` (two bodies face to face: the coplanar start
+    face of the next body, a hair behind the point or a millimetre in front). A link of one body, and a
+    point without a normal: False."""
+    labels = surfaces.bodies(link)
+    out = np.zeros(len(points), bool)
+    if labels is None or not len(points) or labels.max() == 0:
+        return out
+    import open3d as o3d
+
+    e = surfaces.entry(link)
+    n = np.asarray(normals, dtype=np.float64)
+    ok = np.flatnonzero(np.einsum("ij,ij->i", n, n) > 0.25)  # degenerate faces have no normal
+    p = np.asarray(points, dtype=np.float64)[ok] - e["centre"]
+    face_n = np.asarray(e["mesh"].face_normals, dtype=np.float64)
+    nb = int(labels.max()) + 1
+    for start in range(0, len(ok), OWN_CHUNK):
+        sl = slice(start, start + OWN_CHUNK)
+        c, nk = len(p[sl]), n[ok[sl]]
+        # ray k * c + i is point i's: along the normal from behind the face, then the others from in front
+        origins = np.concatenate([p[sl] - OWN_OFFSET * nk] + [p[sl] + OWN_OFFSET * nk] * len(OWN_DIRECTIONS))
+        dirs = [nk]
+        for d in OWN_DIRECTIONS:  # into the face's outer half-space, halfway to its normal
+            v = np.where((nk @ d < 0)[:, None], -d, d) + nk
+            dirs.append(v / np.linalg.norm(v, axis=1, keepdims=True))
+        dirs = np.concatenate(dirs)
+        hits = {k: v.numpy() for k, v in e["scene"].list_intersections(
+            o3d.core.Tensor(np.column_stack([origins, dirs]).astype(np.float32))).items()}
+        ray, prim = hits["ray_ids"].astype(np.int64), hits["primitive_ids"].astype(np.int64)
+        other = labels[prim] != labels[np.asarray(faces)[ok[sl]]][ray % c]
+        ray, prim, t = ray[other], prim[other], hits["t_hit"][other].astype(np.float64)
+        facing = np.einsum("ij,ij->i", face_n[prim], nk[ray % c]) < 0
+        front = ray[(ray < c) & (t < clearance + OWN_OFFSET) & facing]
+        keep = (ray >= c) | (t > 2 * OWN_OFFSET)  # the parity of the point in front of the face
+        ray, body = ray[keep], labels[prim[keep]]
+        keys, count = np.unique(ray * nb + body, return_counts=True)
+        odd = keys[count % 2 == 1]  # (ray, body): the point lies inside that body along that ray
+        pairs, votes = np.unique((odd // nb % c) * nb + odd % nb, return_counts=True)
+        inside = pairs[votes >= 2] // nb
+        out[ok[sl][np.concatenate([front, inside])]] = True
     return out
 
 
@@ -508,12 +635,17 @@ def exposed_faces(robot: Robot, link: str, geometry: str = "visual", *, mesh=Non
     always, sometimes = covered_over_poses(surfaces, link, pts[:, 0], configs, clearance, covered0)
     normals = np.asarray(mesh.face_normals, dtype=np.float64)
     blocked = probe_blocked(surfaces, link, pts[:, 0], normals, configs[0], probe_radius, tolerance)
+    # between the link's own bodies: covered whatever the pose (by every sample, as at the zero pose)
+    own = own_covered(surfaces, link, pts.reshape(-1, 3), np.repeat(normals, pts.shape[1], axis=0),
+                      np.repeat(np.arange(len(pts)), pts.shape[1]), clearance).reshape(len(pts), -1).any(axis=1)
     reason = np.full(len(pts), EXPOSED, np.int8)
     reason[blocked] = UNREACHABLE
     reason[covered0] = COVERED
     if len(configs) > 1:  # without sampled poses nothing is known to be covered at every one
         reason[covered0 & always] = ALWAYS_COVERED
+    reason[own] = ALWAYS_COVERED
     names = list(robot.links)
+    who0 = np.where(own & (who0 < 0), names.index(link), who0)
     used = np.unique(who0[who0 >= 0])
     remap = np.full(len(names), -1, np.int64)
     remap[used] = np.arange(len(used))
@@ -541,6 +673,9 @@ def taxel_reasons(robot: Robot, link: str, positions, normals, geometry: str = "
     zero = robot.link_poses({})
     hit, _ = surfaces.nearest_others(link, p, zero, reach=clearance, within=clearance)
     blocked = probe_blocked(surfaces, link, p, n, zero, probe_radius, tolerance)
+    bodies = surfaces.bodies(link)
+    if len(p) and bodies is not None and bodies.max() > 0:  # a taxel between the link's own bodies
+        hit |= own_covered(surfaces, link, p, n, surfaces.faces_under(link, p, n), clearance)
     out = np.full(len(p), EXPOSED, np.int8)
     out[blocked] = UNREACHABLE
     out[hit] = COVERED

@@ -99,11 +99,9 @@ def outer_region(mesh) -> np.ndarray:
     """(F,) bool: the faces of the connected part of ``mesh`` with the largest area (after merging
     coincident vertices). A maker's visual mesh is often many parts (a shell, screws, inner
     mechanics: the UR10 shoulder's COLLADA file has dozens); the skin goes on the outer shell."""
-    import trimesh
+    from .exposure import body_labels
 
-    m = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False, validate=False)
-    m.merge_vertices()
-    labels = trimesh.graph.connected_component_labels(m.face_adjacency, node_count=len(m.faces))
+    labels = body_labels(mesh)
     area = np.bincount(labels, weights=mesh.area_faces)
     return labels == int(np.argmax(area))
 
@@ -226,7 +224,8 @@ def check_taxels(robot: Robot, link: str, geometry: str, mesh, layout, exp, *, w
     if not bad.any():
         return layout, None
     n_cov, n_unr = int((why == COVERED).sum()), int((why == UNREACHABLE).sum())
-    parts = ([f"{n_cov} within {1e3 * exp.clearance:g} mm of or inside another link"] if n_cov else []) + (
+    parts = ([f"{n_cov} within {1e3 * exp.clearance:g} mm of or inside another link or another body of "
+              "this one"] if n_cov else []) + (
         [f"{n_unr} where no {1e3 * exp.probe_radius:g} mm probe reaches"] if n_unr else [])
     text = f"{int(bad.sum())} of {len(layout)} taxels would lie on covered or unreachable surface ({', '.join(parts)})"
     if what != "fill":
@@ -248,11 +247,12 @@ def lay_on_link(robot: Robot, link: str, patch: str = "fill", at=None, direction
     geometry : "visual" or "collision". mesh : the link's surface if already loaded
     (:func:`.meshes.link_mesh`).
     exposure : True (default): only the link's exposed surface (:mod:`.exposure`: not within 2 mm
-        of or inside another link at the zero pose, reachable by a ``probe_radius`` sphere, default
-        8 mm) takes modules: a fill's region is cut to it, the default start lies on it, a fill
-        leaves out modules with a taxel off it and a placed patch there is refused unless
-        ``force``; an :class:`.exposure.Exposure` of ``mesh`` computed by the caller works the same;
-        False: anywhere on the surface (the behaviour before issue 33).
+        of or inside another link at the zero pose, not between two bodies of the link itself,
+        reachable by a ``probe_radius`` sphere, default 8 mm) takes modules: a fill's region is
+        cut to it, the default start lies on it, a fill leaves out modules with a taxel off it and
+        a placed patch there is refused unless ``force``; an :class:`.exposure.Exposure` of
+        ``mesh`` computed by the caller works the same; False: anywhere on the surface (the
+        behaviour before issue 33).
     options : passed to :func:`vtcore.layout.fill` (``region``, ``max_faces``, ``progress``, ...); a
     fill's region defaults to the link's outer shell (:func:`outer_region`).
     Returns ``(layout, report)``; the layout is in the link's frame, ``meta["exposure"]`` the
