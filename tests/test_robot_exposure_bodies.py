@@ -70,6 +70,17 @@ def test_fill_lays_no_taxel_between_the_boxes(tmp_path):
     assert why.tolist() == [COVERED, EXPOSED]
 
 
+
+def _one_mesh_link_exposure(tmp_path, name, bodies):
+    """A one-link URDF whose collision is one STL holding ``bodies`` (trimesh meshes, m); (the link's
+    exposure mesh, its exposure at the zero pose)."""
+    trimesh.util.concatenate(bodies).export(tmp_path / f"{name}.stl")
+    (tmp_path / f"{name}.urdf").write_text(f'<?xml version="1.0"?><robot name="{name}"><link name="{name}"><collision>'
+                                           f'<geometry><mesh filename="{name}.stl"/></geometry></collision></link></robot>')
+    robot = load_robot(tmp_path / f"{name}.urdf")
+    mesh, _ = exposure_mesh(link_mesh(robot, name, "collision"))
+    return mesh, exposed_faces(robot, name, "collision", mesh=mesh, poses=0)
+
 def test_overlapping_boxes_cover_what_lies_inside_the_other(tmp_path):
     """Box A (80 mm square, x 0 .. 60 mm) pierced by box B (40 mm square, x 40 .. 100 mm): B's faces
     inside A and A's end face where B passes through it are covered; the outer surface is exposed."""
@@ -77,12 +88,7 @@ def test_overlapping_boxes_cover_what_lies_inside_the_other(tmp_path):
     a.apply_translation([0.03, 0, 0])
     b = trimesh.creation.box(extents=(0.06, 0.04, 0.04))
     b.apply_translation([0.07, 0, 0])
-    trimesh.util.concatenate([a, b]).export(tmp_path / "pierced.stl")
-    (tmp_path / "pierced.urdf").write_text('<?xml version="1.0"?><robot name="p"><link name="p"><collision><geometry>'
-                                          '<mesh filename="pierced.stl"/></geometry></collision></link></robot>')
-    robot = load_robot(tmp_path / "pierced.urdf")
-    mesh, _ = exposure_mesh(link_mesh(robot, "p", "collision"))
-    exp = exposed_faces(robot, "p", "collision", mesh=mesh, poses=0)
+    mesh, exp = _one_mesh_link_exposure(tmp_path, "p", [a, b])
     c, n = mesh.triangles_center, mesh.face_normals
     ring = np.abs(c[:, 1:]).max(axis=1)  # metres from the x axis (square rings)
     in_b = ring < 0.0205
@@ -138,12 +144,7 @@ def test_overlapping_boxes_flush_keep_their_common_outer_surface(tmp_path):
     a, b = trimesh.creation.box(extents=(S, S, S)), trimesh.creation.box(extents=(S, S, S))
     a.apply_translation([S / 2, 0, 0])
     b.apply_translation([S / 2 + 0.04, 0, 0])
-    trimesh.util.concatenate([a, b]).export(tmp_path / "flush.stl")
-    (tmp_path / "flush.urdf").write_text('<?xml version="1.0"?><robot name="f"><link name="f"><collision><geometry>'
-                                         '<mesh filename="flush.stl"/></geometry></collision></link></robot>')
-    robot = load_robot(tmp_path / "flush.urdf")
-    mesh, _ = exposure_mesh(link_mesh(robot, "f", "collision"))
-    exp = exposed_faces(robot, "f", "collision", mesh=mesh, poses=0)
+    mesh, exp = _one_mesh_link_exposure(tmp_path, "f", [a, b])
     c, n = mesh.triangles_center, mesh.face_normals
     sides = np.abs(n[:, 0]) < 0.01
     assert (exp.reason[sides] == EXPOSED).all() and (sides & (c[:, 0] > 0.043) & (c[:, 0] < 0.057)).sum() >= 16
