@@ -381,3 +381,18 @@ def test_joints_that_do_not_make_a_tree_are_one_error(tmp_path, joints, words):
         rc, _, err = run(argv)
         one_error(rc, err, *words)
     assert not (tmp_path / "o.json").exists()
+
+
+def test_a_primitive_of_zero_size_has_no_surface_and_no_nan(tmp_path, capsys):
+    """``<sphere radius="-0"/>`` (a placeholder; found by the robot fuzz): trimesh's icosphere of radius 0
+    is NaN, which reached ``robot info`` as "nan mm across" and its exposure as a NaN area (a
+    ValueError). Now the link's geometry is named as having no surface, and the rest is read."""
+    (tmp_path / "r.urdf").write_text(
+        '<robot name="r"><link name="base"><collision><geometry><box size="0.1 0.1 0.05"/></geometry>'
+        '</collision></link><joint name="j" type="fixed"><parent link="base"/><child link="hand"/></joint>'
+        '<link name="hand"><visual><geometry><sphere radius="-0"/></geometry></visual></link></robot>')
+    rc = main(["robot", "info", str(tmp_path / "r.urdf")])
+    out = capsys.readouterr()
+    assert rc == 0, out.err
+    assert "a sphere of size -0 has no surface" in out.out
+    assert "nan" not in (out.out + out.err).lower()

@@ -55,6 +55,11 @@ def geometry_mesh(g: Geometry, robot: Robot):
     import trimesh
 
     if g.primitive is not None:
+        if not np.all(np.asarray(g.size, np.float64) > 0):
+            # a <sphere radius="0"/> (placeholders do this) has no surface: trimesh's icosphere of radius 0 is
+            # NaN, and its area would reach the exposure and `robot info` as NaN
+            raise InputError(f"a {g.primitive} of size {' '.join(f'{v:g}' for v in g.size)} has no surface "
+                             "(every size must be > 0)", file=robot.path, key=f"{g.kind} {g.primitive}")
         m = _primitive(g)
     elif g.vertices is not None:
         m = trimesh.Trimesh(g.vertices, g.faces, process=False, validate=False)
